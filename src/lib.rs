@@ -1,0 +1,18 @@
+//! `pmsm-sensorless`: the `no_std` core of a sensorless field-oriented PMSM drive.
+//!
+//! Everything the 4 kHz interrupt runs lives here, in f32, without heap, without panics, and
+//! without touching registers. The host simulator (`host-sim/`) runs this very code against a
+//! plant model.
+//!
+//! Papers implemented: Horng & Chin, *sliding torque observer*; Ortega, Praly, Astolfi, Lee,
+//! Nam, *gradient flux observer*. Equation numbers in comments refer to them.
+#![no_std]
+#![deny(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod foc;
+pub mod frames;
+pub mod math;
+pub mod motor;
+pub mod pi;
+pub mod svpwm;

@@ -1,0 +1,92 @@
+//! Space-vector PWM by min–max (zero-sequence) injection.
+//!
+//! The αβ voltage command is turned into phase voltages (inverse Clarke), the common mode
+//! `−(max + min)/2` is added so the three poles are centred in the DC bus, and each is divided
+//! by the bus voltage. This is linear up to `|v_αβ| = v_bus/√3`, the circle inscribed in the
+//! inverter's voltage hexagon; larger commands are scaled back onto that circle.
+
+use crate::frames::{Abc, AlphaBeta};
+
+/// 1/√3: the largest undistorted `|v_αβ|` per volt of DC bus.
+const INV_SQRT3: f32 = 0.577_350_26;
+
+/// Duty cycles of the three half bridges.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Duties {
+    /// Phase a: fraction of the PWM period its high-side switch is on, in [0, 1].
+    pub a: f32,
+    /// Phase b: fraction of the PWM period its high-side switch is on, in [0, 1].
+    pub b: f32,
+    /// Phase c: fraction of the PWM period its high-side switch is on, in [0, 1].
+    pub c: f32,
+}
+
+impl Duties {
+    /// All three duties at 0.5: zero phase-to-neutral voltage.
+    pub const NEUTRAL: Self = Self {
+        a: 0.5,
+        b: 0.5,
+        c: 0.5,
+    };
+}
+
+/// Result of [`svpwm`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Svpwm {
+    /// Duty cycles to load into the timer, each in [0, 1], never NaN.
+    pub duties: Duties,
+    /// True when the command was outside the linear range (or invalid) and was reduced.
+    pub saturated: bool,
+    /// The αβ voltage (V) the duties produce on average: the command itself in the linear
+    /// range, the command scaled to magnitude `v_bus/√3` when saturated, zero when invalid.
+    pub v_ab_applied: AlphaBeta,
+}
+
+/// Duty cycles for the αβ voltage command `v_ab` (V) on a DC bus of `v_bus` (V, > 0).
+///
+/// Linear (exact to f32 rounding) for `|v_ab| <= v_bus/√3`. Above it the vector is scaled
+/// down to that magnitude, keeping its angle, and `saturated` is set. If `v_bus` is not a
+/// finite number > 0, or `v_ab` is not finite, the result is 0.5 on all phases (zero volts),
+/// `saturated = true` and `v_ab_applied = 0`. Duties are always within [0, 1], never NaN.
+pub fn svpwm(v_ab: AlphaBeta, v_bus: f32) -> Svpwm {
+    let valid = v_bus.is_finite() && v_bus > 0.0 && v_ab.alpha.is_finite() && v_ab.beta.is_finite();
+    if !valid {
+        return Svpwm {
+            duties: Duties::NEUTRAL,
+            saturated: true,
+            v_ab_applied: AlphaBeta::new(0.0, 0.0),
+        };
+    }
+    let v_max = v_bus * INV_SQRT3;
+    // Never NaN here (finite inputs); +inf when the squares overflow, which saturates.
+    let saturated = v_ab.magnitude() > v_max;
+    let v_ab_applied = if saturated {
+        // Normalise by the larger component first so huge commands cannot overflow.
+        let m = libm::fabsf(v_ab.alpha).max(libm::fabsf(v_ab.beta));
+        let unit = AlphaBeta::new(v_ab.alpha / m, v_ab.beta / m);
+        let k = v_max / unit.magnitude();
+        AlphaBeta::new(unit.alpha * k, unit.beta * k)
+    } else {
+        v_ab
+    };
+    let v = v_ab_applied.to_abc();
+    let v0 = -0.5 * (v.a.max(v.b).max(v.c) + v.a.min(v.b).min(v.c));
+    let duty = |x: f32| (0.5 + (x + v0) / v_bus).clamp(0.0, 1.0);
+    Svpwm {
+        duties: Duties {
+            a: duty(v.a),
+            b: duty(v.b),
+            c: duty(v.c),
+        },
+        saturated,
+        v_ab_applied,
+    }
+}
+
+/// Average phase-to-neutral voltages (V) produced by duties `d` on a bus of `v_bus` (V):
+/// pole voltages `d·v_bus` minus their mean (the floating star point removes the common mode).
+pub fn duties_to_phase_voltages(d: Duties, v_bus: f32) -> Abc {
+    let (a, b, c) = (d.a * v_bus, d.b * v_bus, d.c * v_bus);
+    let mean = (a + b + c) * (1.0 / 3.0);
+    Abc::new(a - mean, b - mean, c - mean)
+}
