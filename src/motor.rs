@@ -1,0 +1,289 @@
+//! Motor parameters, their validation, and the papers' motor presets.
+//!
+//! The model is the papers' stationary-frame PMSM, Horng & Chin eqs (16)-(19) (equivalently
+//! Ortega eqs (1)-(2)):
+//!
+//! ```text
+//! L di_αβ/dt = −R i_αβ + N ω_m ψ_f [sin θ_e, −cos θ_e] + v_αβ
+//! J dω_m/dt  = N ψ_f (i_β cos θ_e − i_α sin θ_e) − B ω_m − τ_L,     θ_e = N θ_m
+//! ```
+//!
+//! Horng & Chin's motor constant `K` [V·s/rad] and Ortega's rotor flux `Φ` [Wb] are the same
+//! quantity, the permanent-magnet flux linkage, here `flux_wb`. The torque is `N ψ_f i_q` as
+//! printed in both papers (no 3/2 factor: their αβ model is the machine).
+
+use core::fmt;
+
+/// Electrical and mechanical parameters of a surface-mounted PMSM (SI units).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MotorParams {
+    /// Pole pairs `N` (Horng) / `n_P` (Ortega); `θ_e = N θ_m`. At least 1.
+    pub pole_pairs: u32,
+    /// Stator phase resistance `R` [Ω], > 0.
+    pub r_ohm: f32,
+    /// Stator inductance `L` [H] (non-salient), > 0.
+    pub l_h: f32,
+    /// Permanent-magnet flux linkage `K` = `Φ` [Wb = V·s/rad], > 0.
+    pub flux_wb: f32,
+    /// Rotor inertia `H` = `J` [kg·m²], > 0.
+    pub j_kgm2: f32,
+    /// Viscous friction `B` = `f` [N·m·s/rad], ≥ 0.
+    pub b_nms: f32,
+}
+
+/// Which parameter a validation error is about.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ParamError {
+    /// The named field is NaN or infinite.
+    NotFinite(&'static str),
+    /// The named field must be strictly positive.
+    NotPositive(&'static str),
+    /// The named field must not be negative.
+    Negative(&'static str),
+}
+
+impl ParamError {
+    /// Name of the offending field.
+    pub fn field(&self) -> &'static str {
+        match *self {
+            ParamError::NotFinite(f) | ParamError::NotPositive(f) | ParamError::Negative(f) => f,
+        }
+    }
+}
+
+impl fmt::Display for ParamError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            ParamError::NotFinite(x) => write!(f, "{x}: must be a finite number"),
+            ParamError::NotPositive(x) => write!(f, "{x}: must be greater than zero"),
+            ParamError::Negative(x) => write!(f, "{x}: must not be negative"),
+        }
+    }
+}
+
+/// `Ok(v)` if `v` is finite and `> 0`, else the error naming `field`.
+pub(crate) fn positive(field: &'static str, v: f32) -> Result<f32, ParamError> {
+    if !v.is_finite() {
+        Err(ParamError::NotFinite(field))
+    } else if v <= 0.0 {
+        Err(ParamError::NotPositive(field))
+    } else {
+        Ok(v)
+    }
+}
+
+/// `Ok(v)` if `v` is finite and `≥ 0`, else the error naming `field`.
+pub(crate) fn non_negative(field: &'static str, v: f32) -> Result<f32, ParamError> {
+    if !v.is_finite() {
+        Err(ParamError::NotFinite(field))
+    } else if v < 0.0 {
+        Err(ParamError::Negative(field))
+    } else {
+        Ok(v)
+    }
+}
+
+impl MotorParams {
+    /// Validated parameters; the error names the first bad field.
+    pub fn new(
+        pole_pairs: u32,
+        r_ohm: f32,
+        l_h: f32,
+        flux_wb: f32,
+        j_kgm2: f32,
+        b_nms: f32,
+    ) -> Result<Self, ParamError> {
+        if pole_pairs == 0 {
+            return Err(ParamError::NotPositive("pole_pairs"));
+        }
+        Ok(Self {
+            pole_pairs,
+            r_ohm: positive("r_ohm", r_ohm)?,
+            l_h: positive("l_h", l_h)?,
+            flux_wb: positive("flux_wb", flux_wb)?,
+            j_kgm2: positive("j_kgm2", j_kgm2)?,
+            b_nms: non_negative("b_nms", b_nms)?,
+        })
+    }
+
+    /// Re-checks a value built field by field (e.g. after scaling).
+    pub fn validate(self) -> Result<Self, ParamError> {
+        Self::new(
+            self.pole_pairs,
+            self.r_ohm,
+            self.l_h,
+            self.flux_wb,
+            self.j_kgm2,
+            self.b_nms,
+        )
+    }
+
+    /// Pole pairs as f32.
+    pub fn n(&self) -> f32 {
+        self.pole_pairs as f32
+    }
+
+    /// Torque constant of the papers' model, `N ψ_f` [N·m/A]: `τ = N ψ_f i_q`.
+    pub fn torque_constant(&self) -> f32 {
+        self.n() * self.flux_wb
+    }
+}
+
+/// Nameplate ratings used for limits and scenarios.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ratings {
+    /// DC bus voltage [V], > 0.
+    pub bus_v: f32,
+    /// Rated phase current [A] as printed by the source (see each preset), > 0.
+    pub current_a: f32,
+    /// Rated torque [N·m], > 0.
+    pub torque_nm: f32,
+    /// Rated speed [rpm, mechanical], > 0.
+    pub speed_rpm: f32,
+    /// Rated output power [W], > 0.
+    pub power_w: f32,
+}
+
+impl Ratings {
+    /// Validated ratings; the error names the first bad field.
+    pub fn validate(self) -> Result<Self, ParamError> {
+        positive("bus_v", self.bus_v)?;
+        positive("current_a", self.current_a)?;
+        positive("torque_nm", self.torque_nm)?;
+        positive("speed_rpm", self.speed_rpm)?;
+        positive("power_w", self.power_w)?;
+        Ok(self)
+    }
+}
+
+/// A named motor: parameters plus ratings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Motor {
+    /// Short identifier used on the command line.
+    pub name: &'static str,
+    /// Model parameters.
+    pub params: MotorParams,
+    /// Nameplate ratings.
+    pub ratings: Ratings,
+}
+
+impl Motor {
+    /// The `i_q` that makes rated torque in the papers' model, `τ_rated/(N ψ_f)` [A]: the
+    /// current limit of the speed loop.
+    pub fn rated_torque_current_a(&self) -> f32 {
+        self.ratings.torque_nm / self.params.torque_constant()
+    }
+}
+
+/// Horng & Chin Table 1: Sinano #7CB30-2SE6F.
+///
+/// R, L, K, N, H, B are the table's. Not in the paper, and assumed here: the 48 V bus (the
+/// bus the foundation issue specifies; at 1000 rpm the back-EMF amplitude K·N·ω = 24.3 V fits
+/// under 48/√3 = 27.7 V), a 3 A current rating, rated torque = K·N·3 A = 0.70 N·m, and
+/// 1000 rpm (the paper's test speed; about the most the 48 V bus allows).
+pub const HORNG_SINANO: Motor = Motor {
+    name: "sinano",
+    params: MotorParams {
+        pole_pairs: 4,
+        r_ohm: 2.5,
+        l_h: 5.97e-3,
+        flux_wb: 5.795e-2,
+        j_kgm2: 6.45e-5,
+        b_nms: 8.06e-5,
+    },
+    ratings: Ratings {
+        bus_v: 48.0,
+        current_a: 3.0,
+        torque_nm: 0.695,
+        speed_rpm: 1000.0,
+        power_w: 73.0,
+    },
+};
+
+/// Ortega et al. Table I, first column: the 40 kW simulation motor.
+///
+/// Electrical data and ratings are the table's. The table gives no inertia or friction;
+/// assumed: J = 0.1 kg·m² (rotor of a 180 N·m industrial PMSM, order of catalogue values) and
+/// f = 0.01 N·m·s/rad (friction torque 2.3 N·m = 1.3 % of rated torque at rated speed).
+pub const ORTEGA_SIM_40KW: Motor = Motor {
+    name: "ortega-sim-40kw",
+    params: MotorParams {
+        pole_pairs: 3,
+        r_ohm: 0.065,
+        l_h: 0.655e-3,
+        flux_wb: 0.146,
+        j_kgm2: 0.1,
+        b_nms: 0.01,
+    },
+    ratings: Ratings {
+        bus_v: 240.0,
+        current_a: 216.0,
+        torque_nm: 180.0,
+        speed_rpm: 2200.0,
+        power_w: 40.0e3,
+    },
+};
+
+/// Ortega et al. Table I, second column: the 0.3 kW test motor.
+///
+/// Electrical data and ratings are the table's. Note: Table I's currents are consistent with
+/// a three-phase machine of torque (3/2)·n_P·Φ·i_q and rms ratings (1.5·4·0.11·3·√2 = 2.8 N·m
+/// ≈ 3.0 N·m); in the papers' model (torque n_P·Φ·i_q, peak amplitudes) the rated 3 N·m takes
+/// 6.8 A. Assumed (the table gives none):
+/// J = 1.0e-3 kg·m² (test rotor plus the coupled dynamo rotor of the bench, catalogue order
+/// of magnitude for 3 N·m and 8 N·m servo motors) and f = 1.0e-3 N·m·s/rad (0.1 N·m, 3.5 % of
+/// rated torque, at rated speed).
+pub const ORTEGA_TEST_0P3KW: Motor = Motor {
+    name: "ortega-test-0.3kw",
+    params: MotorParams {
+        pole_pairs: 4,
+        r_ohm: 0.675,
+        l_h: 1.14e-3,
+        flux_wb: 0.11,
+        j_kgm2: 1.0e-3,
+        b_nms: 1.0e-3,
+    },
+    ratings: Ratings {
+        bus_v: 200.0,
+        current_a: 3.0,
+        torque_nm: 3.0,
+        speed_rpm: 1000.0,
+        power_w: 300.0,
+    },
+};
+
+/// Ortega et al. Table I, third column: the 1.0 kW dynamo motor.
+///
+/// Electrical data and ratings are the table's. Assumed (the table gives none):
+/// J = 1.0e-3 kg·m² and f = 1.0e-3 N·m·s/rad, as for the test motor it is coupled to.
+pub const ORTEGA_DYNAMO_1KW: Motor = Motor {
+    name: "ortega-dynamo-1kw",
+    params: MotorParams {
+        pole_pairs: 4,
+        r_ohm: 0.825,
+        l_h: 2.6e-3,
+        flux_wb: 0.099,
+        j_kgm2: 1.0e-3,
+        b_nms: 1.0e-3,
+    },
+    ratings: Ratings {
+        bus_v: 200.0,
+        current_a: 10.7,
+        torque_nm: 8.3,
+        speed_rpm: 1500.0,
+        power_w: 1.0e3,
+    },
+};
+
+/// Every preset, for listing and lookup by name.
+pub const PRESETS: [Motor; 4] = [
+    HORNG_SINANO,
+    ORTEGA_SIM_40KW,
+    ORTEGA_TEST_0P3KW,
+    ORTEGA_DYNAMO_1KW,
+];
+
+/// The preset called `name`, if any.
+pub fn preset(name: &str) -> Option<Motor> {
+    PRESETS.iter().copied().find(|m| m.name == name)
+}

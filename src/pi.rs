@@ -1,0 +1,84 @@
+//! Discrete PI controller with output clamp and clamping (conditional-integration) anti-windup.
+
+use crate::motor::{non_negative, positive, ParamError};
+
+/// PI settings in SI units: `u = kp·e + ki·∫e dt`, clamped to `[out_min, out_max]`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PiConfig {
+    /// Proportional gain [output unit / error unit], ≥ 0.
+    pub kp: f32,
+    /// Integral gain [output unit / (error unit · s)], ≥ 0.
+    pub ki: f32,
+    /// Lower output limit.
+    pub out_min: f32,
+    /// Upper output limit, > `out_min`.
+    pub out_max: f32,
+}
+
+/// A PI ready to run at a fixed sample period (coefficients precomputed).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pi {
+    kp: f32,
+    ki_ts: f32,
+    out_min: f32,
+    out_max: f32,
+}
+
+/// Running state of a [`Pi`]: the integrator, in output units.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PiState {
+    /// Integral term `ki·∫e dt`, always within the output limits.
+    pub integral: f32,
+}
+
+impl PiConfig {
+    /// Precomputes the per-sample integral gain for period `ts_s` [s].
+    pub fn build(&self, ts_s: f32) -> Result<Pi, ParamError> {
+        let ts = positive("ts_s", ts_s)?;
+        non_negative("kp", self.kp)?;
+        non_negative("ki", self.ki)?;
+        if !self.out_min.is_finite() {
+            return Err(ParamError::NotFinite("out_min"));
+        }
+        if !self.out_max.is_finite() {
+            return Err(ParamError::NotFinite("out_max"));
+        }
+        positive("out_max - out_min", self.out_max - self.out_min)?;
+        Ok(Pi {
+            kp: self.kp,
+            ki_ts: self.ki * ts,
+            out_min: self.out_min,
+            out_max: self.out_max,
+        })
+    }
+}
+
+impl Pi {
+    /// One sample: `u = clamp(ff + kp·e + I)`, with `I += ki·Ts·e` only when that does not push
+    /// a saturated output further into saturation. `ff` is a feed-forward added before the clamp.
+    /// A non-finite `error` or `ff` leaves the integrator untouched and returns the clamp of `ff`
+    /// treated as 0 (a safe, bounded output).
+    pub fn update(&self, state: &mut PiState, error: f32, ff: f32) -> f32 {
+        if !error.is_finite() || !ff.is_finite() {
+            return state.integral.clamp(self.out_min, self.out_max);
+        }
+        let candidate = state.integral + self.ki_ts * error;
+        let unclamped = ff + self.kp * error + candidate;
+        let pushing_further =
+            (unclamped > self.out_max && error > 0.0) || (unclamped < self.out_min && error < 0.0);
+        if !pushing_further {
+            state.integral = candidate.clamp(self.out_min, self.out_max);
+        }
+        (ff + self.kp * error + state.integral).clamp(self.out_min, self.out_max)
+    }
+
+    /// Proportional gain.
+    pub fn kp(&self) -> f32 {
+        self.kp
+    }
+
+    /// Integral gain per sample, `ki·Ts`.
+    pub fn ki_ts(&self) -> f32 {
+        self.ki_ts
+    }
+}
