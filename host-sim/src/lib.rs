@@ -1,0 +1,15 @@
+//! `pmsm-host-sim`: the PMSM plant simulator that runs the `pmsm-sensorless` core on the host.
+//!
+//! f64 plant (Horng & Chin eqs (16)-(19)) integrated with RK4, averaged inverter, current
+//! sensor with seeded noise, scenarios of both papers, metrics, CSV/PNG/JSON output.
+
+pub mod inverter;
+pub mod motor_file;
+pub mod observer;
+pub mod output;
+pub mod plant;
+pub mod plot;
+pub mod profile;
+pub mod scenario;
+pub mod sim;
+pub mod summary;

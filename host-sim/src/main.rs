@@ -1,0 +1,228 @@
+//! `pmsm-sim`: run the pmsm-sensorless core against the simulated motor.
+
+use clap::{Parser, Subcommand};
+use pmsm_host_sim::observer::ObserverKind;
+use pmsm_host_sim::sim::{self, Mismatch, SimConfig};
+use pmsm_host_sim::summary::Summary;
+use pmsm_host_sim::{motor_file, output, scenario};
+use pmsm_sensorless::motor;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Instant;
+
+#[derive(Parser)]
+#[command(
+    name = "pmsm-sim",
+    version,
+    about = "PMSM plant simulator for the pmsm-sensorless core"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// List scenarios, motors and observers.
+    List,
+    /// Run a scenario; writes run.csv and run.png into the output directory.
+    Run(Box<RunArgs>),
+}
+
+#[derive(clap::Args)]
+struct RunArgs {
+    /// Scenario name (see `pmsm-sim list`).
+    scenario: String,
+    /// What gives the controller θ̂_e and ω̂_m.
+    #[arg(long, default_value = "encoder")]
+    observer: String,
+    /// Motor preset replacing the scenario's motor.
+    #[arg(long, conflicts_with = "motor_file")]
+    motor: Option<String>,
+    /// Motor TOML file replacing the scenario's motor.
+    #[arg(long, value_name = "FILE.toml")]
+    motor_file: Option<PathBuf>,
+    /// Load torque level [N·m] replacing the scenario's.
+    #[arg(long, allow_negative_numbers = true)]
+    load_nm: Option<f64>,
+    /// DC bus voltage [V] (default: the motor's).
+    #[arg(long, allow_negative_numbers = true)]
+    bus_v: Option<f64>,
+    /// Current-sensor noise, standard deviation per phase [A].
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    noise_a: f64,
+    /// Noise seed.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Controller parameter factors, e.g. `r=1.2,l=0.9` (keys r, l, flux, j, b).
+    #[arg(long, value_parser = parse_mismatch, default_value = "")]
+    mismatch: Mismatch,
+    /// Inverter dead time [µs].
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    dead_time_us: f64,
+    /// Output directory (default: out/SCENARIO-OBSERVER).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Print the JSON summary on stdout.
+    #[arg(long)]
+    json: bool,
+}
+
+fn parse_mismatch(s: &str) -> Result<Mismatch, String> {
+    let mut m = Mismatch::default();
+    for kv in s.split(',').filter(|kv| !kv.trim().is_empty()) {
+        let (k, v) = kv
+            .split_once('=')
+            .ok_or_else(|| format!("'{kv}' is not key=factor"))?;
+        let v: f64 = v
+            .trim()
+            .parse()
+            .map_err(|_| format!("'{v}' is not a number"))?;
+        if !(v.is_finite() && v > 0.0) {
+            return Err(format!("factor for '{k}' must be > 0"));
+        }
+        match k.trim() {
+            "r" => m.r = v,
+            "l" => m.l = v,
+            "flux" => m.flux = v,
+            "j" => m.j = v,
+            "b" => m.b = v,
+            other => return Err(format!("unknown parameter '{other}' (r, l, flux, j, b)")),
+        }
+    }
+    Ok(m)
+}
+
+fn list() {
+    println!("scenarios:");
+    for s in scenario::all() {
+        println!("  {:<20} {}", s.name, s.description);
+    }
+    println!("motors:");
+    for m in motor::PRESETS {
+        let p = m.params;
+        println!(
+            "  {:<20} N={} R={} Ω L={} H ψ={} Wb J={} kg·m² B={} N·m·s/rad, {} V bus",
+            m.name, p.pole_pairs, p.r_ohm, p.l_h, p.flux_wb, p.j_kgm2, p.b_nms, m.ratings.bus_v
+        );
+    }
+    println!("observers:");
+    for o in ObserverKind::ALL {
+        println!("  {:<20} {}", o.name(), o.description());
+    }
+}
+
+fn run(args: RunArgs) -> anyhow::Result<()> {
+    let mut sc = scenario::by_name(&args.scenario)?;
+    let observer = ObserverKind::from_name(&args.observer)?;
+    if let Some(name) = &args.motor {
+        let m = motor::preset(name).ok_or_else(|| {
+            let names: Vec<_> = motor::PRESETS.iter().map(|m| m.name).collect();
+            anyhow::anyhow!("unknown motor '{name}' (known: {})", names.join(", "))
+        })?;
+        sc.motor_name = m.name.to_string();
+        sc.motor = m;
+    }
+    if let Some(path) = &args.motor_file {
+        let (name, m) = motor_file::load(path)?;
+        sc.motor_name = name;
+        sc.motor = m;
+    }
+    if let Some(x) = args.load_nm {
+        anyhow::ensure!(x.is_finite(), "--load-nm must be a finite number");
+        sc.load_nm = x;
+    }
+    let mut cfg = SimConfig::new(sc, observer);
+    if let Some(v) = args.bus_v {
+        cfg.bus_v = v;
+    }
+    cfg.noise_sigma_a = args.noise_a;
+    cfg.seed = args.seed;
+    cfg.mismatch = args.mismatch;
+    anyhow::ensure!(
+        args.dead_time_us.is_finite() && args.dead_time_us >= 0.0,
+        "--dead-time-us must be a finite number >= 0"
+    );
+    cfg.dead_time_s = args.dead_time_us * 1e-6;
+    let out_dir = args.out.clone().unwrap_or_else(|| {
+        PathBuf::from("out").join(format!("{}-{}", args.scenario, args.observer))
+    });
+    let wall = Instant::now();
+    let run = sim::run(cfg)?;
+    let wall_s = wall.elapsed().as_secs_f64();
+    let summary = Summary::of(&run);
+    let (csv, png) = output::write_all(&run, &out_dir)?;
+    if args.json {
+        println!("{}", serde_json::to_string(&summary)?);
+        return Ok(());
+    }
+    let sim_s = run.rows.len() as f64 / run.config.rate_hz;
+    println!(
+        "{} | motor {} | observer {} | {} Hz | lost lock: {} | fault: {}",
+        summary.scenario,
+        summary.motor,
+        summary.observer,
+        summary.rate_hz,
+        summary.lost_lock,
+        summary.fault.as_deref().unwrap_or("none")
+    );
+    println!(
+        "{:<12} {:>9} {:>12} {:>12} {:>12} {:>12} {:>10}",
+        "window", "cmd rpm", "err mean rpm", "err max rpm", "θerr mean°e", "θerr max°e", "τ̂ N·m"
+    );
+    for (name, m) in &summary.windows {
+        match m {
+            Some(m) => println!(
+                "{:<12} {:>9.1} {:>12.4} {:>12.3} {:>12.3} {:>12.3} {:>10}",
+                name,
+                m.speed_cmd_mean_rpm,
+                m.speed_err_mean_rpm,
+                m.speed_err_max_abs_rpm,
+                m.theta_err_mean_deg_e,
+                m.theta_err_max_abs_deg_e,
+                m.torque_hat_mean_nm
+                    .map(|x| format!("{x:.4}"))
+                    .unwrap_or_else(|| "-".into())
+            ),
+            None => println!("{name:<12} (not reached)"),
+        }
+    }
+    println!("plot: {}", png.display());
+    println!("csv:  {}", csv.display());
+    println!(
+        "simulated {sim_s:.2} s in {wall_s:.3} s wall ({:.0}× real time; output files not included)",
+        sim_s / wall_s
+    );
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            use clap::error::ErrorKind;
+            if matches!(e.kind(), ErrorKind::DisplayHelp | ErrorKind::DisplayVersion) {
+                print!("{e}");
+                return ExitCode::SUCCESS;
+            }
+            let text = e.to_string();
+            let first = text.lines().next().unwrap_or("invalid arguments");
+            eprintln!("{first} (see pmsm-sim --help)");
+            return ExitCode::from(2);
+        }
+    };
+    let result = match cli.command {
+        Command::List => {
+            list();
+            Ok(())
+        }
+        Command::Run(args) => run(*args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {}", format!("{e:#}").replace('\n', " "));
+            ExitCode::FAILURE
+        }
+    }
+}

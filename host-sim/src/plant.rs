@@ -1,0 +1,207 @@
+//! PMSM plant in the stationary frame, f64, integrated with RK4 on a fixed sub-step.
+//!
+//! Horng & Chin eqs (16)-(19) (equivalently Ortega (1)-(2)), θ and ω mechanical:
+//! ```text
+//! di_α/dt = −R/L i_α + (ψN/L) ω sin Nθ + v_α/L            (16)
+//! di_β/dt = −R/L i_β − (ψN/L) ω cos Nθ + v_β/L            (17)
+//! dθ/dt   = ω                                             (18)
+//! dω/dt   = −(ψN/J)(i_α sin Nθ − i_β cos Nθ) − B/J ω − τ_L/J   (19)
+//! ```
+//! The state also carries four energy integrals (input, copper, friction, load) so the power
+//! balance can be checked to integration accuracy, and ∫ i_q dt for exact time averages.
+
+use pmsm_sensorless::motor::MotorParams;
+
+/// Plant parameters in f64 (SI units).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlantParams {
+    /// Pole pairs N.
+    pub n: f64,
+    /// Resistance [Ω].
+    pub r: f64,
+    /// Inductance [H].
+    pub l: f64,
+    /// Flux linkage ψ = K = Φ [Wb].
+    pub flux: f64,
+    /// Inertia [kg·m²].
+    pub j: f64,
+    /// Viscous friction [N·m·s/rad].
+    pub b: f64,
+}
+
+impl From<&MotorParams> for PlantParams {
+    fn from(m: &MotorParams) -> Self {
+        Self {
+            n: m.pole_pairs as f64,
+            r: m.r_ohm as f64,
+            l: m.l_h as f64,
+            flux: m.flux_wb as f64,
+            j: m.j_kgm2 as f64,
+            b: m.b_nms as f64,
+        }
+    }
+}
+
+/// Plant state (and energy integrals, all in J).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PlantState {
+    /// Stator current α [A].
+    pub i_alpha: f64,
+    /// Stator current β [A].
+    pub i_beta: f64,
+    /// Rotor angle, mechanical, not wrapped [rad].
+    pub theta_m: f64,
+    /// Rotor speed, mechanical [rad/s].
+    pub omega_m: f64,
+    /// ∫ v·i dt: electrical energy in.
+    pub e_in: f64,
+    /// ∫ R|i|² dt: copper loss.
+    pub e_copper: f64,
+    /// ∫ B ω² dt: friction loss.
+    pub e_friction: f64,
+    /// ∫ τ_L ω dt: energy delivered to the load.
+    pub e_load: f64,
+    /// ∫ i_q dt [A·s], for exact time averages of the torque current.
+    pub iq_dt: f64,
+}
+
+const DIM: usize = 9;
+
+impl PlantState {
+    fn to_array(self) -> [f64; DIM] {
+        [
+            self.i_alpha,
+            self.i_beta,
+            self.theta_m,
+            self.omega_m,
+            self.e_in,
+            self.e_copper,
+            self.e_friction,
+            self.e_load,
+            self.iq_dt,
+        ]
+    }
+
+    fn from_array(x: [f64; DIM]) -> Self {
+        Self {
+            i_alpha: x[0],
+            i_beta: x[1],
+            theta_m: x[2],
+            omega_m: x[3],
+            e_in: x[4],
+            e_copper: x[5],
+            e_friction: x[6],
+            e_load: x[7],
+            iq_dt: x[8],
+        }
+    }
+
+    /// Electrical angle Nθ, not wrapped [rad].
+    pub fn theta_e(&self, p: &PlantParams) -> f64 {
+        p.n * self.theta_m
+    }
+
+    /// Currents in the true rotor frame `(i_d, i_q)` [A].
+    pub fn i_dq(&self, p: &PlantParams) -> (f64, f64) {
+        let (s, c) = self.theta_e(p).sin_cos();
+        (
+            c * self.i_alpha + s * self.i_beta,
+            -s * self.i_alpha + c * self.i_beta,
+        )
+    }
+
+    /// Electromagnetic torque `N ψ (i_β cos Nθ − i_α sin Nθ)` [N·m] (Ortega (2)).
+    pub fn torque(&self, p: &PlantParams) -> f64 {
+        p.n * p.flux * self.i_dq(p).1
+    }
+
+    /// Energy stored in the inductance and the rotor [J].
+    pub fn stored_energy(&self, p: &PlantParams) -> f64 {
+        0.5 * p.l * (self.i_alpha * self.i_alpha + self.i_beta * self.i_beta)
+            + 0.5 * p.j * self.omega_m * self.omega_m
+    }
+}
+
+/// What drives the plant during a sub-step: the stator voltage as a function of the state
+/// (the inverter's dead-time depends on the current sign), and the load torque.
+pub trait Drive {
+    /// Stator voltage `(v_α, v_β)` [V] given the currents `(i_α, i_β)`.
+    fn v_alpha_beta(&self, i_alpha: f64, i_beta: f64) -> (f64, f64);
+}
+
+fn derivative<D: Drive>(p: &PlantParams, x: &[f64; DIM], drive: &D, tau_l: f64) -> [f64; DIM] {
+    let (i_a, i_b, theta, omega) = (x[0], x[1], x[2], x[3]);
+    let (s, c) = (p.n * theta).sin_cos();
+    let (v_a, v_b) = drive.v_alpha_beta(i_a, i_b);
+    let kn = p.flux * p.n;
+    [
+        (-p.r * i_a + kn * omega * s + v_a) / p.l, // (16)
+        (-p.r * i_b - kn * omega * c + v_b) / p.l, // (17)
+        omega,                                     // (18)
+        (-kn * (i_a * s - i_b * c) - p.b * omega - tau_l) / p.j, // (19)
+        v_a * i_a + v_b * i_b,
+        p.r * (i_a * i_a + i_b * i_b),
+        p.b * omega * omega,
+        tau_l * omega,
+        i_b * c - i_a * s,
+    ]
+}
+
+/// The plant: parameters and state.
+#[derive(Clone, Debug)]
+pub struct Plant {
+    /// Parameters.
+    pub params: PlantParams,
+    /// State.
+    pub state: PlantState,
+}
+
+impl Plant {
+    /// A plant at rest with zero current, rotor at `theta_m0` [rad, mechanical].
+    pub fn new(params: PlantParams, theta_m0: f64) -> Self {
+        Self {
+            params,
+            state: PlantState {
+                theta_m: theta_m0,
+                ..Default::default()
+            },
+        }
+    }
+
+    /// Advances by `n_sub` RK4 sub-steps of `h` seconds each, with the load torque
+    /// `tau_l(t_rel)` evaluated at each sub-step's stage times (`t_rel` from the start).
+    pub fn advance<D: Drive>(
+        &mut self,
+        drive: &D,
+        tau_l: impl Fn(f64) -> f64,
+        h: f64,
+        n_sub: usize,
+    ) {
+        let p = self.params;
+        let mut x = self.state.to_array();
+        for k in 0..n_sub {
+            let t0 = k as f64 * h;
+            let add = |x: &[f64; DIM], d: &[f64; DIM], s: f64| -> [f64; DIM] {
+                std::array::from_fn(|i| x[i] + s * d[i])
+            };
+            let tl0 = tau_l(t0);
+            let tlh = tau_l(t0 + 0.5 * h);
+            let tl1 = tau_l(t0 + h);
+            let k1 = derivative(&p, &x, drive, tl0);
+            let k2 = derivative(&p, &add(&x, &k1, 0.5 * h), drive, tlh);
+            let k3 = derivative(&p, &add(&x, &k2, 0.5 * h), drive, tlh);
+            let k4 = derivative(&p, &add(&x, &k3, h), drive, tl1);
+            x = std::array::from_fn(|i| {
+                x[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+            });
+        }
+        self.state = PlantState::from_array(x);
+    }
+
+    /// Phase currents `(a, b, c)` [A] (inverse amplitude-invariant Clarke).
+    pub fn i_abc(&self) -> [f64; 3] {
+        let (a, b) = (self.state.i_alpha, self.state.i_beta);
+        let s3 = 3f64.sqrt() / 2.0;
+        [a, -0.5 * a + s3 * b, -0.5 * a - s3 * b]
+    }
+}

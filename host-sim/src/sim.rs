@@ -1,0 +1,355 @@
+//! The closed loop: plant + inverter + current sensor + observer slot + the core's FOC.
+//!
+//! Timing of one control period `k` (`T = 1/rate_hz`, 250 µs at 4 kHz): the currents and the
+//! encoder are sampled at `t_k`, the core computes the duties at once, and the inverter holds
+//! them over `[t_k, t_k + T)` while the plant is integrated with RK4 on `substeps` sub-steps.
+
+use crate::inverter::{CurrentSensor, Inverter};
+use crate::observer::{Observer, ObserverKind, SlotInput};
+use crate::plant::{Plant, PlantParams};
+use crate::scenario::Scenario;
+use pmsm_sensorless::foc::{Foc, FocConfig, FocInput, FocState};
+use pmsm_sensorless::frames::AlphaBeta;
+use pmsm_sensorless::motor::{MotorParams, ParamError};
+use std::f64::consts::PI;
+
+/// rad/s per rpm.
+pub const RAD_S_PER_RPM: f64 = PI / 30.0;
+
+/// Controller parameters as multiples of the plant's (1.0 = exact knowledge).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Mismatch {
+    /// Resistance factor.
+    pub r: f64,
+    /// Inductance factor.
+    pub l: f64,
+    /// Flux-linkage factor.
+    pub flux: f64,
+    /// Inertia factor.
+    pub j: f64,
+    /// Friction factor.
+    pub b: f64,
+}
+
+impl Default for Mismatch {
+    fn default() -> Self {
+        Self {
+            r: 1.0,
+            l: 1.0,
+            flux: 1.0,
+            j: 1.0,
+            b: 1.0,
+        }
+    }
+}
+
+impl Mismatch {
+    /// The controller's copy of `m`.
+    pub fn apply(&self, m: &MotorParams) -> Result<MotorParams, ParamError> {
+        MotorParams {
+            r_ohm: m.r_ohm * self.r as f32,
+            l_h: m.l_h * self.l as f32,
+            flux_wb: m.flux_wb * self.flux as f32,
+            j_kgm2: m.j_kgm2 * self.j as f32,
+            b_nms: m.b_nms * self.b as f32,
+            ..*m
+        }
+        .validate()
+    }
+}
+
+/// Everything one run needs.
+#[derive(Clone, Debug)]
+pub struct SimConfig {
+    /// The experiment.
+    pub scenario: Scenario,
+    /// What fills the observer slot.
+    pub observer: ObserverKind,
+    /// DC bus voltage [V].
+    pub bus_v: f64,
+    /// Current-sensor noise per phase, standard deviation [A].
+    pub noise_sigma_a: f64,
+    /// Current-sensor offset per phase [A].
+    pub offset_a: [f64; 3],
+    /// ADC quantisation step [A] (0 = none).
+    pub adc_lsb_a: f64,
+    /// Noise seed.
+    pub seed: u64,
+    /// Inverter dead time [s].
+    pub dead_time_s: f64,
+    /// PWM frequency for the dead-time error [Hz].
+    pub pwm_hz: f64,
+    /// Controller-vs-plant parameter factors.
+    pub mismatch: Mismatch,
+    /// Control (current-loop) rate [Hz].
+    pub rate_hz: f64,
+    /// RK4 sub-steps per control period.
+    pub substeps: usize,
+    /// Initial rotor angle [rad, mechanical].
+    pub theta_m0: f64,
+}
+
+impl SimConfig {
+    /// Defaults: the scenario's motor bus, no noise, ideal inverter, exact parameters,
+    /// 4 kHz control, 25 sub-steps (10 µs).
+    pub fn new(scenario: Scenario, observer: ObserverKind) -> Self {
+        let bus_v = scenario.motor.ratings.bus_v as f64;
+        Self {
+            scenario,
+            observer,
+            bus_v,
+            noise_sigma_a: 0.0,
+            offset_a: [0.0; 3],
+            adc_lsb_a: 0.0,
+            seed: 1,
+            dead_time_s: 0.0,
+            pwm_hz: 16_000.0,
+            mismatch: Mismatch::default(),
+            rate_hz: 4000.0,
+            substeps: 25,
+            theta_m0: 0.0,
+        }
+    }
+}
+
+/// One control period of the trace (values at the sample instant `t`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Row {
+    /// Time [s].
+    pub t: f64,
+    /// Speed command [rpm].
+    pub speed_cmd_rpm: f64,
+    /// True speed [rpm].
+    pub speed_rpm: f64,
+    /// Estimated speed [rpm].
+    pub speed_hat_rpm: f64,
+    /// True electrical angle, wrapped to (−180°, 180°] [deg].
+    pub theta_e_deg: f64,
+    /// Estimated electrical angle, wrapped [deg].
+    pub theta_e_hat_deg: f64,
+    /// True-frame d current [A].
+    pub i_d: f64,
+    /// True-frame q current [A].
+    pub i_q: f64,
+    /// Applied α voltage over the following period [V].
+    pub v_alpha: f64,
+    /// Applied β voltage [V].
+    pub v_beta: f64,
+    /// Load torque [N·m].
+    pub load_nm: f64,
+    /// Estimated load torque [N·m], if the observer has one.
+    pub load_hat_nm: Option<f64>,
+}
+
+impl Row {
+    /// `θ̂_e − θ_e` wrapped to (−180°, 180°] [deg].
+    pub fn theta_err_deg(&self) -> f64 {
+        wrap_deg(self.theta_e_hat_deg - self.theta_e_deg)
+    }
+
+    /// `ω_m − command` [rpm].
+    pub fn speed_err_rpm(&self) -> f64 {
+        self.speed_rpm - self.speed_cmd_rpm
+    }
+}
+
+/// Wraps an angle to (−180°, 180°].
+pub fn wrap_deg(x: f64) -> f64 {
+    let y = x - 360.0 * (x / 360.0).round();
+    if y <= -180.0 {
+        y + 360.0
+    } else {
+        y
+    }
+}
+
+/// Wraps an angle to (−π, π].
+pub fn wrap_rad(x: f64) -> f64 {
+    wrap_deg(x.to_degrees()).to_radians()
+}
+
+/// A finished run.
+pub struct Run {
+    /// The configuration it ran with.
+    pub config: SimConfig,
+    /// One row per control period.
+    pub rows: Vec<Row>,
+    /// The plant at the end (energy integrals included).
+    pub plant: Plant,
+    /// Why the run stopped early, if it did.
+    pub fault: Option<String>,
+}
+
+/// The closed loop, one control period at a time.
+pub struct Sim {
+    config: SimConfig,
+    foc: Foc,
+    foc_state: FocState,
+    observer: Box<dyn Observer>,
+    plant: Plant,
+    inverter: Inverter,
+    sensor: CurrentSensor,
+    v_ab_last: AlphaBeta,
+    k: usize,
+    ts: f64,
+}
+
+impl Sim {
+    /// Builds plant, sensor, observer and controller; errors name the bad setting.
+    pub fn new(config: SimConfig) -> anyhow::Result<Self> {
+        let sc = &config.scenario;
+        anyhow::ensure!(
+            config.bus_v.is_finite() && config.bus_v > 0.0,
+            "bus voltage must be a finite number > 0 V, got {}",
+            config.bus_v
+        );
+        anyhow::ensure!(
+            config.rate_hz.is_finite() && config.rate_hz > 0.0,
+            "rate must be > 0 Hz"
+        );
+        anyhow::ensure!(config.substeps > 0, "substeps must be > 0");
+        let params = sc.motor.params;
+        let controller_motor = config
+            .mismatch
+            .apply(&params)
+            .map_err(|e| anyhow::anyhow!("controller motor parameters: {e}"))?;
+        let mut foc_cfg = FocConfig::new(controller_motor, sc.motor.rated_torque_current_a());
+        foc_cfg.current_rate_hz = config.rate_hz as f32;
+        let foc = foc_cfg
+            .build()
+            .map_err(|e| anyhow::anyhow!("controller configuration: {e}"))?;
+        let sensor = CurrentSensor::new(
+            config.offset_a,
+            config.noise_sigma_a,
+            config.adc_lsb_a,
+            config.seed,
+        )?;
+        Ok(Self {
+            foc,
+            foc_state: FocState::default(),
+            observer: config.observer.build(),
+            plant: Plant::new(PlantParams::from(&params), config.theta_m0),
+            inverter: Inverter {
+                v_bus: config.bus_v,
+                dead_time_s: config.dead_time_s,
+                pwm_hz: config.pwm_hz,
+            },
+            sensor,
+            v_ab_last: AlphaBeta::default(),
+            k: 0,
+            ts: 1.0 / config.rate_hz,
+            config,
+        })
+    }
+
+    /// Time of the next sample [s].
+    pub fn t(&self) -> f64 {
+        self.k as f64 * self.ts
+    }
+
+    /// The plant (state, energy integrals, parameters).
+    pub fn plant(&self) -> &Plant {
+        &self.plant
+    }
+
+    /// The plant, for fault injection (e.g. a parameter change mid-run).
+    pub fn plant_mut(&mut self) -> &mut Plant {
+        &mut self.plant
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &SimConfig {
+        &self.config
+    }
+
+    /// One control period: sample, estimate, control, then integrate the plant over the
+    /// period. Errors if the plant state stops being finite.
+    pub fn step(&mut self) -> Result<Row, String> {
+        let t = self.t();
+        let sc = &self.config.scenario;
+        let p = &self.plant.params;
+        let theta_e = wrap_rad(self.plant.state.theta_e(p));
+        let omega_m = self.plant.state.omega_m;
+        let i_abc = self.sensor.measure(self.plant.i_abc());
+        let slot = SlotInput {
+            i_ab: i_abc.to_alpha_beta(),
+            v_ab_last: self.v_ab_last,
+            encoder_theta_e: theta_e as f32,
+            encoder_omega_m: omega_m as f32,
+        };
+        let est = self.observer.update(&slot);
+        let speed_cmd_rpm = sc.speed_cmd_rpm.at(t);
+        let torque_ff_nm = match est.load_nm {
+            Some(x) if self.observer.compensates_load() => x,
+            _ => 0.0,
+        };
+        let out = self.foc.step(
+            &mut self.foc_state,
+            &FocInput {
+                i_abc,
+                v_bus: self.config.bus_v as f32,
+                theta_e: est.theta_e,
+                omega_m: est.omega_m,
+                omega_m_ref: (speed_cmd_rpm * RAD_S_PER_RPM) as f32,
+                torque_ff_nm,
+            },
+        );
+        let (i_d, i_q) = self.plant.state.i_dq(p);
+        let row = Row {
+            t,
+            speed_cmd_rpm,
+            speed_rpm: omega_m / RAD_S_PER_RPM,
+            speed_hat_rpm: est.omega_m as f64 / RAD_S_PER_RPM,
+            theta_e_deg: theta_e.to_degrees(),
+            theta_e_hat_deg: wrap_deg((est.theta_e as f64).to_degrees()),
+            i_d,
+            i_q,
+            v_alpha: out.v_ab.alpha as f64,
+            v_beta: out.v_ab.beta as f64,
+            load_nm: sc.load_at(t),
+            load_hat_nm: est.load_nm.map(f64::from),
+        };
+        let n_sub = self.config.substeps;
+        let h = self.ts / n_sub as f64;
+        self.plant.advance(
+            &self.inverter.hold(out.duties),
+            |dt| sc.load_at(t + dt),
+            h,
+            n_sub,
+        );
+        self.v_ab_last = out.v_ab;
+        self.k += 1;
+        let s = &self.plant.state;
+        if [s.i_alpha, s.i_beta, s.theta_m, s.omega_m]
+            .iter()
+            .all(|x| x.is_finite())
+        {
+            Ok(row)
+        } else {
+            Err(format!("plant state not finite at t = {:.4} s", self.t()))
+        }
+    }
+}
+
+/// Runs the closed loop for the scenario's duration.
+pub fn run(config: SimConfig) -> anyhow::Result<Run> {
+    let mut sim = Sim::new(config)?;
+    let steps = (sim.config.scenario.duration_s * sim.config.rate_hz).round() as usize;
+    let mut rows = Vec::with_capacity(steps);
+    let mut fault = None;
+    for _ in 0..steps {
+        match sim.step() {
+            Ok(row) => rows.push(row),
+            Err(e) => {
+                fault = Some(e);
+                break;
+            }
+        }
+    }
+    Ok(Run {
+        config: sim.config,
+        rows,
+        plant: sim.plant,
+        fault,
+    })
+}
