@@ -25,6 +25,8 @@ pub struct HeldDuties<'a> {
     pub inverter: &'a Inverter,
     /// Duties held over the period.
     pub duties: [f64; 3],
+    /// The αβ voltage without dead time (constant over the period) [V].
+    v_ab_ideal: (f64, f64),
 }
 
 impl HeldDuties<'_> {
@@ -63,6 +65,9 @@ pub fn inverse_clarke(alpha: f64, beta: f64) -> [f64; 3] {
 
 impl Drive for HeldDuties<'_> {
     fn v_alpha_beta(&self, i_alpha: f64, i_beta: f64) -> (f64, f64) {
+        if self.inverter.dead_time_s == 0.0 {
+            return self.v_ab_ideal;
+        }
         clarke(self.phase_voltages(inverse_clarke(i_alpha, i_beta)))
     }
 }
@@ -70,9 +75,12 @@ impl Drive for HeldDuties<'_> {
 impl Inverter {
     /// Holds `duties` for a period.
     pub fn hold(&self, duties: Duties) -> HeldDuties<'_> {
+        let duties = [duties.a as f64, duties.b as f64, duties.c as f64];
+        let pole = duties.map(|d| d * self.v_bus);
         HeldDuties {
             inverter: self,
-            duties: [duties.a as f64, duties.b as f64, duties.c as f64],
+            duties,
+            v_ab_ideal: clarke(pole),
         }
     }
 }

@@ -200,8 +200,6 @@ impl Plant {
 
     /// Phase currents `(a, b, c)` [A] (inverse amplitude-invariant Clarke).
     pub fn i_abc(&self) -> [f64; 3] {
-        let (a, b) = (self.state.i_alpha, self.state.i_beta);
-        let s3 = 3f64.sqrt() / 2.0;
-        [a, -0.5 * a + s3 * b, -0.5 * a - s3 * b]
+        crate::inverter::inverse_clarke(self.state.i_alpha, self.state.i_beta)
     }
 }

@@ -153,19 +153,24 @@ impl Row {
     }
 }
 
-/// Wraps an angle to (−180°, 180°].
-pub fn wrap_deg(x: f64) -> f64 {
-    let y = x - 360.0 * (x / 360.0).round();
-    if y <= -180.0 {
-        y + 360.0
+/// Wraps `x` to (−period/2, period/2].
+fn wrap(x: f64, period: f64) -> f64 {
+    let y = x - period * (x / period).round();
+    if y <= -0.5 * period {
+        y + period
     } else {
         y
     }
 }
 
+/// Wraps an angle to (−180°, 180°].
+pub fn wrap_deg(x: f64) -> f64 {
+    wrap(x, 360.0)
+}
+
 /// Wraps an angle to (−π, π].
 pub fn wrap_rad(x: f64) -> f64 {
-    wrap_deg(x.to_degrees()).to_radians()
+    wrap(x, 2.0 * PI)
 }
 
 /// A finished run.
@@ -352,4 +357,19 @@ pub fn run(config: SimConfig) -> anyhow::Result<Run> {
         plant: sim.plant,
         fault,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn wrapping_is_half_open() {
+        assert_eq!(wrap_deg(180.0), 180.0);
+        assert_eq!(wrap_deg(-180.0), 180.0);
+        assert_eq!(wrap_deg(540.0), 180.0);
+        assert!((wrap_deg(-190.0) - 170.0).abs() < 1e-12);
+        assert!((wrap_rad(3.0 * PI) - PI).abs() < 1e-12);
+        assert!((wrap_rad(-0.5) + 0.5).abs() < 1e-15);
+    }
 }
