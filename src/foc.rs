@@ -60,18 +60,14 @@ impl FocConfig {
         let ts = 1.0 / rate;
         let w_c = TAU * positive("current_bandwidth_hz", self.current_bandwidth_hz)?;
         if w_c * ts > 1.0 {
-            return Err(ParamError::NotPositive(
-                "current_rate_hz / (2π) - current_bandwidth_hz",
-            ));
+            return Err(ParamError::OutOfRange("current_bandwidth_hz"));
         }
         if self.speed_divider == 0 {
             return Err(ParamError::NotPositive("speed_divider"));
         }
         let w_s = TAU * positive("speed_bandwidth_hz", self.speed_bandwidth_hz)?;
         if 5.0 * w_s > w_c {
-            return Err(ParamError::NotPositive(
-                "current_bandwidth_hz / 5 - speed_bandwidth_hz",
-            ));
+            return Err(ParamError::OutOfRange("speed_bandwidth_hz"));
         }
         let i_max = positive("i_max_a", self.i_max_a)?;
         if !self.angle_advance_periods.is_finite() {

@@ -40,13 +40,19 @@ pub enum ParamError {
     NotPositive(&'static str),
     /// The named field must not be negative.
     Negative(&'static str),
+    /// The named field is outside the range its documentation gives (e.g. a bandwidth too
+    /// high for the sample rate).
+    OutOfRange(&'static str),
 }
 
 impl ParamError {
     /// Name of the offending field.
     pub fn field(&self) -> &'static str {
         match *self {
-            ParamError::NotFinite(f) | ParamError::NotPositive(f) | ParamError::Negative(f) => f,
+            ParamError::NotFinite(f)
+            | ParamError::NotPositive(f)
+            | ParamError::Negative(f)
+            | ParamError::OutOfRange(f) => f,
         }
     }
 }
@@ -57,6 +63,7 @@ impl fmt::Display for ParamError {
             ParamError::NotFinite(x) => write!(f, "{x}: must be a finite number"),
             ParamError::NotPositive(x) => write!(f, "{x}: must be greater than zero"),
             ParamError::Negative(x) => write!(f, "{x}: must not be negative"),
+            ParamError::OutOfRange(x) => write!(f, "{x}: outside its documented range"),
         }
     }
 }

@@ -51,6 +51,12 @@ struct RunArgs {
     /// Current-sensor noise, standard deviation per phase [A].
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     noise_a: f64,
+    /// Current-sensor offsets per phase [A], `a,b,c`.
+    #[arg(long, value_parser = parse_offsets, default_value = "0,0,0", allow_negative_numbers = true)]
+    offset_a: [f64; 3],
+    /// ADC quantisation step of the current measurement [A] (0 = none).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    adc_lsb_a: f64,
     /// Noise seed.
     #[arg(long, default_value_t = 1)]
     seed: u64,
@@ -91,6 +97,21 @@ fn parse_mismatch(s: &str) -> Result<Mismatch, String> {
         }
     }
     Ok(m)
+}
+
+fn parse_offsets(s: &str) -> Result<[f64; 3], String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| {
+            x.trim()
+                .parse::<f64>()
+                .map_err(|_| format!("'{x}' is not a number"))
+        })
+        .collect::<Result<_, _>>()?;
+    match v[..] {
+        [a, b, c] if v.iter().all(|x| x.is_finite()) => Ok([a, b, c]),
+        _ => Err("expected three finite numbers a,b,c".into()),
+    }
 }
 
 fn list() {
@@ -137,6 +158,8 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
         cfg.bus_v = v;
     }
     cfg.noise_sigma_a = args.noise_a;
+    cfg.offset_a = args.offset_a;
+    cfg.adc_lsb_a = args.adc_lsb_a;
     cfg.seed = args.seed;
     cfg.mismatch = args.mismatch;
     anyhow::ensure!(

@@ -248,6 +248,14 @@ fn bad_arguments_get_one_line_errors() {
         &sim(&["run", "horng-ramp-brake", "--frobnicate"]),
         "unexpected argument",
     );
+    assert_one_line_error(
+        &sim(&["run", "horng-ramp-brake", "--offset-a", "0.1,0.2"]),
+        "three",
+    );
+    assert_one_line_error(
+        &sim(&["run", "horng-ramp-brake", "--adc-lsb-a", "-0.01"]),
+        "ADC step",
+    );
     assert_one_line_error(&sim(&["fly"]), "unrecognized subcommand");
     assert_one_line_error(&sim(&[]), "pmsm-sim");
 }

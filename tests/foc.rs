@@ -1,0 +1,90 @@
+//! FOC configuration errors and safe outputs on bad input.
+
+use pmsm_sensorless::foc::{FocConfig, FocInput, FocState};
+use pmsm_sensorless::frames::Abc;
+use pmsm_sensorless::motor::{ParamError, HORNG_SINANO};
+use proptest::prelude::*;
+use proptest::test_runner::{Config, RngSeed};
+
+fn config() -> FocConfig {
+    FocConfig::new(HORNG_SINANO.params, HORNG_SINANO.rated_torque_current_a())
+}
+
+#[test]
+fn impossible_settings_name_the_field() {
+    let cases: [(fn(&mut FocConfig), ParamError); 7] = [
+        (
+            |c| c.current_bandwidth_hz = 1000.0,
+            ParamError::OutOfRange("current_bandwidth_hz"),
+        ),
+        (
+            |c| c.speed_bandwidth_hz = 100.0,
+            ParamError::OutOfRange("speed_bandwidth_hz"),
+        ),
+        (
+            |c| c.current_rate_hz = f32::NAN,
+            ParamError::NotFinite("current_rate_hz"),
+        ),
+        (
+            |c| c.speed_divider = 0,
+            ParamError::NotPositive("speed_divider"),
+        ),
+        (|c| c.i_max_a = -1.0, ParamError::NotPositive("i_max_a")),
+        (|c| c.motor.l_h = 0.0, ParamError::NotPositive("l_h")),
+        (
+            |c| c.angle_advance_periods = f32::INFINITY,
+            ParamError::NotFinite("angle_advance_periods"),
+        ),
+    ];
+    for (mutate, expected) in cases {
+        let mut c = config();
+        mutate(&mut c);
+        assert_eq!(c.build().unwrap_err(), expected);
+    }
+    assert!(config().build().is_ok());
+}
+
+fn any_f32() -> impl Strategy<Value = f32> {
+    prop_oneof![
+        -1e3f32..1e3,
+        Just(f32::NAN),
+        Just(f32::INFINITY),
+        Just(f32::NEG_INFINITY),
+        Just(0.0f32),
+        Just(f32::MAX),
+        Just(-f32::MAX),
+    ]
+}
+
+proptest! {
+    #![proptest_config(Config {
+        cases: 2000,
+        rng_seed: RngSeed::Fixed(0x5eed),
+        failure_persistence: None,
+        ..Config::default()
+    })]
+
+    /// Any input sequence, finite or not: no panic, duties in [0, 1], state stays finite.
+    #[test]
+    fn duties_stay_in_unit_interval(steps in proptest::collection::vec(proptest::array::uniform8(any_f32()), 1..40)) {
+        let foc = config().build().unwrap();
+        let mut st = FocState::default();
+        for x in steps {
+            let out = foc.step(&mut st, &FocInput {
+                i_abc: Abc::new(x[0], x[1], x[2]),
+                v_bus: x[3],
+                theta_e: x[4],
+                omega_m: x[5],
+                omega_m_ref: x[6],
+                torque_ff_nm: x[7],
+            });
+            for d in [out.duties.a, out.duties.b, out.duties.c] {
+                prop_assert!((0.0..=1.0).contains(&d), "duty {d}");
+            }
+            // Bad samples never poison the controller's memory.
+            for s in [st.i_q_ref, st.speed.integral, st.current.integral_d, st.current.integral_q] {
+                prop_assert!(s.is_finite(), "state {st:?}");
+            }
+        }
+    }
+}
