@@ -12,7 +12,8 @@ fn config() -> FocConfig {
 
 #[test]
 fn impossible_settings_name_the_field() {
-    let cases: [(fn(&mut FocConfig), ParamError); 7] = [
+    type Case = (fn(&mut FocConfig), ParamError);
+    let cases: [Case; 7] = [
         (
             |c| c.current_bandwidth_hz = 1000.0,
             ParamError::OutOfRange("current_bandwidth_hz"),
