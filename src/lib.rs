@@ -10,9 +10,11 @@
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod bounds;
 pub mod foc;
 pub mod frames;
 pub mod math;
 pub mod motor;
+pub mod observer;
 pub mod pi;
 pub mod svpwm;

@@ -6,7 +6,7 @@ use anyhow::Context;
 use std::path::{Path, PathBuf};
 
 /// Column names of the CSV, with units.
-pub const CSV_HEADER: [&str; 12] = [
+pub const CSV_HEADER: [&str; 15] = [
     "t_s",
     "speed_cmd_rpm",
     "omega_m_rpm",
@@ -19,15 +19,19 @@ pub const CSV_HEADER: [&str; 12] = [
     "v_beta_v",
     "load_nm",
     "load_hat_nm",
+    "s_a_a",
+    "ks_a_per_s",
+    "ks_min_a_per_s",
 ];
 
-/// Writes the time series; `load_hat_nm` is empty for observers without a torque estimate.
+/// Writes the time series; optional columns (`load_hat_nm`, and the sliding observers'
+/// `s_a_a`, `ks_a_per_s`, `ks_min_a_per_s`) are empty when the observer has no such value.
 pub fn write_csv(run: &Run, path: &Path) -> anyhow::Result<()> {
     let mut w =
         csv::Writer::from_path(path).with_context(|| format!("creating {}", path.display()))?;
     w.write_record(CSV_HEADER)?;
     for r in &run.rows {
-        let load_hat = r.load_hat_nm.map(|x| format!("{x:.6}")).unwrap_or_default();
+        let opt = |x: Option<f64>| x.map(|x| format!("{x:.6}")).unwrap_or_default();
         w.write_record([
             format!("{:.6}", r.t),
             format!("{:.4}", r.speed_cmd_rpm),
@@ -40,7 +44,10 @@ pub fn write_csv(run: &Run, path: &Path) -> anyhow::Result<()> {
             format!("{:.5}", r.v_alpha),
             format!("{:.5}", r.v_beta),
             format!("{:.6}", r.load_nm),
-            load_hat,
+            opt(r.load_hat_nm),
+            opt(r.s_a),
+            opt(r.ks),
+            opt(r.ks_min),
         ])?;
     }
     w.flush()
@@ -73,9 +80,12 @@ pub fn write_plot(run: &Run, path: &Path) -> anyhow::Result<()> {
             y: &load_hat,
         });
     }
-    let panels = [
+    let ks = col(&|r| r.ks.unwrap_or(f64::NAN));
+    let ks_min = col(&|r| r.ks_min.unwrap_or(f64::NAN));
+    let s_a = col(&|r| r.s_a.unwrap_or(f64::NAN));
+    let mut panels = vec![
         Panel {
-            title: "Speed",
+            title: "Speed (Horng & Chin Figs 5, 6)",
             y_label: "rpm",
             series: vec![
                 Series {
@@ -96,7 +106,7 @@ pub fn write_plot(run: &Run, path: &Path) -> anyhow::Result<()> {
             ],
         },
         Panel {
-            title: "Position error: estimated − true θ_e",
+            title: "Position error: estimated − true θ_e (Horng & Chin Figs 11, 12)",
             y_label: "deg (electrical)",
             series: vec![Series {
                 label: "θ_e error",
@@ -126,6 +136,33 @@ pub fn write_plot(run: &Run, path: &Path) -> anyhow::Result<()> {
             series: torque_series,
         },
     ];
+    if rows.iter().any(|r| r.ks_min.is_some()) {
+        panels.push(Panel {
+            title: "Lower bound K_s,min of eq (28) and K_s (Horng & Chin Figs 7, 8)",
+            y_label: "A/s",
+            series: vec![
+                Series {
+                    label: "K_s,min",
+                    x: &t,
+                    y: &ks_min,
+                },
+                Series {
+                    label: "K_s",
+                    x: &t,
+                    y: &ks,
+                },
+            ],
+        });
+        panels.push(Panel {
+            title: "Sliding surface S_a = î_a − i_a (Horng & Chin Figs 9, 10)",
+            y_label: "A",
+            series: vec![Series {
+                label: "S_a",
+                x: &t,
+                y: &s_a,
+            }],
+        });
+    }
     let sc = &run.config.scenario;
     let title = format!(
         "{} — motor {} — observer {}",

@@ -8,9 +8,11 @@ use crate::inverter::{CurrentSensor, Inverter};
 use crate::observer::{Observer, ObserverKind, SlotInput};
 use crate::plant::{Plant, PlantParams};
 use crate::scenario::Scenario;
+use pmsm_sensorless::bounds::ks_min;
 use pmsm_sensorless::foc::{Foc, FocConfig, FocInput, FocState};
 use pmsm_sensorless::frames::AlphaBeta;
 use pmsm_sensorless::motor::{MotorParams, ParamError};
+use pmsm_sensorless::observer::sliding::SlidingConfig;
 use std::f64::consts::PI;
 
 /// rad/s per rpm.
@@ -87,6 +89,8 @@ pub struct SimConfig {
     pub substeps: usize,
     /// Initial rotor angle [rad, mechanical].
     pub theta_m0: f64,
+    /// Settings replacing the paper's defaults when the observer is a sliding one.
+    pub sliding: Option<SlidingConfig>,
 }
 
 impl SimConfig {
@@ -108,6 +112,7 @@ impl SimConfig {
             rate_hz: 4000.0,
             substeps: 25,
             theta_m0: 0.0,
+            sliding: None,
         }
     }
 }
@@ -139,6 +144,13 @@ pub struct Row {
     pub load_nm: f64,
     /// Estimated load torque [N·m], if the observer has one.
     pub load_hat_nm: Option<f64>,
+    /// Sliding observers: `S_a = î_a − i_a` [A] (Horng Figs 9, 10).
+    pub s_a: Option<f64>,
+    /// Sliding observers: the sliding gain in use [A/s].
+    pub ks: Option<f64>,
+    /// Sliding observers: the lower bound K_s,min of eq (28) from the true and estimated
+    /// states [A/s] (Horng Figs 7, 8).
+    pub ks_min: Option<f64>,
 }
 
 impl Row {
@@ -232,7 +244,11 @@ impl Sim {
         Ok(Self {
             foc,
             foc_state: FocState::default(),
-            observer: config.observer.build(),
+            observer: config.observer.build(
+                controller_motor,
+                config.rate_hz as f32,
+                config.sliding,
+            )?,
             plant: Plant::new(PlantParams::from(&params), config.theta_m0),
             inverter: Inverter {
                 v_bus: config.bus_v,
@@ -313,6 +329,17 @@ impl Sim {
             v_beta: out.v_ab.beta as f64,
             load_nm: sc.load_at(t),
             load_hat_nm: est.load_nm.map(f64::from),
+            s_a: est.sliding.map(|d| d.s_ab.alpha as f64),
+            ks: est.sliding.map(|d| d.ks as f64),
+            ks_min: est.sliding.map(|_| {
+                ks_min(
+                    (p.flux * p.n / p.l) as f32,
+                    est.omega_m,
+                    est.theta_e,
+                    omega_m as f32,
+                    theta_e as f32,
+                ) as f64
+            }),
         };
         let n_sub = self.config.substeps;
         let h = self.ts / n_sub as f64;

@@ -27,6 +27,8 @@ pub struct WindowMetrics {
     pub theta_err_max_abs_deg_e: f64,
     /// Mean estimated load torque [N·m], `null` without a torque estimate.
     pub torque_hat_mean_nm: Option<f64>,
+    /// Largest K_s,min of Horng & Chin eq (28) [A/s], `null` for non-sliding observers.
+    pub ks_min_max: Option<f64>,
 }
 
 /// The summary object.
@@ -62,6 +64,11 @@ pub fn window_metrics(rows: &[Row], t0: f64, t1: f64) -> Option<WindowMetrics> {
     } else {
         None
     };
+    let ks_min_max = if w.iter().all(|r| r.ks_min.is_some()) {
+        Some(max_abs(&|r| r.ks_min.unwrap_or(f64::NAN)))
+    } else {
+        None
+    };
     Some(WindowMetrics {
         t0,
         t1,
@@ -71,6 +78,7 @@ pub fn window_metrics(rows: &[Row], t0: f64, t1: f64) -> Option<WindowMetrics> {
         theta_err_mean_deg_e: mean(&|r| r.theta_err_deg()),
         theta_err_max_abs_deg_e: max_abs(&|r| r.theta_err_deg()),
         torque_hat_mean_nm,
+        ks_min_max,
     })
 }
 
