@@ -6,7 +6,16 @@ use pmsm_host_sim::sim::{self, Mismatch, SimConfig};
 use pmsm_host_sim::summary::Summary;
 use pmsm_host_sim::{motor_file, output, scenario};
 use pmsm_sensorless::motor;
+use std::fmt::Write as _;
+use std::io::Write as _;
 use std::path::PathBuf;
+
+/// `writeln!` into a `String` (which cannot fail).
+macro_rules! outln {
+    ($out:expr, $($arg:tt)*) => {{
+        let _ = writeln!($out, $($arg)*);
+    }};
+}
 use std::process::ExitCode;
 use std::time::Instant;
 
@@ -114,26 +123,37 @@ fn parse_offsets(s: &str) -> Result<[f64; 3], String> {
     }
 }
 
-fn list() {
-    println!("scenarios:");
+fn list() -> String {
+    let mut out = String::new();
+    outln!(out, "scenarios:");
     for s in scenario::all() {
-        println!("  {:<20} {}", s.name, s.description);
+        outln!(out, "  {:<20} {}", s.name, s.description);
     }
-    println!("motors:");
+    outln!(out, "motors:");
     for m in motor::PRESETS {
         let p = m.params;
-        println!(
+        outln!(
+            out,
             "  {:<20} N={} R={} Ω L={} H ψ={} Wb J={} kg·m² B={} N·m·s/rad, {} V bus",
-            m.name, p.pole_pairs, p.r_ohm, p.l_h, p.flux_wb, p.j_kgm2, p.b_nms, m.ratings.bus_v
+            m.name,
+            p.pole_pairs,
+            p.r_ohm,
+            p.l_h,
+            p.flux_wb,
+            p.j_kgm2,
+            p.b_nms,
+            m.ratings.bus_v
         );
     }
-    println!("observers:");
+    outln!(out, "observers:");
     for o in ObserverKind::ALL {
-        println!("  {:<20} {}", o.name(), o.description());
+        outln!(out, "  {:<20} {}", o.name(), o.description());
     }
+    out
 }
 
-fn run(args: RunArgs) -> anyhow::Result<()> {
+fn run(args: RunArgs) -> anyhow::Result<String> {
+    let mut out = String::new();
     let mut sc = scenario::by_name(&args.scenario)?;
     let observer = ObserverKind::from_name(&args.observer)?;
     if let Some(name) = &args.motor {
@@ -176,11 +196,11 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
     let summary = Summary::of(&run);
     let (csv, png) = output::write_all(&run, &out_dir)?;
     if args.json {
-        println!("{}", serde_json::to_string(&summary)?);
-        return Ok(());
+        return Ok(serde_json::to_string(&summary)? + "\n");
     }
     let sim_s = run.rows.len() as f64 / run.config.rate_hz;
-    println!(
+    outln!(
+        out,
         "{} | motor {} | observer {} | {} Hz | lost lock: {} | fault: {}",
         summary.scenario,
         summary.motor,
@@ -189,13 +209,21 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
         summary.lost_lock,
         summary.fault.as_deref().unwrap_or("none")
     );
-    println!(
+    outln!(
+        out,
         "{:<12} {:>9} {:>12} {:>12} {:>12} {:>12} {:>10}",
-        "window", "cmd rpm", "err mean rpm", "err max rpm", "θerr mean°e", "θerr max°e", "τ̂ N·m"
+        "window",
+        "cmd rpm",
+        "err mean rpm",
+        "err max rpm",
+        "θerr mean°e",
+        "θerr max°e",
+        "τ̂ N·m"
     );
     for (name, m) in &summary.windows {
         match m {
-            Some(m) => println!(
+            Some(m) => outln!(
+                out,
                 "{:<12} {:>9.1} {:>12.4} {:>12.3} {:>12.3} {:>12.3} {:>10}",
                 name,
                 m.speed_cmd_mean_rpm,
@@ -207,16 +235,16 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
                     .map(|x| format!("{x:.4}"))
                     .unwrap_or_else(|| "-".into())
             ),
-            None => println!("{name:<12} (not reached)"),
+            None => outln!(out, "{name:<12} (not reached)"),
         }
     }
-    println!("plot: {}", png.display());
-    println!("csv:  {}", csv.display());
-    println!(
+    outln!(out, "plot: {}", png.display());
+    outln!(out, "csv:  {}", csv.display());
+    outln!(out, 
         "simulated {sim_s:.2} s in {wall_s:.3} s wall ({:.0}× real time; output files not included)",
         sim_s / wall_s
     );
-    Ok(())
+    Ok(out)
 }
 
 fn main() -> ExitCode {
@@ -235,14 +263,15 @@ fn main() -> ExitCode {
         }
     };
     let result = match cli.command {
-        Command::List => {
-            list();
-            Ok(())
-        }
+        Command::List => Ok(list()),
         Command::Run(args) => run(*args),
     };
     match result {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(text) => {
+            // A closed pipe (`pmsm-sim list | head -1`) is not an error worth a panic.
+            let _ = std::io::stdout().write_all(text.as_bytes());
+            ExitCode::SUCCESS
+        }
         Err(e) => {
             eprintln!("error: {}", format!("{e:#}").replace('\n', " "));
             ExitCode::FAILURE
