@@ -240,7 +240,7 @@ fn run(args: RunArgs) -> anyhow::Result<String> {
     }
     outln!(out, "plot: {}", png.display());
     outln!(out, "csv:  {}", csv.display());
-    outln!(out, 
+    outln!(out,
         "simulated {sim_s:.2} s in {wall_s:.3} s wall ({:.0}× real time; output files not included)",
         sim_s / wall_s
     );
