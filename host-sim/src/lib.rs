@@ -3,6 +3,7 @@
 //! f64 plant (Horng & Chin eqs (16)-(19)) integrated with RK4, averaged inverter, current
 //! sensor with seeded noise, scenarios of both papers, metrics, CSV/PNG/JSON output.
 
+pub mod bounds;
 pub mod inverter;
 pub mod motor_file;
 pub mod observer;

@@ -36,6 +36,33 @@ enum Command {
     List,
     /// Run a scenario; writes run.csv and run.png into the output directory.
     Run(Box<RunArgs>),
+    /// Sliding-gain bounds of Horng & Chin Sec 4 at an operating point.
+    Bounds(BoundsArgs),
+}
+
+#[derive(clap::Args)]
+struct BoundsArgs {
+    /// Motor preset.
+    #[arg(long, default_value = "sinano")]
+    motor: String,
+    /// Speed [rpm, mechanical], not 0.
+    #[arg(long, allow_negative_numbers = true)]
+    speed_rpm: f64,
+    /// Sample rate of the observer [Hz].
+    #[arg(long)]
+    rate_hz: f64,
+    /// Load torque [N·m].
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    load_nm: f64,
+    /// sliding-torque (5 states, the paper's analysis) or sliding-velocity (4 states).
+    #[arg(long, default_value = "sliding-torque")]
+    observer: String,
+    /// Also write the root locus over K_s (CSV and PNG) here.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Print JSON.
+    #[arg(long)]
+    json: bool,
 }
 
 #[derive(clap::Args)]
@@ -75,6 +102,10 @@ struct RunArgs {
     /// Inverter dead time [µs].
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     dead_time_us: f64,
+    /// Run on the encoder until this speed [rpm], then sensorless (a stand-in for a start-up
+    /// sequence; default: sensorless from t = 0).
+    #[arg(long)]
+    sensorless_from_rpm: Option<f64>,
     /// Output directory (default: out/SCENARIO-OBSERVER).
     #[arg(long)]
     out: Option<PathBuf>,
@@ -182,6 +213,13 @@ fn run(args: RunArgs) -> anyhow::Result<String> {
     cfg.adc_lsb_a = args.adc_lsb_a;
     cfg.seed = args.seed;
     cfg.mismatch = args.mismatch;
+    if let Some(x) = args.sensorless_from_rpm {
+        anyhow::ensure!(
+            x.is_finite() && x >= 0.0,
+            "--sensorless-from-rpm must be a finite number >= 0"
+        );
+        cfg.sensorless_from_rpm = Some(x);
+    }
     anyhow::ensure!(
         args.dead_time_us.is_finite() && args.dead_time_us >= 0.0,
         "--dead-time-us must be a finite number >= 0"
@@ -247,6 +285,73 @@ fn run(args: RunArgs) -> anyhow::Result<String> {
     Ok(out)
 }
 
+fn bounds(args: BoundsArgs) -> anyhow::Result<String> {
+    let motor = motor::preset(&args.motor).ok_or_else(|| {
+        let names: Vec<_> = motor::PRESETS.iter().map(|m| m.name).collect();
+        anyhow::anyhow!(
+            "unknown motor '{}' (known: {})",
+            args.motor,
+            names.join(", ")
+        )
+    })?;
+    let torque = match ObserverKind::from_name(&args.observer)? {
+        ObserverKind::SlidingTorque => true,
+        ObserverKind::SlidingVelocity => false,
+        other => anyhow::bail!("bounds are for sliding observers, not '{}'", other.name()),
+    };
+    anyhow::ensure!(
+        args.speed_rpm.is_finite() && args.speed_rpm != 0.0,
+        "--speed-rpm must be a finite, non-zero number (the system is unobservable at 0)"
+    );
+    anyhow::ensure!(
+        args.rate_hz.is_finite() && args.rate_hz > 0.0,
+        "--rate-hz must be a finite number > 0"
+    );
+    anyhow::ensure!(
+        args.load_nm.is_finite(),
+        "--load-nm must be a finite number"
+    );
+    let omega = args.speed_rpm * sim::RAD_S_PER_RPM;
+    let op =
+        pmsm_host_sim::bounds::OperatingPoint::paper(&motor.params, omega, args.load_nm, torque);
+    let report = pmsm_host_sim::bounds::report(&motor.params, &op, args.rate_hz);
+    let mut out = String::new();
+    if args.json {
+        outln!(out, "{}", serde_json::to_string(&report)?);
+    } else {
+        outln!(
+            out,
+            "{} at {} rpm, {} N·m, {} observer, {} Hz",
+            motor.name,
+            args.speed_rpm,
+            args.load_nm,
+            args.observer,
+            args.rate_hz
+        );
+        outln!(out, "(K_s,max)_E2 = {:.2} A/s", report.ks_max_e2);
+        match report.ks_max_t {
+            Some(k) => outln!(out, "(K_s,max)_T  = {k:.2} A/s"),
+            None => outln!(
+                out,
+                "(K_s,max)_T: no stable K_s up to {} A/s",
+                pmsm_host_sim::bounds::KS_SCAN_MAX
+            ),
+        }
+        for [re, im] in &report.eigenvalues_at_ks_max_t {
+            outln!(out, "  eigenvalue {re:12.3} {im:+12.3}i");
+        }
+    }
+    if let Some(dir) = &args.out {
+        let ks_end = report.ks_max_t.unwrap_or(8000.0).max(report.ks_max_e2) * 1.1;
+        let (csv, png) =
+            pmsm_host_sim::bounds::write_root_locus(&op, ks_end, &[args.rate_hz], dir)?;
+        if !args.json {
+            outln!(out, "root locus: {} and {}", csv.display(), png.display());
+        }
+    }
+    Ok(out)
+}
+
 fn main() -> ExitCode {
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
@@ -265,6 +370,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::List => Ok(list()),
         Command::Run(args) => run(*args),
+        Command::Bounds(args) => bounds(args),
     };
     match result {
         Ok(text) => {

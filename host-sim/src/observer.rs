@@ -124,6 +124,8 @@ pub trait Observer {
     fn compensates_load(&self) -> bool {
         false
     }
+    /// Sets the estimate to the encoder's reading (a hand-over from a sensored start).
+    fn reset(&mut self, _input: &SlotInput) {}
 }
 
 /// The ideal encoder.
@@ -178,5 +180,14 @@ impl Observer for Sliding {
 
     fn compensates_load(&self) -> bool {
         self.torque
+    }
+
+    fn reset(&mut self, input: &SlotInput) {
+        self.observer.reset(
+            &mut self.state,
+            input.i_ab,
+            input.encoder_theta_e,
+            input.encoder_omega_m,
+        );
     }
 }

@@ -5,7 +5,7 @@
 //! them over `[t_k, t_k + T)` while the plant is integrated with RK4 on `substeps` sub-steps.
 
 use crate::inverter::{CurrentSensor, Inverter};
-use crate::observer::{Observer, ObserverKind, SlotInput};
+use crate::observer::{Estimate, Observer, ObserverKind, SlotInput};
 use crate::plant::{Plant, PlantParams};
 use crate::scenario::Scenario;
 use pmsm_sensorless::bounds::ks_min;
@@ -91,6 +91,10 @@ pub struct SimConfig {
     pub theta_m0: f64,
     /// Settings replacing the paper's defaults when the observer is a sliding one.
     pub sliding: Option<SlidingConfig>,
+    /// Stand-in for a start-up sequence: below this |speed| [rpm] the controller uses the
+    /// encoder and the observer is held at the encoder's state; from the first sample at or
+    /// above it on, the run is sensorless. `None`: sensorless from t = 0.
+    pub sensorless_from_rpm: Option<f64>,
 }
 
 impl SimConfig {
@@ -113,6 +117,7 @@ impl SimConfig {
             substeps: 25,
             theta_m0: 0.0,
             sliding: None,
+            sensorless_from_rpm: None,
         }
     }
 }
@@ -209,6 +214,7 @@ pub struct Sim {
     v_ab_last: AlphaBeta,
     k: usize,
     ts: f64,
+    sensorless: bool,
 }
 
 impl Sim {
@@ -259,6 +265,7 @@ impl Sim {
             v_ab_last: AlphaBeta::default(),
             k: 0,
             ts: 1.0 / config.rate_hz,
+            sensorless: config.sensorless_from_rpm.is_none(),
             config,
         })
     }
@@ -298,7 +305,21 @@ impl Sim {
             encoder_theta_e: theta_e as f32,
             encoder_omega_m: omega_m as f32,
         };
-        let est = self.observer.update(&slot);
+        if !self.sensorless {
+            let from = self.config.sensorless_from_rpm.unwrap_or(0.0);
+            self.sensorless = omega_m.abs() >= from * RAD_S_PER_RPM;
+        }
+        let est = if self.sensorless {
+            self.observer.update(&slot)
+        } else {
+            self.observer.reset(&slot);
+            Estimate {
+                theta_e: slot.encoder_theta_e,
+                omega_m: slot.encoder_omega_m,
+                load_nm: None,
+                sliding: None,
+            }
+        };
         let speed_cmd_rpm = sc.speed_cmd_rpm.at(t);
         let torque_ff_nm = match est.load_nm {
             Some(x) if self.observer.compensates_load() => x,

@@ -23,6 +23,8 @@ pub struct WindowMetrics {
     pub speed_err_max_abs_rpm: f64,
     /// Mean of `θ̂_e − θ_e` wrapped to (−180°, 180°] [deg, electrical].
     pub theta_err_mean_deg_e: f64,
+    /// Mean of `|θ̂_e − θ_e|` [deg, electrical].
+    pub theta_err_mean_abs_deg_e: f64,
     /// Largest `|θ̂_e − θ_e|` [deg, electrical].
     pub theta_err_max_abs_deg_e: f64,
     /// Mean estimated load torque [N·m], `null` without a torque estimate.
@@ -76,6 +78,7 @@ pub fn window_metrics(rows: &[Row], t0: f64, t1: f64) -> Option<WindowMetrics> {
         speed_err_mean_rpm: mean(&|r| r.speed_err_rpm()),
         speed_err_max_abs_rpm: max_abs(&|r| r.speed_err_rpm()),
         theta_err_mean_deg_e: mean(&|r| r.theta_err_deg()),
+        theta_err_mean_abs_deg_e: mean(&|r| r.theta_err_deg().abs()),
         theta_err_max_abs_deg_e: max_abs(&|r| r.theta_err_deg()),
         torque_hat_mean_nm,
         ks_min_max,

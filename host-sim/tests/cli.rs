@@ -89,6 +89,7 @@ fn run_json_contract_and_files() {
             "speed_err_mean_rpm",
             "speed_err_max_abs_rpm",
             "theta_err_mean_deg_e",
+            "theta_err_mean_abs_deg_e",
             "theta_err_max_abs_deg_e",
         ] {
             assert!(w[k].is_number(), "{k}");

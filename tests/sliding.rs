@@ -1,0 +1,168 @@
+//! Horng & Chin sliding observers: gain placement, the discrete-time bound (K_s,max)_T in
+//! closed loop, and the paper's experiment.
+
+use pmsm_host_sim::bounds::{self, OperatingPoint};
+use pmsm_host_sim::observer::ObserverKind;
+use pmsm_host_sim::scenario;
+use pmsm_host_sim::sim::{run, SimConfig, RAD_S_PER_RPM};
+use pmsm_host_sim::summary::Summary;
+use pmsm_sensorless::frames::{AlphaBeta, SinCos};
+use pmsm_sensorless::motor::HORNG_SINANO;
+use pmsm_sensorless::observer::sliding::{SlidingConfig, SlidingGain};
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::f64::consts::{PI, TAU};
+
+/// On the sliding manifold (S = 0, w = w_eq of eqs (29)-(30)), the error dynamics of
+/// (e_θ, e_ω, e_τ) linearised numerically around the observer state, with the core's gains
+/// G1..G4 frozen there (Sec 3): eq (38). Returns the Jacobian's eigenvalues.
+fn manifold_eigenvalues(
+    torque: bool,
+    omega: f64,
+    theta_e: f64,
+    load: f64,
+) -> Vec<nalgebra::Complex<f64>> {
+    let m = HORNG_SINANO.params;
+    let cfg = if torque {
+        SlidingConfig::torque(m)
+    } else {
+        SlidingConfig::velocity(m)
+    };
+    let obs = cfg.build().unwrap();
+    let (n, r_k, l, h, b) = (
+        m.n() as f64,
+        m.flux_wb as f64,
+        m.l_h as f64,
+        m.j_kgm2 as f64,
+        m.b_nms as f64,
+    );
+    let kn = r_k * n;
+    // Plant steady state of step 6, currents in αβ.
+    let i_q = (b * omega + load) / kn;
+    let (i_a, i_b) = (-i_q * theta_e.sin(), i_q * theta_e.cos());
+    let i_hat = AlphaBeta::new(i_a as f32, i_b as f32);
+    let g = obs
+        .gains(SinCos::of(theta_e as f32), omega as f32, i_hat)
+        .map(f64::from);
+    let dim = if torque { 3 } else { 2 };
+    // x = (e_θ [mech rad], e_ω [rad/s], e_τ [N·m])
+    let f = |x: &[f64]| -> Vec<f64> {
+        let (e_th, e_w) = (x[0], x[1]);
+        let e_tau = if torque { x[2] } else { 0.0 };
+        let (th_hat, w_hat) = (theta_e + n * e_th, omega + e_w);
+        let w_a = kn / l * (w_hat * th_hat.sin() - omega * theta_e.sin()); // (29)
+        let w_b = -kn / l * (w_hat * th_hat.cos() - omega * theta_e.cos()); // (30)
+        let acc_hat = -kn / h * (i_a * th_hat.sin() - i_b * th_hat.cos())
+            - b / h * w_hat
+            - (load + e_tau) / h
+            + g[0] * w_a
+            + g[1] * w_b; // (35), î = i on the manifold
+        let acc = -kn / h * (i_a * theta_e.sin() - i_b * theta_e.cos()) - b / h * omega - load / h; // (19)
+        let mut d = vec![e_w, acc_hat - acc];
+        if torque {
+            d.push(g[2] * w_a + g[3] * w_b); // (34) − (33)
+        }
+        d
+    };
+    let mut jac = nalgebra::DMatrix::zeros(dim, dim);
+    for j in 0..dim {
+        let step = [1e-7, 1e-5, 1e-7][j];
+        let mut xp = vec![0.0; dim];
+        let mut xm = vec![0.0; dim];
+        xp[j] = step;
+        xm[j] = -step;
+        let (fp, fm) = (f(&xp), f(&xm));
+        for i in 0..dim {
+            jac[(i, j)] = (fp[i] - fm[i]) / (2.0 * step);
+        }
+    }
+    jac.complex_eigenvalues().iter().copied().collect()
+}
+
+#[test]
+fn gains_place_the_eigenvalues_at_random_operating_points() {
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let lambdas = [10.0 * TAU, 60.0 * TAU, 2.0 * TAU];
+    for _ in 0..200 {
+        let rpm = rng.random_range(30.0..3000.0) * if rng.random::<bool>() { 1.0 } else { -1.0 };
+        let omega = rpm * RAD_S_PER_RPM;
+        let theta_e = rng.random_range(-PI..PI);
+        let load = rng.random_range(-0.3..0.3);
+        for torque in [false, true] {
+            let mut eig = manifold_eigenvalues(torque, omega, theta_e, load);
+            eig.sort_by(|a, b| b.re.total_cmp(&a.re));
+            let want: &[f64] = if torque {
+                &[lambdas[2], lambdas[0], lambdas[1]]
+            } else {
+                &lambdas[..2]
+            };
+            for (p, l) in eig.iter().zip(want) {
+                // f32 gains against an f64 plant: 1e-3 relative covers the gains' rounding.
+                assert!(
+                    p.im.abs() < 1e-3 * l && (p.re + l).abs() < 1e-3 * l,
+                    "{rpm:.0} rpm θ_e {theta_e:.2} load {load:.2} torque {torque}: {eig:?}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn printed_error_matrix_has_the_same_slow_eigenvalues() {
+    // Eqs (46)-(50) at a K_s far above any practical value: the fast S poles separate and the
+    // slow ones approach −λθ, −λω, −λτ (Sec 3.2), at either sign of speed.
+    for rpm in [1000.0, -400.0] {
+        let op = OperatingPoint::paper(&HORNG_SINANO.params, rpm * RAD_S_PER_RPM, 0.1, true);
+        let mut e = op.eigenvalues(1e9);
+        e.sort_by(|a, b| b.re.total_cmp(&a.re));
+        for (p, l) in e.iter().zip([2.0 * TAU, 10.0 * TAU, 60.0 * TAU]) {
+            assert!(
+                (p.re + l).abs() < 1e-3 * l && p.im.abs() < 1e-3 * l,
+                "{rpm}: {e:?}"
+            );
+        }
+    }
+}
+
+fn run_ks(kind: ObserverKind, ks: f64, t_end: f64) -> Summary {
+    let mut sc = scenario::horng_ramp_brake();
+    sc.duration_s = t_end;
+    let mut cfg = SimConfig::new(sc, kind);
+    let mut s = kind
+        .sliding_config(HORNG_SINANO.params, cfg.rate_hz as f32)
+        .unwrap();
+    s.ks = SlidingGain::Constant(ks as f32);
+    cfg.sliding = Some(s);
+    Summary::of(&run(cfg).unwrap())
+}
+
+#[test]
+fn ks_above_the_discrete_bound_loses_lock_and_below_it_does_not() {
+    let op = OperatingPoint::paper(&HORNG_SINANO.params, 1000.0 * RAD_S_PER_RPM, 0.0, false);
+    let ks_max = bounds::ks_max_t(&op, 1.0 / 4000.0, 1e5, 10.0, 1e-3).unwrap();
+    // The ramp and the hold at 1000 rpm, before the brake.
+    let below = run_ks(ObserverKind::SlidingVelocity, 0.98 * ks_max, 2.9);
+    let above = run_ks(ObserverKind::SlidingVelocity, 1.02 * ks_max, 2.9);
+    println!(
+        "(K_s,max)_T = {ks_max:.1}: 0.98× lost lock {}, 1.02× lost lock {}",
+        below.lost_lock, above.lost_lock
+    );
+    assert!(!below.lost_lock);
+    assert!(above.lost_lock);
+}
+
+#[test]
+fn horng_experiment_velocity_observer() {
+    let s = Summary::of(
+        &run(SimConfig::new(
+            scenario::horng_ramp_brake(),
+            ObserverKind::SlidingVelocity,
+        ))
+        .unwrap(),
+    );
+    println!("{s:#?}");
+    assert!(!s.lost_lock);
+    for w in ["pre_brake", "brake"] {
+        assert!(s.window(w).unwrap().speed_err_mean_rpm.abs() < 1.0, "{w}");
+    }
+}
