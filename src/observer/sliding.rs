@@ -123,8 +123,8 @@ impl SlidingConfig {
             l_over_kn2: m.l_h / (kn * n),
             k1: l_th + l_om + l_ta,
             k2: l_th * l_om + l_om * l_ta + l_ta * l_th,
-            k3: l_th * l_om * l_ta,
-            h: m.j_kgm2,
+            k3_over_n: l_th * l_om * l_ta / n,
+            g34_num: m.j_kgm2 * (m.l_h / (kn * n)) * l_th * l_om * l_ta,
             inv_epsilon: 1.0 / epsilon,
             ks,
             omega_low,
@@ -150,9 +150,10 @@ pub struct SlidingObserver {
     k1: f32,
     /// K2 = λθλω + λωλτ + λτλθ [rad²/s²].
     k2: f32,
-    /// K3 = λθλωλτ [rad³/s³].
-    k3: f32,
-    h: f32,
+    /// K3/N = λθλωλτ/N [rad³/s³].
+    k3_over_n: f32,
+    /// H·L·K3/(K·N²), the speed-free factor of G3, G4.
+    g34_num: f32,
     inv_epsilon: f32,
     ks: SlidingGain,
     omega_low: f32,
@@ -160,7 +161,7 @@ pub struct SlidingObserver {
 }
 
 /// Running state of a sliding observer.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SlidingState {
     /// Current estimate î at the last sample [A].
     pub i_hat: AlphaBeta,
@@ -176,8 +177,26 @@ pub struct SlidingState {
     pub s: AlphaBeta,
     /// Gains G1..G4 of the last sample.
     pub g: [f32; 4],
+    /// `sin θ̂_e`, `cos θ̂_e` of the last sample (reused by the next propagation).
+    pub sc: SinCos,
     /// False until the first sample has been taken.
     pub started: bool,
+}
+
+impl Default for SlidingState {
+    fn default() -> Self {
+        Self {
+            i_hat: AlphaBeta::default(),
+            theta_e: 0.0,
+            omega_m: 0.0,
+            load_nm: 0.0,
+            w: AlphaBeta::default(),
+            s: AlphaBeta::default(),
+            g: [0.0; 4],
+            sc: SinCos { sin: 0.0, cos: 1.0 },
+            started: false,
+        }
+    }
 }
 
 impl SlidingObserver {
@@ -194,12 +213,12 @@ impl SlidingObserver {
         let w = self.gain_speed(omega_m);
         let inv_w = 1.0 / w;
         let (s, c) = (sc.sin, sc.cos);
-        let lambda3 = self.k2 - self.k3 * inv_w / self.n;
+        let lambda3 = self.k2 - self.k3_over_n * inv_w;
         let x = self.l_over_h * inv_w * (i_hat.alpha * c + i_hat.beta * s)
             - self.l_over_kn2 * lambda3 * inv_w;
         let y = self.l_over_kn2 * inv_w * (self.b_over_h - self.k1);
         let nw = self.n * w;
-        let g34 = self.h * self.l_over_kn2 * self.k3 * inv_w;
+        let g34 = self.g34_num * inv_w;
         [
             c * x + nw * s * y,
             s * x - nw * c * y,
@@ -229,10 +248,12 @@ impl SlidingObserver {
 
     /// Restarts the observer at a known rotor state (e.g. after an open-loop start).
     pub fn reset(&self, state: &mut SlidingState, i_ab: AlphaBeta, theta_e: f32, omega_m: f32) {
+        let theta_e = wrap_pi(theta_e);
         *state = SlidingState {
             i_hat: i_ab,
-            theta_e: wrap_pi(theta_e),
+            theta_e,
             omega_m,
+            sc: SinCos::of(theta_e),
             started: true,
             ..SlidingState::default()
         };
@@ -259,7 +280,8 @@ impl SlidingObserver {
         let ks = self.sliding_gain(next.omega_m);
         let sat = |x: f32| (x * self.inv_epsilon).clamp(-1.0, 1.0);
         next.w = AlphaBeta::new(ks * sat(next.s.alpha), ks * sat(next.s.beta));
-        next.g = self.gains(SinCos::of(next.theta_e), next.omega_m, next.i_hat);
+        next.sc = SinCos::of(next.theta_e);
+        next.g = self.gains(next.sc, next.omega_m, next.i_hat);
         let ok = finite(next.i_hat)
             && next.theta_e.is_finite()
             && next.omega_m.is_finite()
@@ -274,7 +296,7 @@ impl SlidingObserver {
     /// Forward-Euler step of eqs (20)-(22), (34), (35) over one period with the stored
     /// innovation `w` and gains.
     fn propagate(&self, st: &mut SlidingState, v_ab: AlphaBeta) {
-        let sc = SinCos::of(st.theta_e);
+        let sc = st.sc;
         // Back-EMF angle in the middle of the period (see the module doc).
         let emf = SinCos::of(st.theta_e + self.n * st.omega_m * self.emf_advance_s);
         let (i, w, g) = (st.i_hat, st.w, st.g);
