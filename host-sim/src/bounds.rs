@@ -126,6 +126,75 @@ impl OperatingPoint {
         m
     }
 
+    /// The matrix of eqs (51)-(55) around the second equilibrium (44)-(45) (M = 0), as
+    /// printed, states `(S_a, S_b, e_θ, e_ω, e_τ)`; torque observer only. Eq (55) ends with
+    /// the term `−2HLK3K_s/(Rε + LK_s)` and no state: it has the units of `ė_τ` per radian,
+    /// so it is read as the coefficient of `e_θ` (the typesetting lost the state).
+    pub fn second_equilibrium_matrix(&self, ks: f64) -> DMatrix<f64> {
+        let Self {
+            n,
+            r,
+            l,
+            k,
+            h,
+            b,
+            omega: w,
+            epsilon: eps,
+            ..
+        } = *self;
+        let (k1, k2, k3) = self.k123();
+        let (s, c) = self.theta_e.sin_cos();
+        let (s2, c2) = (2.0 * self.theta_e).sin_cos();
+        let (i_a, i_b) = self.currents();
+        let kn = k * n;
+        let fast = -(r / l + ks / eps);
+        let d = r * eps + l * ks;
+        let mut m = DMatrix::zeros(5, 5);
+        // (51), (52): cos(Nθ − π/2) = sin Nθ, sin(Nθ − π/2) = −cos Nθ.
+        m[(0, 0)] = fast;
+        m[(0, 2)] = kn * n / l * w * s;
+        m[(0, 3)] = -kn / l * c;
+        m[(1, 1)] = fast;
+        m[(1, 2)] = -kn * n / l * w * c;
+        m[(1, 3)] = -kn / l * s;
+        // (53)
+        m[(2, 3)] = 1.0;
+        // (54)
+        let a1 = kn / h - b * r / (h * kn) + r * k1 / kn;
+        let a2 = 2.0 * kn / h + r * k2 / (kn * n * w) - r * k3 / (kn * n * n * w * w);
+        let cur = r + ks * l / eps;
+        let kk = -b / h + k1;
+        let k23 = -k2 + k3 / (n * w);
+        m[(3, 0)] = (kn * r * eps / h * c + ks * l * c * a1 - ks * l * s * a2
+            + ks * l / (h * w) * (i_a * s * s - i_b * s2 / 2.0) * cur
+            + ks * ks * l * l * c / (kn * eps) * kk
+            + ks * ks * l * l * s / (kn * n * eps * w) * k23)
+            / d;
+        m[(3, 1)] = (kn * r * eps / h * s
+            + ks * l * s * a1
+            + ks * l * c * a2
+            + ks * l / (2.0 * h * w) * (-i_a * s2 + i_b + i_b * c2) * cur
+            + ks * ks * l * l * s / (kn * eps) * kk
+            - ks * ks * l * l * c / (kn * n * eps * w) * k23)
+            / d;
+        let inner =
+            (kn * i_a * s - kn * i_b * c) / (h * w) - k2 / (n * w) + 2.0 * k3 / (n * n * w * w);
+        m[(3, 3)] = (-b * r * r * eps * eps
+            - k * k * l * n * n * eps * ks
+            - 2.0 * b * l * r * eps * ks
+            - b * l * l * ks * ks
+            + l * r * eps * ks * inner
+            + l * l * ks * ks * inner)
+            / (d * d);
+        m[(3, 4)] = -1.0 / h;
+        // (55)
+        let g = k3 * ks * h * l / (kn * n * eps * w);
+        m[(4, 0)] = g * (s - c);
+        m[(4, 1)] = g * (-c - s);
+        m[(4, 2)] = -2.0 * h * l * k3 * ks / d;
+        m
+    }
+
     /// Eigenvalues of [`Self::error_matrix`].
     pub fn eigenvalues(&self, ks: f64) -> Vec<Complex<f64>> {
         self.error_matrix(ks)
@@ -212,27 +281,66 @@ pub fn report(motor: &MotorParams, op: &OperatingPoint, rate_hz: f64) -> BoundsR
     }
 }
 
-/// Root locus over K_s (Horng & Chin Fig 2): `root_locus.csv` (ks, index, re, im) and
-/// `root_locus.png` with the delta-transform stability circles of `rates_hz`.
+/// Which linearisation a root locus is drawn for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Equilibrium {
+    /// Eqs (46)-(50) (Fig 2).
+    First,
+    /// Eqs (51)-(55) (Fig 3).
+    Second,
+}
+
+impl Equilibrium {
+    fn matrix(self, op: &OperatingPoint, ks: f64) -> DMatrix<f64> {
+        match self {
+            Equilibrium::First => op.error_matrix(ks),
+            Equilibrium::Second => op.second_equilibrium_matrix(ks),
+        }
+    }
+
+    fn name(self) -> (&'static str, &'static str) {
+        match self {
+            Equilibrium::First => (
+                "root_locus",
+                "Eqs (46)-(50), 1st equilibrium (Horng & Chin Fig 2)",
+            ),
+            Equilibrium::Second => (
+                "root_locus_e2",
+                "Eqs (51)-(55), 2nd equilibrium (Horng & Chin Fig 3)",
+            ),
+        }
+    }
+}
+
+/// Root locus over K_s: `<stem>.csv` (ks, index, re, im) and `<stem>.png` with the
+/// delta-transform stability circles of `rates_hz`; stem `root_locus` (Fig 2) or
+/// `root_locus_e2` (Fig 3).
 pub fn write_root_locus(
     op: &OperatingPoint,
+    which: Equilibrium,
     ks_max: f64,
     rates_hz: &[f64],
     dir: &std::path::Path,
 ) -> anyhow::Result<(std::path::PathBuf, std::path::PathBuf)> {
     use anyhow::Context;
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let (stem, what) = which.name();
     let steps = 400;
-    let dim = op.error_matrix(0.0).nrows();
+    let dim = which.matrix(op, 0.0).nrows();
     let mut re = vec![Vec::new(); dim];
     let mut im = vec![Vec::new(); dim];
-    let csv_path = dir.join("root_locus.csv");
+    let csv_path = dir.join(format!("{stem}.csv"));
     let mut w = csv::Writer::from_path(&csv_path)
         .with_context(|| format!("creating {}", csv_path.display()))?;
     w.write_record(["ks_a_per_s", "index", "re_per_s", "im_per_s"])?;
     for k in 0..=steps {
         let ks = ks_max * k as f64 / steps as f64;
-        let mut e = op.eigenvalues(ks);
+        let mut e: Vec<Complex<f64>> = which
+            .matrix(op, ks)
+            .complex_eigenvalues()
+            .iter()
+            .copied()
+            .collect();
         e.sort_by(|a, b| a.re.total_cmp(&b.re).then(a.im.total_cmp(&b.im)));
         for (i, p) in e.iter().enumerate() {
             w.write_record([
@@ -263,9 +371,9 @@ pub fn write_root_locus(
         .zip(&circle_labels)
         .map(|(f, label)| (-f, 0.0, *f, label.as_str()))
         .collect();
-    let png_path = dir.join("root_locus.png");
+    let png_path = dir.join(format!("{stem}.png"));
     let title = format!(
-        "Root locus of eqs (46)-(50), K_s = 0..{ks_max:.0} A/s, ω = {:.0} rpm, τ_L = {} N·m (Horng & Chin Fig 2)",
+        "{what}: K_s 0..{ks_max:.0} A/s, {:.0} rpm, {} N·m",
         op.omega * 30.0 / std::f64::consts::PI,
         op.load_nm
     );

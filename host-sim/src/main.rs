@@ -342,11 +342,18 @@ fn bounds(args: BoundsArgs) -> anyhow::Result<String> {
         }
     }
     if let Some(dir) = &args.out {
-        let ks_end = report.ks_max_t.unwrap_or(8000.0).max(report.ks_max_e2) * 1.1;
-        let (csv, png) =
-            pmsm_host_sim::bounds::write_root_locus(&op, ks_end, &[args.rate_hz], dir)?;
-        if !args.json {
-            outln!(out, "root locus: {} and {}", csv.display(), png.display());
+        use pmsm_host_sim::bounds::{write_root_locus, Equilibrium};
+        // The paper's Figs 2 and 3 run K_s from 0 to 8000 A/s.
+        let ks_end = report.ks_max_t.unwrap_or(8000.0).max(8000.0);
+        let mut which = vec![Equilibrium::First];
+        if torque {
+            which.push(Equilibrium::Second);
+        }
+        for eq in which {
+            let (csv, png) = write_root_locus(&op, eq, ks_end, &[args.rate_hz], dir)?;
+            if !args.json {
+                outln!(out, "root locus: {} and {}", csv.display(), png.display());
+            }
         }
     }
     Ok(out)
