@@ -47,7 +47,7 @@ fn current_loop_has_the_requested_bandwidth() {
     let foc = cfg.build().unwrap();
     let mut params = PlantParams::from(&m.params);
     params.j = 1e9; // locked rotor
-    let mut plant = Plant::new(params, 0.3);
+    let mut plant = Plant::new(params, 0.3, 0.0);
     let inverter = Inverter {
         v_bus: 48.0,
         dead_time_s: 0.0,

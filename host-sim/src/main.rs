@@ -38,6 +38,91 @@ enum Command {
     Run(Box<RunArgs>),
     /// Sliding-gain bounds of Horng & Chin Sec 4 at an operating point.
     Bounds(BoundsArgs),
+    /// Limits on the flux observer's gain γ (Ortega et al. eq (9), Proposition 4).
+    Gamma(GammaArgs),
+}
+
+#[derive(clap::Args)]
+struct GammaArgs {
+    /// Motor preset.
+    #[arg(long)]
+    motor: String,
+    /// Observer update rate [Hz].
+    #[arg(long)]
+    rate_hz: f64,
+    /// Lowest operating speed [rpm].
+    #[arg(long)]
+    min_speed_rpm: f64,
+    /// Print JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(serde::Serialize)]
+struct GammaReport {
+    gamma_max_discrete: f64,
+    gamma_max_single_equilibrium: f64,
+    gamma_recommended: f64,
+}
+
+fn gamma(args: GammaArgs) -> anyhow::Result<String> {
+    use pmsm_sensorless::observer::flux::{self, FluxConfig};
+    let motor = preset(&args.motor)?;
+    anyhow::ensure!(
+        args.rate_hz.is_finite() && args.rate_hz > 0.0,
+        "--rate-hz must be a finite number > 0"
+    );
+    anyhow::ensure!(
+        args.min_speed_rpm.is_finite() && args.min_speed_rpm >= 0.0,
+        "--min-speed-rpm must be a finite number >= 0"
+    );
+    let p = motor.params;
+    let omega = (args.min_speed_rpm * sim::RAD_S_PER_RPM) as f32;
+    let rate = args.rate_hz as f32;
+    let report = GammaReport {
+        gamma_max_discrete: flux::gamma_max_discrete(p.flux_wb, rate) as f64,
+        gamma_max_single_equilibrium: flux::gamma_max_single_equilibrium(p.flux_wb, p.n(), omega)
+            as f64,
+        // The observer's default, from the same functions.
+        gamma_recommended: FluxConfig::new(p, rate, args.min_speed_rpm as f32).gamma as f64,
+    };
+    let mut out = String::new();
+    if args.json {
+        outln!(out, "{}", serde_json::to_string(&report)?);
+    } else {
+        outln!(
+            out,
+            "{} at {} Hz, lowest speed {} rpm (Φ = {} Wb, n_P = {})",
+            motor.name,
+            args.rate_hz,
+            args.min_speed_rpm,
+            p.flux_wb,
+            p.pole_pairs
+        );
+        outln!(
+            out,
+            "γ_max, discrete step (γΦ²T < 2):         {:.1} 1/(Wb²·s)",
+            report.gamma_max_discrete
+        );
+        outln!(
+            out,
+            "γ_max, one equilibrium (γ < 4n_P|ω|/Φ²): {:.1} 1/(Wb²·s)",
+            report.gamma_max_single_equilibrium
+        );
+        outln!(
+            out,
+            "γ recommended (0.5 × the smaller):        {:.1} 1/(Wb²·s)",
+            report.gamma_recommended
+        );
+    }
+    Ok(out)
+}
+
+fn preset(name: &str) -> anyhow::Result<motor::Motor> {
+    motor::preset(name).ok_or_else(|| {
+        let names: Vec<_> = motor::PRESETS.iter().map(|m| m.name).collect();
+        anyhow::anyhow!("unknown motor '{name}' (known: {})", names.join(", "))
+    })
 }
 
 #[derive(clap::Args)]
@@ -188,10 +273,7 @@ fn run(args: RunArgs) -> anyhow::Result<String> {
     let mut sc = scenario::by_name(&args.scenario)?;
     let observer = ObserverKind::from_name(&args.observer)?;
     if let Some(name) = &args.motor {
-        let m = motor::preset(name).ok_or_else(|| {
-            let names: Vec<_> = motor::PRESETS.iter().map(|m| m.name).collect();
-            anyhow::anyhow!("unknown motor '{name}' (known: {})", names.join(", "))
-        })?;
+        let m = preset(name)?;
         sc.motor_name = m.name.to_string();
         sc.motor = m;
     }
@@ -378,6 +460,7 @@ fn main() -> ExitCode {
         Command::List => Ok(list()),
         Command::Run(args) => run(*args),
         Command::Bounds(args) => bounds(args),
+        Command::Gamma(args) => gamma(args),
     };
     match result {
         Ok(text) => {

@@ -157,12 +157,14 @@ pub struct Plant {
 }
 
 impl Plant {
-    /// A plant at rest with zero current, rotor at `theta_m0` [rad, mechanical].
-    pub fn new(params: PlantParams, theta_m0: f64) -> Self {
+    /// A plant with zero current, rotor at `theta_m0` [rad, mechanical] turning at
+    /// `omega_m0` [rad/s].
+    pub fn new(params: PlantParams, theta_m0: f64, omega_m0: f64) -> Self {
         Self {
             params,
             state: PlantState {
                 theta_m: theta_m0,
+                omega_m: omega_m0,
                 ..Default::default()
             },
         }

@@ -5,7 +5,7 @@
 //! them over `[t_k, t_k + T)` while the plant is integrated with RK4 on `substeps` sub-steps.
 
 use crate::inverter::{CurrentSensor, Inverter};
-use crate::observer::{Estimate, Observer, ObserverKind, SlotInput};
+use crate::observer::{Estimate, Observer, ObserverKind, ObserverSetup, SlotInput};
 use crate::plant::{Plant, PlantParams};
 use crate::scenario::Scenario;
 use pmsm_sensorless::bounds::ks_min;
@@ -92,9 +92,15 @@ pub struct SimConfig {
     /// Settings replacing the paper's defaults when the observer is a sliding one.
     pub sliding: Option<SlidingConfig>,
     /// Stand-in for a start-up sequence: below this |speed| [rpm] the controller uses the
-    /// encoder and the observer is held at the encoder's state; from the first sample at or
-    /// above it on, the run is sensorless. `None`: sensorless from t = 0.
+    /// encoder and the observer is held at the encoder's state; from the sample after the
+    /// first one at or above it, the run is sensorless. `None`: the observer is set to the
+    /// encoder's state at t = 0 and the run is sensorless from the second sample on.
     pub sensorless_from_rpm: Option<f64>,
+    /// Start the observer from its own zero state instead of the encoder's (a wrong initial
+    /// estimate), sensorless from t = 0.
+    pub cold_start: bool,
+    /// Flux-observer γ replacing the recommended one [1/(Wb²·s)].
+    pub gamma: Option<f32>,
 }
 
 impl SimConfig {
@@ -118,6 +124,8 @@ impl SimConfig {
             theta_m0: 0.0,
             sliding: None,
             sensorless_from_rpm: None,
+            cold_start: false,
+            gamma: None,
         }
     }
 }
@@ -236,7 +244,7 @@ impl Sim {
             .mismatch
             .apply(&params)
             .map_err(|e| anyhow::anyhow!("controller motor parameters: {e}"))?;
-        let mut foc_cfg = FocConfig::new(controller_motor, sc.motor.rated_torque_current_a());
+        let mut foc_cfg = FocConfig::new(controller_motor, sc.i_max_a() as f32);
         foc_cfg.current_rate_hz = config.rate_hz as f32;
         let foc = foc_cfg
             .build()
@@ -250,12 +258,18 @@ impl Sim {
         Ok(Self {
             foc,
             foc_state: FocState::default(),
-            observer: config.observer.build(
-                controller_motor,
-                config.rate_hz as f32,
-                config.sliding,
-            )?,
-            plant: Plant::new(PlantParams::from(&params), config.theta_m0),
+            observer: config.observer.build(&ObserverSetup {
+                motor: controller_motor,
+                rate_hz: config.rate_hz as f32,
+                sliding: config.sliding,
+                min_speed_rpm: sc.min_speed_rpm as f32,
+                gamma: config.gamma,
+            })?,
+            plant: Plant::new(
+                PlantParams::from(&params),
+                config.theta_m0,
+                sc.initial_speed_rpm * RAD_S_PER_RPM,
+            ),
             inverter: Inverter {
                 v_bus: config.bus_v,
                 dead_time_s: config.dead_time_s,
@@ -265,7 +279,7 @@ impl Sim {
             v_ab_last: AlphaBeta::default(),
             k: 0,
             ts: 1.0 / config.rate_hz,
-            sensorless: config.sensorless_from_rpm.is_none(),
+            sensorless: config.cold_start,
             config,
         })
     }
@@ -305,14 +319,12 @@ impl Sim {
             encoder_theta_e: theta_e as f32,
             encoder_omega_m: omega_m as f32,
         };
-        if !self.sensorless {
-            let from = self.config.sensorless_from_rpm.unwrap_or(0.0);
-            self.sensorless = omega_m.abs() >= from * RAD_S_PER_RPM;
-        }
         let est = if self.sensorless {
             self.observer.update(&slot)
         } else {
             self.observer.reset(&slot);
+            let from = self.config.sensorless_from_rpm.unwrap_or(0.0);
+            self.sensorless = omega_m.abs() >= from * RAD_S_PER_RPM;
             Estimate {
                 theta_e: slot.encoder_theta_e,
                 omega_m: slot.encoder_omega_m,

@@ -1,0 +1,183 @@
+//! Ortega, Praly, Astolfi, Lee, Nam: the gradient flux observer, eq (9), with the position
+//! read-out of Sec V iii.
+//!
+//! ```text
+//! dx̂/dt = y12 + (γ/2)(x̂ − L i)(Φ² − |x̂ − L i|²),   y12 = v − R i          (9), (7)
+//! θ̂_e = atan2(x̂2 − L i_β, x̂1 − L i_α)                                    (Sec V iii)
+//! ```
+//! `x` is the stator flux linkage in αβ [Wb], `Φ` the magnet flux, θ electrical.
+//!
+//! Discretisation at the control period T, between the samples `k−1` and `k`:
+//! - the flux integral of `y12` is exact for a voltage held over the period and a current
+//!   linear in between: `T (v_{k−1} − R (i_{k−1} + i_k)/2)` (trapezoid for `R i`);
+//! - the gradient term is a forward-Euler step at sample `k−1`. Its radial linearisation is
+//!   `ṙ = −γΦ² r`, so the step multiplies a radial error by `1 − γΦ²T`: stable for
+//!   `γΦ²T < 2` ([`gamma_max_discrete`]), without overshoot for `γΦ²T ≤ 1` (half of it, where
+//!   the default γ stays).
+//!
+//! The read-out uses `x̂_k − L i_k` at the sample instant, so the angle belongs to `t_k`: no
+//! half-period lag.
+
+use crate::frames::AlphaBeta;
+use crate::math::atan2;
+use crate::motor::{positive, MotorParams, ParamError};
+
+/// Largest γ [1/(Wb²·s)] for which the forward-Euler gradient step of eq (9) is stable:
+/// `γΦ²T < 2`, i.e. `γ < 2·rate_hz/Φ²`. Above it a radial error of `x̂ − L i` grows by
+/// `|1 − γΦ²T| > 1` each sample.
+pub fn gamma_max_discrete(flux_wb: f32, rate_hz: f32) -> f32 {
+    2.0 * rate_hz / (flux_wb * flux_wb)
+}
+
+/// Largest γ for which eq (17) has the origin as its only equilibrium down to the speed
+/// `omega_m_min` [rad/s, mechanical] (Proposition 4: `|Ω0| > 1/2` with
+/// `Ω0 = −2 n_P ω/(γΦ²)`, i.e. `γ < 4 n_P |ω_m|/Φ²`).
+pub fn gamma_max_single_equilibrium(flux_wb: f32, pole_pairs: f32, omega_m_min: f32) -> f32 {
+    4.0 * pole_pairs * omega_m_min.abs() / (flux_wb * flux_wb)
+}
+
+/// The default γ: the smaller of the two limits above, times `margin` (< 1; the default 0.5
+/// keeps the discrete step free of overshoot and |Ω0| ≥ 1 at the lowest speed).
+pub fn gamma_recommended(
+    flux_wb: f32,
+    pole_pairs: f32,
+    rate_hz: f32,
+    omega_m_min: f32,
+    margin: f32,
+) -> f32 {
+    margin
+        * gamma_max_discrete(flux_wb, rate_hz).min(gamma_max_single_equilibrium(
+            flux_wb,
+            pole_pairs,
+            omega_m_min,
+        ))
+}
+
+/// Settings of the flux observer.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FluxConfig {
+    /// Motor model (R, L, Φ are used).
+    pub motor: MotorParams,
+    /// Update rate [Hz].
+    pub rate_hz: f32,
+    /// Gradient gain γ [1/(Wb²·s)], in `(0, gamma_max_discrete)`.
+    pub gamma: f32,
+}
+
+impl FluxConfig {
+    /// γ from [`gamma_recommended`] with margin 0.5 for a lowest speed `min_speed_rpm`.
+    pub fn new(motor: MotorParams, rate_hz: f32, min_speed_rpm: f32) -> Self {
+        let omega_min = min_speed_rpm * (core::f32::consts::PI / 30.0);
+        Self {
+            motor,
+            rate_hz,
+            gamma: gamma_recommended(motor.flux_wb, motor.n(), rate_hz, omega_min, 0.5),
+        }
+    }
+
+    /// Validates; γ must keep the discrete step stable (`γΦ²T < 2`); a larger γ is accepted
+    /// only by [`FluxConfig::build_unchecked_gamma`] (for the tests that show the limit).
+    pub fn build(&self) -> Result<FluxObserver, ParamError> {
+        let observer = self.build_unchecked_gamma()?;
+        if self.gamma >= gamma_max_discrete(self.motor.flux_wb, self.rate_hz) {
+            return Err(ParamError::OutOfRange("gamma"));
+        }
+        Ok(observer)
+    }
+
+    /// As [`FluxConfig::build`] but without the discrete-stability check on γ.
+    pub fn build_unchecked_gamma(&self) -> Result<FluxObserver, ParamError> {
+        let m = self.motor.validate()?;
+        let rate = positive("rate_hz", self.rate_hz)?;
+        let gamma = positive("gamma", self.gamma)?;
+        let phi2 = m.flux_wb * m.flux_wb;
+        let ts = 1.0 / rate;
+        Ok(FluxObserver {
+            ts,
+            r_ohm: m.r_ohm,
+            l_h: m.l_h,
+            phi2,
+            half_gamma_ts: 0.5 * gamma * ts,
+        })
+    }
+}
+
+/// A built flux observer.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FluxObserver {
+    ts: f32,
+    r_ohm: f32,
+    l_h: f32,
+    phi2: f32,
+    half_gamma_ts: f32,
+}
+
+/// Running state of the flux observer.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FluxState {
+    /// Flux estimate x̂ at the last sample [Wb].
+    pub x_hat: AlphaBeta,
+    /// Current at the last sample [A].
+    pub i_last: AlphaBeta,
+    /// Rotor-flux estimate `x̂ − L i` at the last sample [Wb] (its angle is θ̂_e).
+    pub rotor_flux: AlphaBeta,
+    /// Electrical angle estimate [rad], in (−π, π].
+    pub theta_e: f32,
+    /// False until the first sample.
+    pub started: bool,
+}
+
+impl FluxObserver {
+    /// One sample: `i_ab` measured now [A], `v_ab` the voltage applied over the period that just
+    /// ended [V]. Returns false, leaving the state untouched, on non-finite input or output.
+    pub fn update(&self, st: &mut FluxState, i_ab: AlphaBeta, v_ab: AlphaBeta) -> bool {
+        let finite = |x: AlphaBeta| x.alpha.is_finite() && x.beta.is_finite();
+        if !finite(i_ab) || !finite(v_ab) {
+            return false;
+        }
+        let mut x = st.x_hat;
+        if st.started {
+            // Gradient term of eq (9) at sample k−1.
+            let eta = st.rotor_flux;
+            let g =
+                self.half_gamma_ts * (self.phi2 - (eta.alpha * eta.alpha + eta.beta * eta.beta));
+            // ∫ y12 dt over the period, eq (7).
+            let r_half = 0.5 * self.r_ohm;
+            x.alpha +=
+                self.ts * (v_ab.alpha - r_half * (st.i_last.alpha + i_ab.alpha)) + g * eta.alpha;
+            x.beta += self.ts * (v_ab.beta - r_half * (st.i_last.beta + i_ab.beta)) + g * eta.beta;
+        }
+        let eta = AlphaBeta::new(
+            x.alpha - self.l_h * i_ab.alpha,
+            x.beta - self.l_h * i_ab.beta,
+        );
+        if !finite(x) {
+            return false;
+        }
+        *st = FluxState {
+            x_hat: x,
+            i_last: i_ab,
+            rotor_flux: eta,
+            theta_e: atan2(eta.beta, eta.alpha),
+            started: true,
+        };
+        true
+    }
+
+    /// Sets the estimate to a known rotor angle: `x̂ = L i + Φ c(θ_e)` (eq (4)).
+    pub fn reset(&self, st: &mut FluxState, i_ab: AlphaBeta, theta_e: f32) {
+        let (s, c) = crate::math::sin_cos(theta_e);
+        let phi = libm::sqrtf(self.phi2);
+        let eta = AlphaBeta::new(phi * c, phi * s);
+        *st = FluxState {
+            x_hat: AlphaBeta::new(
+                self.l_h * i_ab.alpha + eta.alpha,
+                self.l_h * i_ab.beta + eta.beta,
+            ),
+            i_last: i_ab,
+            rotor_flux: eta,
+            theta_e: crate::math::wrap_pi(theta_e),
+            started: true,
+        };
+    }
+}

@@ -1,0 +1,85 @@
+//! Angle-tracking PLL speed estimator of Ortega et al. Sec V iii:
+//!
+//! ```text
+//! ż1 = Kp(θ̂ − z1) + Ki z2,   ż2 = θ̂ − z1,   ω̂ = Kp(θ̂ − z1) + Ki z2
+//! ```
+//! The error `e = θ̂ − z1` obeys `ë + Kp ė + Ki e = θ̈̂`, so `Kp = 2ζω_n`, `Ki = ω_n²` give a
+//! second-order loop of natural frequency ω_n and damping ζ. The angle difference is wrapped
+//! to (−π, π], so the estimator lives on the circle. Forward Euler at the control rate; the
+//! integral state is kept as `Ki·z2` [rad/s].
+
+use crate::math::wrap_pi;
+use crate::motor::{positive, ParamError};
+use core::f32::consts::TAU;
+
+/// PLL settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PllConfig {
+    /// Update rate [Hz].
+    pub rate_hz: f32,
+    /// Natural frequency ω_n/2π [Hz], below `rate_hz/(4π)` (so `ω_n·T < 0.5`).
+    pub bandwidth_hz: f32,
+    /// Damping ζ, > 0 (1 = critically damped).
+    pub damping: f32,
+}
+
+/// A built PLL.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pll {
+    ts: f32,
+    kp: f32,
+    ki_ts: f32,
+}
+
+/// PLL state.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PllState {
+    /// Tracked angle z1 [rad], in (−π, π].
+    pub z1: f32,
+    /// Integral term `Ki·z2` [rad/s].
+    pub integral: f32,
+    /// Speed estimate ω̂ [rad/s] of the tracked angle (electrical if the input is).
+    pub omega: f32,
+}
+
+impl PllConfig {
+    /// Validates and precomputes `Kp`, `Ki·T`.
+    pub fn build(&self) -> Result<Pll, ParamError> {
+        let rate = positive("rate_hz", self.rate_hz)?;
+        let w_n = TAU * positive("bandwidth_hz", self.bandwidth_hz)?;
+        let zeta = positive("damping", self.damping)?;
+        let ts = 1.0 / rate;
+        if w_n * ts >= 0.5 {
+            return Err(ParamError::OutOfRange("bandwidth_hz"));
+        }
+        Ok(Pll {
+            ts,
+            kp: 2.0 * zeta * w_n,
+            ki_ts: w_n * w_n * ts,
+        })
+    }
+}
+
+impl Pll {
+    /// One sample of the input angle `theta` [rad]; returns ω̂ [rad/s]. A non-finite input
+    /// leaves the state untouched.
+    pub fn update(&self, st: &mut PllState, theta: f32) -> f32 {
+        let e = wrap_pi(theta - st.z1);
+        if !e.is_finite() {
+            return st.omega;
+        }
+        st.integral += self.ki_ts * e;
+        st.omega = self.kp * e + st.integral;
+        st.z1 = wrap_pi(st.z1 + self.ts * st.omega);
+        st.omega
+    }
+
+    /// Starts tracking at angle `theta` and speed `omega`.
+    pub fn reset(&self, st: &mut PllState, theta: f32, omega: f32) {
+        *st = PllState {
+            z1: wrap_pi(theta),
+            integral: omega,
+            omega,
+        };
+    }
+}
