@@ -137,3 +137,17 @@ pub fn wrap_2pi(theta: f32) -> f32 {
         0.0
     }
 }
+
+/// `x` limited to `[lo, hi]`, for bounds known only at run time: unlike `f32::clamp` it has no
+/// panic path (that one asserts `lo <= hi`). With `lo > hi` the result is `lo` or `hi`; a NaN
+/// `x` stays NaN.
+#[inline]
+pub fn clamp(x: f32, lo: f32, hi: f32) -> f32 {
+    if x < lo {
+        lo
+    } else if x > hi {
+        hi
+    } else {
+        x
+    }
+}

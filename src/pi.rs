@@ -1,5 +1,6 @@
 //! Discrete PI controller with output clamp and clamping (conditional-integration) anti-windup.
 
+use crate::math::clamp;
 use crate::motor::{non_negative, positive, ParamError};
 
 /// PI settings in SI units: `u = kp·e + ki·∫e dt`, clamped to `[out_min, out_max]`.
@@ -60,16 +61,20 @@ impl Pi {
     /// treated as 0 (a safe, bounded output).
     pub fn update(&self, state: &mut PiState, error: f32, ff: f32) -> f32 {
         if !error.is_finite() || !ff.is_finite() {
-            return state.integral.clamp(self.out_min, self.out_max);
+            return clamp(state.integral, self.out_min, self.out_max);
         }
         let candidate = state.integral + self.ki_ts * error;
         let unclamped = ff + self.kp * error + candidate;
         let pushing_further =
             (unclamped > self.out_max && error > 0.0) || (unclamped < self.out_min && error < 0.0);
         if !pushing_further {
-            state.integral = candidate.clamp(self.out_min, self.out_max);
+            state.integral = clamp(candidate, self.out_min, self.out_max);
         }
-        (ff + self.kp * error + state.integral).clamp(self.out_min, self.out_max)
+        clamp(
+            ff + self.kp * error + state.integral,
+            self.out_min,
+            self.out_max,
+        )
     }
 
     /// Proportional gain.

@@ -28,7 +28,7 @@
 //! - `ξ` is stepped with forward Euler; `r` semi-implicitly and kept in `[1, r_max]` (the proof
 //!   bounds `r`; the clamp keeps f32 finite if a transient pushes it far).
 
-use crate::math::sin_cos;
+use crate::math::{clamp, sin_cos};
 use crate::motor::{positive, MotorParams, ParamError};
 use core::f32::consts::TAU;
 
@@ -239,7 +239,11 @@ impl IiObserver {
         // r: leakage implicit, growth explicit, kept in [1, r_max].
         let e = -(h_new[0] * d[0] + h_new[1] * d[1]);
         let a = 0.25 * self.k1 * t;
-        let r = ((st.r * (1.0 + t * self.c_r * e * e) + a) / (1.0 + a)).clamp(1.0, self.r_max);
+        let r = clamp(
+            (st.r * (1.0 + t * self.c_r * e * e) + a) / (1.0 + a),
+            1.0,
+            self.r_max,
+        );
         let next = IiState {
             h: h_new,
             d,
