@@ -187,6 +187,9 @@ struct RunArgs {
     /// Inverter dead time [µs].
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     dead_time_us: f64,
+    /// Control (current-loop and observer) rate [Hz]; the speed loop runs at a quarter of it.
+    #[arg(long, default_value_t = 4000.0)]
+    rate_hz: f64,
     /// Run on the encoder until this speed [rpm], then sensorless (a stand-in for a start-up
     /// sequence; default: sensorless from t = 0).
     #[arg(long)]
@@ -295,6 +298,13 @@ fn run(args: RunArgs) -> anyhow::Result<String> {
     cfg.adc_lsb_a = args.adc_lsb_a;
     cfg.seed = args.seed;
     cfg.mismatch = args.mismatch;
+    anyhow::ensure!(
+        args.rate_hz.is_finite() && (1000.0..=100_000.0).contains(&args.rate_hz),
+        "--rate-hz must be between 1000 and 100000"
+    );
+    cfg.rate_hz = args.rate_hz;
+    // Keep the plant's sub-step at 10 µs or less.
+    cfg.substeps = (1e5 / args.rate_hz).ceil() as usize;
     if let Some(x) = args.sensorless_from_rpm {
         anyhow::ensure!(
             x.is_finite() && x >= 0.0,
