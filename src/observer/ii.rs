@@ -25,6 +25,8 @@
 //!   `η̂1·T`) rather than the tangent `TΨ(h)η̂1`: the tangent makes the innovation vanish at
 //!   `η̂1 = tan(ω_eT)/T`, a speed bias of `(ω_eT)²/3` (3.6 rpm at 1000 rpm on the Sinano motor
 //!   at 4 kHz, measured).
+//! - The speed estimate after the update at `t_k` is that of the middle of the coming period,
+//!   `t_k + T/2` (measured in `tests/flux.rs`): what the voltage applied next will meet.
 //! - `ξ` is stepped with forward Euler; `r` semi-implicitly and kept in `[1, r_max]` (the proof
 //!   bounds `r`; the clamp keeps f32 finite if a transient pushes it far).
 
