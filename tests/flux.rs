@@ -24,6 +24,7 @@ fn constant_speed(motor: Motor, rpm: f64, duration_s: f64) -> Scenario {
         initial_speed_rpm: rpm,
         min_speed_rpm: rpm,
         i_max_a: None,
+        figures: "",
     }
 }
 

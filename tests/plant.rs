@@ -48,11 +48,7 @@ fn hold(speed_rpm: f64, load_nm: f64) -> Scenario {
         load_shape: Pwl::step(0.6, 1.0),
         load_nm,
         duration_s: 2.0,
-        windows: vec![Window {
-            name: "steady",
-            t0: 1.5,
-            t1: 2.0,
-        }],
+        windows: vec![Window::new("steady", 1.5, 2.0)],
         ..scenario::horng_ramp_brake()
     }
 }

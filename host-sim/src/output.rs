@@ -85,7 +85,7 @@ pub fn write_plot(run: &Run, path: &Path) -> anyhow::Result<()> {
     let s_a = col(&|r| r.s_a.unwrap_or(f64::NAN));
     let mut panels = vec![
         Panel {
-            title: "Speed (Horng & Chin Figs 5, 6)",
+            title: "Speed",
             y_label: "rpm",
             series: vec![
                 Series {
@@ -106,7 +106,7 @@ pub fn write_plot(run: &Run, path: &Path) -> anyhow::Result<()> {
             ],
         },
         Panel {
-            title: "Position error: estimated − true θ_e (Horng & Chin Figs 11, 12)",
+            title: "Position error: estimated − true θ_e",
             y_label: "deg (electrical)",
             series: vec![Series {
                 label: "θ_e error",
@@ -165,8 +165,9 @@ pub fn write_plot(run: &Run, path: &Path) -> anyhow::Result<()> {
     }
     let sc = &run.config.scenario;
     let title = format!(
-        "{} — motor {} — observer {}",
+        "{} ({}) — motor {} — observer {}",
         sc.name,
+        sc.figures,
         sc.motor_name,
         run.config.observer.name()
     );

@@ -48,6 +48,8 @@ pub struct Scenario {
     pub min_speed_rpm: f64,
     /// Limit of the speed loop's i_q [A]; default 1.5× the current of rated torque.
     pub i_max_a: Option<f64>,
+    /// The paper's figures this scenario reproduces (shown in the plot title).
+    pub figures: &'static str,
 }
 
 /// Default overload factor of the current limit over the current of rated torque.
@@ -90,6 +92,7 @@ pub fn horng_ramp_brake() -> Scenario {
         initial_speed_rpm: 0.0,
         min_speed_rpm: 100.0,
         i_max_a: None,
+        figures: "Horng & Chin Figs 5-12",
     }
 }
 
@@ -123,6 +126,7 @@ pub fn ortega_steps() -> Scenario {
         initial_speed_rpm: 500.0,
         min_speed_rpm: 500.0,
         i_max_a: Some(216.0 * std::f64::consts::SQRT_2),
+        figures: "Ortega et al. Figs 5, 6",
     }
 }
 
@@ -146,6 +150,7 @@ fn ortega_load(name: &'static str, description: &'static str, rpm: f64) -> Scena
         initial_speed_rpm: rpm,
         min_speed_rpm: rpm,
         i_max_a: None,
+        figures: "Ortega et al. Fig 8",
     }
 }
 
@@ -188,6 +193,7 @@ pub fn ortega_ramp() -> Scenario {
         initial_speed_rpm: 200.0,
         min_speed_rpm: 200.0,
         i_max_a: None,
+        figures: "Ortega et al. Fig 9",
     }
 }
 
