@@ -8,6 +8,7 @@
 //! interval in which that holds. The velocity observer is the same system without `e_τ`
 //! (λτ = 0, K3 = 0).
 
+use crate::plant::PlantParams;
 use nalgebra::{Complex, DMatrix};
 use pmsm_sensorless::motor::MotorParams;
 use std::f64::consts::TAU;
@@ -15,18 +16,8 @@ use std::f64::consts::TAU;
 /// An operating point and the observer's tuning, in f64 SI units.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct OperatingPoint {
-    /// Pole pairs N.
-    pub n: f64,
-    /// R [Ω].
-    pub r: f64,
-    /// L [H].
-    pub l: f64,
-    /// K = ψ [Wb].
-    pub k: f64,
-    /// H = J [kg·m²].
-    pub h: f64,
-    /// B [N·m·s/rad].
-    pub b: f64,
+    /// Motor (N, R, L, K = ψ, H = J, B).
+    pub motor: PlantParams,
     /// Rotor speed, mechanical [rad/s], ≠ 0.
     pub omega: f64,
     /// Load torque [N·m].
@@ -45,12 +36,7 @@ impl OperatingPoint {
     pub fn paper(motor: &MotorParams, omega: f64, load_nm: f64, torque_observer: bool) -> Self {
         let l_tau = if torque_observer { 2.0 } else { 0.0 };
         Self {
-            n: motor.pole_pairs as f64,
-            r: motor.r_ohm as f64,
-            l: motor.l_h as f64,
-            k: motor.flux_wb as f64,
-            h: motor.j_kgm2 as f64,
-            b: motor.b_nms as f64,
+            motor: PlantParams::from(motor),
             omega,
             load_nm,
             theta_e: 0.3,
@@ -72,7 +58,8 @@ impl OperatingPoint {
 
     /// Plant phase currents `(i_a, i_b)` of step 6 at this point [A].
     pub fn currents(&self) -> (f64, f64) {
-        let i_q = (self.b * self.omega + self.load_nm) / (self.k * self.n);
+        let m = &self.motor;
+        let i_q = (m.b * self.omega + self.load_nm) / (m.flux * m.n);
         let (s, c) = self.theta_e.sin_cos();
         (-i_q * s, i_q * c)
     }
@@ -80,17 +67,15 @@ impl OperatingPoint {
     /// The matrix of eqs (46)-(50) at sliding gain `ks` [A/s]: 5×5 for the torque observer,
     /// 4×4 `(S_a, S_b, e_θ, e_ω)` for the velocity observer.
     pub fn error_matrix(&self, ks: f64) -> DMatrix<f64> {
-        let Self {
+        let PlantParams {
             n,
             r,
             l,
-            k,
-            h,
+            flux: k,
+            j: h,
             b,
-            omega: w,
-            epsilon: eps,
-            ..
-        } = *self;
+        } = self.motor;
+        let (w, eps) = (self.omega, self.epsilon);
         let (k1, k2, k3) = self.k123();
         let (s, c) = self.theta_e.sin_cos();
         let (i_a, i_b) = self.currents();
@@ -131,17 +116,15 @@ impl OperatingPoint {
     /// the term `−2HLK3K_s/(Rε + LK_s)` and no state: it has the units of `ė_τ` per radian,
     /// so it is read as the coefficient of `e_θ` (the typesetting lost the state).
     pub fn second_equilibrium_matrix(&self, ks: f64) -> DMatrix<f64> {
-        let Self {
+        let PlantParams {
             n,
             r,
             l,
-            k,
-            h,
+            flux: k,
+            j: h,
             b,
-            omega: w,
-            epsilon: eps,
-            ..
-        } = *self;
+        } = self.motor;
+        let (w, eps) = (self.omega, self.epsilon);
         let (k1, k2, k3) = self.k123();
         let (s, c) = self.theta_e.sin_cos();
         let (s2, c2) = (2.0 * self.theta_e).sin_cos();
