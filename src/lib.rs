@@ -11,6 +11,7 @@
 #![warn(missing_docs)]
 
 pub mod bounds;
+pub mod drive;
 pub mod foc;
 pub mod frames;
 pub mod math;

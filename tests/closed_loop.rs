@@ -71,7 +71,7 @@ fn current_loop_has_the_requested_bandwidth() {
         let out = foc.current_step(&mut st, &input, Dq::new(0.0, 1.0));
         let held = inverter.hold(out.duties);
         for k in 0..n_sub {
-            plant.advance(&held, |_| 0.0, ts / n_sub as f64, 1);
+            plant.advance(&held, |_, _| 0.0, ts / n_sub as f64, 1);
             let i_q = plant.state.i_dq(&plant.params).1;
             let tk = t + (k + 1) as f64 * ts / n_sub as f64;
             if t_cross.is_none() && i_q >= 1.0 - (-1.0f64).exp() {

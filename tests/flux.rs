@@ -25,6 +25,8 @@ fn constant_speed(motor: Motor, rpm: f64, duration_s: f64) -> Scenario {
         min_speed_rpm: rpm,
         i_max_a: None,
         figures: "",
+        load_kind: scenario::LoadKind::Active,
+        drive: None,
     }
 }
 

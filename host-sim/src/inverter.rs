@@ -1,6 +1,6 @@
 //! Averaged inverter and current sensing models.
 
-use crate::plant::Drive;
+use crate::plant::Supply;
 use pmsm_sensorless::frames::Abc;
 use pmsm_sensorless::svpwm::Duties;
 use rand::SeedableRng;
@@ -63,12 +63,12 @@ pub fn inverse_clarke(alpha: f64, beta: f64) -> [f64; 3] {
     [alpha, -0.5 * alpha + s3 * beta, -0.5 * alpha - s3 * beta]
 }
 
-impl Drive for HeldDuties<'_> {
-    fn v_alpha_beta(&self, i_alpha: f64, i_beta: f64) -> (f64, f64) {
+impl Supply for HeldDuties<'_> {
+    fn v_alpha_beta(&self, i: (f64, f64), _e: (f64, f64)) -> (f64, f64) {
         if self.inverter.dead_time_s == 0.0 {
             return self.v_ab_ideal;
         }
-        clarke(self.phase_voltages(inverse_clarke(i_alpha, i_beta)))
+        clarke(self.phase_voltages(inverse_clarke(i.0, i.1)))
     }
 }
 

@@ -6,7 +6,7 @@ use anyhow::Context;
 use std::path::{Path, PathBuf};
 
 /// Column names of the CSV, with units.
-pub const CSV_HEADER: [&str; 15] = [
+pub const CSV_HEADER: [&str; 17] = [
     "t_s",
     "speed_cmd_rpm",
     "omega_m_rpm",
@@ -22,6 +22,8 @@ pub const CSV_HEADER: [&str; 15] = [
     "s_a_a",
     "ks_a_per_s",
     "ks_min_a_per_s",
+    "mode",
+    "theta_e_monitor_deg",
 ];
 
 /// Writes the time series; optional columns (`load_hat_nm`, and the sliding observers'
@@ -48,6 +50,8 @@ pub fn write_csv(run: &Run, path: &Path) -> anyhow::Result<()> {
             opt(r.s_a),
             opt(r.ks),
             opt(r.ks_min),
+            r.mode.map(|m| format!("{m:?}")).unwrap_or_default(),
+            opt(r.theta_e_monitor_deg),
         ])?;
     }
     w.flush()

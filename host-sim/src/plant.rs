@@ -122,22 +122,39 @@ impl PlantState {
     }
 }
 
-/// What drives the plant during a sub-step: the stator voltage as a function of the state
-/// (the inverter's dead-time depends on the current sign), and the load torque.
-pub trait Drive {
-    /// Stator voltage `(v_α, v_β)` [V] given the currents `(i_α, i_β)`.
-    fn v_alpha_beta(&self, i_alpha: f64, i_beta: f64) -> (f64, f64);
+/// What feeds the stator during a sub-step: its voltage as a function of the currents (the
+/// inverter's dead time depends on their sign) and of the back-EMF term `e = KNω[sin, −cos]`
+/// of eqs (16)-(17) (an open circuit is `v = −e` at zero current).
+pub trait Supply {
+    /// Stator voltage `(v_α, v_β)` [V] given the currents `i` and the back-EMF term `e`.
+    fn v_alpha_beta(&self, i: (f64, f64), e: (f64, f64)) -> (f64, f64);
 }
 
-fn derivative<D: Drive>(p: &PlantParams, x: &[f64; DIM], drive: &D, tau_l: f64) -> [f64; DIM] {
+/// The inverter with all switches off and the currents at zero: the terminals float at the
+/// back-EMF (`v = −e`), so the currents stay zero and no torque is made.
+pub struct OpenCircuit;
+
+impl Supply for OpenCircuit {
+    fn v_alpha_beta(&self, _i: (f64, f64), e: (f64, f64)) -> (f64, f64) {
+        (-e.0, -e.1)
+    }
+}
+
+/// Load torque [N·m] as a function of time from the start of the period [s] and of speed
+/// [rad/s, mechanical].
+pub trait Load: Fn(f64, f64) -> f64 {}
+impl<F: Fn(f64, f64) -> f64> Load for F {}
+
+fn derivative<S: Supply>(p: &PlantParams, x: &[f64; DIM], supply: &S, tau_l: f64) -> [f64; DIM] {
     let (i_a, i_b, theta, omega) = (x[0], x[1], x[2], x[3]);
     let (s, c) = (p.n * theta).sin_cos();
-    let (v_a, v_b) = drive.v_alpha_beta(i_a, i_b);
     let kn = p.flux * p.n;
+    let e = (kn * omega * s, -kn * omega * c);
+    let (v_a, v_b) = supply.v_alpha_beta((i_a, i_b), e);
     [
-        (-p.r * i_a + kn * omega * s + v_a) / p.l, // (16)
-        (-p.r * i_b - kn * omega * c + v_b) / p.l, // (17)
-        omega,                                     // (18)
+        (-p.r * i_a + e.0 + v_a) / p.l,                          // (16)
+        (-p.r * i_b + e.1 + v_b) / p.l,                          // (17)
+        omega,                                                   // (18)
         (-kn * (i_a * s - i_b * c) - p.b * omega - tau_l) / p.j, // (19)
         v_a * i_a + v_b * i_b,
         p.r * (i_a * i_a + i_b * i_b),
@@ -171,14 +188,8 @@ impl Plant {
     }
 
     /// Advances by `n_sub` RK4 sub-steps of `h` seconds each, with the load torque
-    /// `tau_l(t_rel)` evaluated at each sub-step's stage times (`t_rel` from the start).
-    pub fn advance<D: Drive>(
-        &mut self,
-        drive: &D,
-        tau_l: impl Fn(f64) -> f64,
-        h: f64,
-        n_sub: usize,
-    ) {
+    /// `tau_l(t_rel, ω)` evaluated at each stage (`t_rel` from the start of the call).
+    pub fn advance<S: Supply>(&mut self, supply: &S, tau_l: impl Load, h: f64, n_sub: usize) {
         let p = self.params;
         let mut x = self.state.to_array();
         for k in 0..n_sub {
@@ -186,13 +197,11 @@ impl Plant {
             let add = |x: &[f64; DIM], d: &[f64; DIM], s: f64| -> [f64; DIM] {
                 std::array::from_fn(|i| x[i] + s * d[i])
             };
-            let tl0 = tau_l(t0);
-            let tlh = tau_l(t0 + 0.5 * h);
-            let tl1 = tau_l(t0 + h);
-            let k1 = derivative(&p, &x, drive, tl0);
-            let k2 = derivative(&p, &add(&x, &k1, 0.5 * h), drive, tlh);
-            let k3 = derivative(&p, &add(&x, &k2, 0.5 * h), drive, tlh);
-            let k4 = derivative(&p, &add(&x, &k3, h), drive, tl1);
+            let stage = |x: &[f64; DIM], t: f64| derivative(&p, x, supply, tau_l(t, x[3]));
+            let k1 = stage(&x, t0);
+            let k2 = stage(&add(&x, &k1, 0.5 * h), t0 + 0.5 * h);
+            let k3 = stage(&add(&x, &k2, 0.5 * h), t0 + 0.5 * h);
+            let k4 = stage(&add(&x, &k3, h), t0 + h);
             x = std::array::from_fn(|i| {
                 x[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
             });

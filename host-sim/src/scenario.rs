@@ -50,6 +50,72 @@ pub struct Scenario {
     pub i_max_a: Option<f64>,
     /// The paper's figures this scenario reproduces (shown in the plot title).
     pub figures: &'static str,
+    /// How the load torque depends on speed.
+    pub load_kind: LoadKind,
+    /// Run the complete drive (start-up, modes, faults) instead of FOC on an observer slot.
+    pub drive: Option<DriveScript>,
+}
+
+/// How the load torque depends on speed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LoadKind {
+    /// A constant torque opposing positive rotation (the papers' τ_L, eq (33)): it drives a
+    /// motor at rest backwards.
+    Active,
+    /// A brake: the level opposes the motion, fading linearly to zero below `sat_rpm`.
+    Brake {
+        /// Speed below which the brake torque fades [rpm].
+        sat_rpm: f64,
+    },
+}
+
+/// What the drive is told, and what goes wrong, during a drive scenario.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DriveScript {
+    /// The enable command turns on at this time [s]; the speed command is `speed_cmd_rpm`.
+    pub enable_s: f64,
+    /// A fault cause injected during the run.
+    pub injection: Option<Injection>,
+}
+
+/// A fault cause.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Injection {
+    /// The plant's R, L and flux are multiplied by these factors at `t` (a winding short, a
+    /// demagnetisation).
+    Plant {
+        /// Time [s].
+        t: f64,
+        /// Factor on R.
+        r: f64,
+        /// Factor on L.
+        l: f64,
+        /// Factor on the flux linkage.
+        flux: f64,
+    },
+    /// The DC bus steps to `v` at `t`.
+    Bus {
+        /// Time [s].
+        t: f64,
+        /// New bus voltage [V].
+        v: f64,
+    },
+    /// The current sample of phase b reads NaN from `t` on.
+    NanCurrent {
+        /// Time [s].
+        t: f64,
+    },
+}
+
+impl Injection {
+    /// When it happens [s].
+    pub fn t(&self) -> f64 {
+        match *self {
+            Injection::Plant { t, .. } | Injection::Bus { t, .. } | Injection::NanCurrent { t } => {
+                t
+            }
+        }
+    }
 }
 
 /// Default overload factor of the current limit over the current of rated torque.
@@ -64,9 +130,16 @@ impl Scenario {
 }
 
 impl Scenario {
-    /// Load torque at `t` [N·m].
-    pub fn load_at(&self, t: f64) -> f64 {
-        self.load_nm * self.load_shape.at(t)
+    /// Load torque at `t` and speed `omega_m` [rad/s] [N·m].
+    pub fn load_at(&self, t: f64, omega_m: f64) -> f64 {
+        let level = self.load_nm * self.load_shape.at(t);
+        match self.load_kind {
+            LoadKind::Active => level,
+            LoadKind::Brake { sat_rpm } => {
+                let x = omega_m / (sat_rpm * std::f64::consts::PI / 30.0);
+                level * x.clamp(-1.0, 1.0)
+            }
+        }
     }
 }
 
@@ -93,6 +166,8 @@ pub fn horng_ramp_brake() -> Scenario {
         min_speed_rpm: 100.0,
         i_max_a: None,
         figures: "Horng & Chin Figs 5-12",
+        load_kind: LoadKind::Active,
+        drive: None,
     }
 }
 
@@ -127,6 +202,8 @@ pub fn ortega_steps() -> Scenario {
         min_speed_rpm: 500.0,
         i_max_a: Some(216.0 * std::f64::consts::SQRT_2),
         figures: "Ortega et al. Figs 5, 6",
+        load_kind: LoadKind::Active,
+        drive: None,
     }
 }
 
@@ -151,6 +228,8 @@ fn ortega_load(name: &'static str, description: &'static str, rpm: f64) -> Scena
         min_speed_rpm: rpm,
         i_max_a: None,
         figures: "Ortega et al. Fig 8",
+        load_kind: LoadKind::Active,
+        drive: None,
     }
 }
 
@@ -194,7 +273,144 @@ pub fn ortega_ramp() -> Scenario {
         min_speed_rpm: 200.0,
         i_max_a: None,
         figures: "Ortega et al. Fig 9",
+        load_kind: LoadKind::Active,
+        drive: None,
     }
+}
+
+/// The drive on the Sinano motor from standstill, no encoder at any time: 0 → 1000 rpm, a
+/// 0.2 N·m brake from 2 s on, stop at 3 s, reverse to −500 rpm at 4.5 s, stop at 6 s.
+/// The brake opposes the motion and fades below 30 rpm. Windows after each settle.
+pub fn start_stop_reverse() -> Scenario {
+    let m = motor::HORNG_SINANO;
+    Scenario {
+        name: "start-stop-reverse",
+        description:
+            "drive: Sinano from standstill to 1000 rpm, 0.2 N·m brake, stop, -500 rpm, stop",
+        motor_name: m.name.to_string(),
+        motor: m,
+        duration_s: 7.0,
+        speed_cmd_rpm: Pwl::new(vec![
+            (0.0, 1000.0),
+            (3.0, 1000.0),
+            (3.0, 0.0),
+            (4.5, 0.0),
+            (4.5, -500.0),
+            (6.0, -500.0),
+            (6.0, 0.0),
+        ]),
+        load_shape: Pwl::step(2.0, 1.0),
+        load_nm: 0.2,
+        windows: vec![
+            Window::new("w1000", 1.6, 2.0),
+            Window::new("w1000_loaded", 2.5, 3.0),
+            Window::new("w_neg500_loaded", 5.6, 6.0),
+        ],
+        initial_speed_rpm: 0.0,
+        min_speed_rpm: 60.0,
+        i_max_a: None,
+        figures: "drive",
+        load_kind: LoadKind::Brake { sat_rpm: 30.0 },
+        drive: Some(DriveScript {
+            enable_s: 0.0,
+            injection: None,
+        }),
+    }
+}
+
+/// The drive on Ortega's test motor from standstill to 800 rpm; full load (3 N·m brake) at
+/// 1.5 s, after the hand-over.
+pub fn start_test_motor() -> Scenario {
+    let m = motor::ORTEGA_TEST_0P3KW;
+    Scenario {
+        name: "start-test-motor",
+        description: "drive: Ortega test motor from standstill to 800 rpm, 3 N·m at 1.5 s",
+        motor_name: m.name.to_string(),
+        motor: m,
+        duration_s: 2.5,
+        speed_cmd_rpm: Pwl::constant(800.0),
+        load_shape: Pwl::step(1.5, 1.0),
+        load_nm: 3.0,
+        windows: vec![
+            Window::new("w800", 1.1, 1.5),
+            Window::new("w800_loaded", 2.0, 2.5),
+        ],
+        initial_speed_rpm: 0.0,
+        min_speed_rpm: 60.0,
+        i_max_a: None,
+        figures: "drive",
+        load_kind: LoadKind::Brake { sat_rpm: 30.0 },
+        drive: Some(DriveScript {
+            enable_s: 0.0,
+            injection: None,
+        }),
+    }
+}
+
+/// A fault scenario: the drive runs the Sinano motor up to 1000 rpm, then `injection` at
+/// 1.8 s; the run ends at 2.2 s.
+fn fault(name: &'static str, description: &'static str, injection: Injection) -> Scenario {
+    Scenario {
+        name,
+        description,
+        duration_s: 2.2,
+        speed_cmd_rpm: Pwl::constant(1000.0),
+        load_shape: Pwl::constant(0.0),
+        load_nm: 0.0,
+        windows: vec![Window::new("before", 1.4, 1.8)],
+        drive: Some(DriveScript {
+            enable_s: 0.0,
+            injection: Some(injection),
+        }),
+        ..start_stop_reverse()
+    }
+}
+
+/// A winding short (R and L to 10 %) at 1000 rpm: the current runs away → overcurrent.
+pub fn fault_overcurrent() -> Scenario {
+    fault(
+        "fault-overcurrent",
+        "drive fault: winding short (R, L to 10 %) at 1.8 s",
+        Injection::Plant {
+            t: 1.8,
+            r: 0.1,
+            l: 0.1,
+            flux: 1.0,
+        },
+    )
+}
+
+/// The bus drops from 48 V to 24 V at 1.8 s → bus under-voltage.
+pub fn fault_bus_undervoltage() -> Scenario {
+    fault(
+        "fault-bus-undervoltage",
+        "drive fault: bus 48 V -> 24 V at 1.8 s",
+        Injection::Bus { t: 1.8, v: 24.0 },
+    )
+}
+
+/// The phase-b current sample reads NaN from 1.8 s → invalid input.
+pub fn fault_nan_current() -> Scenario {
+    fault(
+        "fault-nan-current",
+        "drive fault: phase-b current sample NaN from 1.8 s",
+        Injection::NanCurrent { t: 1.8 },
+    )
+}
+
+/// The magnets lose half their flux at 1.8 s (the model the observers use no longer holds)
+/// → observer loss.
+pub fn fault_observer_loss() -> Scenario {
+    fault(
+        "fault-observer-loss",
+        "drive fault: flux linkage drops to 50 % at 1.8 s",
+        Injection::Plant {
+            t: 1.8,
+            r: 1.0,
+            l: 1.0,
+            flux: 0.5,
+        },
+    )
 }
 
 /// Every scenario, in listing order.
@@ -205,6 +421,12 @@ pub fn all() -> Vec<Scenario> {
         ortega_load_200(),
         ortega_load_800(),
         ortega_ramp(),
+        start_stop_reverse(),
+        start_test_motor(),
+        fault_overcurrent(),
+        fault_bus_undervoltage(),
+        fault_nan_current(),
+        fault_observer_loss(),
     ]
 }
 

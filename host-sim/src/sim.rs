@@ -6,12 +6,18 @@
 
 use crate::inverter::{CurrentSensor, Inverter};
 use crate::observer::{Estimate, Observer, ObserverKind, ObserverSetup, SlotInput};
+use crate::plant::OpenCircuit;
 use crate::plant::{Plant, PlantParams};
+use crate::scenario::Injection;
 use crate::scenario::Scenario;
 use pmsm_sensorless::bounds::ks_min;
+use pmsm_sensorless::drive::{
+    Command, Drive, DriveConfig, DriveInput, DriveState, Fault, Limits, Mode, Primary, Reason,
+    Transition,
+};
 use pmsm_sensorless::foc::{Foc, FocConfig, FocInput, FocState};
 use pmsm_sensorless::frames::AlphaBeta;
-use pmsm_sensorless::motor::{MotorParams, ParamError};
+use pmsm_sensorless::motor::{Motor, MotorParams, ParamError};
 use pmsm_sensorless::observer::sliding::SlidingConfig;
 use std::f64::consts::PI;
 
@@ -164,6 +170,10 @@ pub struct Row {
     /// Sliding observers: the lower bound K_s,min of eq (28) from the true and estimated
     /// states [A/s] (Horng Figs 7, 8).
     pub ks_min: Option<f64>,
+    /// Drive scenarios: the drive's mode.
+    pub mode: Option<Mode>,
+    /// Drive scenarios: the monitor observer's angle [deg, electrical, wrapped].
+    pub theta_e_monitor_deg: Option<f64>,
 }
 
 impl Row {
@@ -206,23 +216,53 @@ pub struct Run {
     pub rows: Vec<Row>,
     /// The plant at the end (energy integrals included).
     pub plant: Plant,
-    /// Why the run stopped early, if it did.
+    /// Why the run stopped early (plant not finite) or the drive's fault, if any.
     pub fault: Option<String>,
+    /// Drive scenarios: every mode change with its time [s].
+    pub transitions: Vec<(f64, Transition)>,
+    /// Drive scenarios: steps from the fault's cause to PWM off.
+    pub fault_step: Option<usize>,
+}
+
+/// What computes the duties.
+enum Controller {
+    /// FOC on the observer slot (the papers' experiments).
+    Slot {
+        foc: Foc,
+        foc_state: FocState,
+        observer: Box<dyn Observer>,
+        sensorless: bool,
+    },
+    /// The complete drive of the core.
+    Drive {
+        drive: Box<Drive>,
+        state: Box<DriveState>,
+        limits: Limits,
+        primary: Primary,
+    },
+}
+
+/// Steps at which a fault's possible causes first appeared.
+#[derive(Default)]
+struct Causes {
+    injection: Option<usize>,
+    over_trip: Option<usize>,
+    bus_out: Option<usize>,
+    fault: Option<(usize, Fault)>,
 }
 
 /// The closed loop, one control period at a time.
 pub struct Sim {
     config: SimConfig,
-    foc: Foc,
-    foc_state: FocState,
-    observer: Box<dyn Observer>,
+    controller: Controller,
     plant: Plant,
     inverter: Inverter,
     sensor: CurrentSensor,
     v_ab_last: AlphaBeta,
     k: usize,
     ts: f64,
-    sensorless: bool,
+    transitions: Vec<(f64, Transition)>,
+    causes: Causes,
 }
 
 impl Sim {
@@ -244,11 +284,48 @@ impl Sim {
             .mismatch
             .apply(&params)
             .map_err(|e| anyhow::anyhow!("controller motor parameters: {e}"))?;
-        let mut foc_cfg = FocConfig::new(controller_motor, sc.i_max_a() as f32);
-        foc_cfg.current_rate_hz = config.rate_hz as f32;
-        let foc = foc_cfg
-            .build()
-            .map_err(|e| anyhow::anyhow!("controller configuration: {e}"))?;
+        let controller = if sc.drive.is_some() {
+            let primary = match config.observer {
+                ObserverKind::SlidingTorque => Primary::SlidingTorque,
+                ObserverKind::Flux => Primary::Flux,
+                other => anyhow::bail!(
+                    "drive scenarios run with --observer sliding-torque or flux, not '{}'",
+                    other.name()
+                ),
+            };
+            let motor = Motor {
+                params: controller_motor,
+                ..sc.motor
+            };
+            let mut cfg = DriveConfig::new(&motor, primary);
+            cfg.rate_hz = config.rate_hz as f32;
+            Controller::Drive {
+                drive: Box::new(
+                    cfg.build()
+                        .map_err(|e| anyhow::anyhow!("drive configuration: {e}"))?,
+                ),
+                state: Box::default(),
+                limits: cfg.limits,
+                primary,
+            }
+        } else {
+            let mut foc_cfg = FocConfig::new(controller_motor, sc.i_max_a() as f32);
+            foc_cfg.current_rate_hz = config.rate_hz as f32;
+            Controller::Slot {
+                foc: foc_cfg
+                    .build()
+                    .map_err(|e| anyhow::anyhow!("controller configuration: {e}"))?,
+                foc_state: FocState::default(),
+                observer: config.observer.build(&ObserverSetup {
+                    motor: controller_motor,
+                    rate_hz: config.rate_hz as f32,
+                    sliding: config.sliding,
+                    min_speed_rpm: sc.min_speed_rpm as f32,
+                    gamma: config.gamma,
+                })?,
+                sensorless: config.cold_start,
+            }
+        };
         let sensor = CurrentSensor::new(
             config.offset_a,
             config.noise_sigma_a,
@@ -256,15 +333,7 @@ impl Sim {
             config.seed,
         )?;
         Ok(Self {
-            foc,
-            foc_state: FocState::default(),
-            observer: config.observer.build(&ObserverSetup {
-                motor: controller_motor,
-                rate_hz: config.rate_hz as f32,
-                sliding: config.sliding,
-                min_speed_rpm: sc.min_speed_rpm as f32,
-                gamma: config.gamma,
-            })?,
+            controller,
             plant: Plant::new(
                 PlantParams::from(&params),
                 config.theta_m0,
@@ -279,7 +348,8 @@ impl Sim {
             v_ab_last: AlphaBeta::default(),
             k: 0,
             ts: 1.0 / config.rate_hz,
-            sensorless: config.cold_start,
+            transitions: Vec::new(),
+            causes: Causes::default(),
             config,
         })
     }
@@ -294,61 +364,159 @@ impl Sim {
         &self.plant
     }
 
-    /// The plant, for fault injection (e.g. a parameter change mid-run).
-    pub fn plant_mut(&mut self) -> &mut Plant {
-        &mut self.plant
-    }
-
     /// The configuration.
     pub fn config(&self) -> &SimConfig {
         &self.config
+    }
+
+    /// Applies the scenario's injection when its time comes; returns whether the phase-b
+    /// current sample is to read NaN.
+    fn inject(&mut self, t: f64) -> bool {
+        let Some(inj) = self
+            .config
+            .scenario
+            .drive
+            .as_ref()
+            .and_then(|d| d.injection)
+        else {
+            return false;
+        };
+        if t + 0.5 * self.ts < inj.t() {
+            return false;
+        }
+        let first = self.causes.injection.is_none();
+        if first {
+            self.causes.injection = Some(self.k);
+        }
+        match inj {
+            Injection::Plant { r, l, flux, .. } if first => {
+                let p = &mut self.plant.params;
+                p.r *= r;
+                p.l *= l;
+                p.flux *= flux;
+                false
+            }
+            Injection::Bus { v, .. } => {
+                self.inverter.v_bus = v;
+                false
+            }
+            Injection::NanCurrent { .. } => true,
+            Injection::Plant { .. } => false,
+        }
     }
 
     /// One control period: sample, estimate, control, then integrate the plant over the
     /// period. Errors if the plant state stops being finite.
     pub fn step(&mut self) -> Result<Row, String> {
         let t = self.t();
-        let sc = &self.config.scenario;
-        let p = &self.plant.params;
-        let theta_e = wrap_rad(self.plant.state.theta_e(p));
+        let nan_current = self.inject(t);
+        let p = self.plant.params;
+        let theta_e = wrap_rad(self.plant.state.theta_e(&p));
         let omega_m = self.plant.state.omega_m;
-        let i_abc = self.sensor.measure(self.plant.i_abc());
+        let mut i_abc = self.sensor.measure(self.plant.i_abc());
+        if nan_current {
+            i_abc.b = f32::NAN;
+        }
+        let v_bus = self.inverter.v_bus;
+        let speed_cmd_rpm = self.config.scenario.speed_cmd_rpm.at(t);
         let slot = SlotInput {
             i_ab: i_abc.to_alpha_beta(),
             v_ab_last: self.v_ab_last,
             encoder_theta_e: theta_e as f32,
             encoder_omega_m: omega_m as f32,
         };
-        let est = if self.sensorless {
-            self.observer.update(&slot)
-        } else {
-            self.observer.reset(&slot);
-            let from = self.config.sensorless_from_rpm.unwrap_or(0.0);
-            self.sensorless = omega_m.abs() >= from * RAD_S_PER_RPM;
-            Estimate {
-                theta_e: slot.encoder_theta_e,
-                omega_m: slot.encoder_omega_m,
-                load_nm: None,
-                sliding: None,
+        let (duties, est, mode, monitor) = match &mut self.controller {
+            Controller::Slot {
+                foc,
+                foc_state,
+                observer,
+                sensorless,
+            } => {
+                let est = if *sensorless {
+                    observer.update(&slot)
+                } else {
+                    observer.reset(&slot);
+                    let from = self.config.sensorless_from_rpm.unwrap_or(0.0);
+                    *sensorless = omega_m.abs() >= from * RAD_S_PER_RPM;
+                    Estimate {
+                        theta_e: slot.encoder_theta_e,
+                        omega_m: slot.encoder_omega_m,
+                        load_nm: None,
+                        sliding: None,
+                    }
+                };
+                let torque_ff_nm = match est.load_nm {
+                    Some(x) if observer.compensates_load() => x,
+                    _ => 0.0,
+                };
+                let out = foc.step(
+                    foc_state,
+                    &FocInput {
+                        i_abc,
+                        v_bus: v_bus as f32,
+                        theta_e: est.theta_e,
+                        omega_m: est.omega_m,
+                        omega_m_ref: (speed_cmd_rpm * RAD_S_PER_RPM) as f32,
+                        torque_ff_nm,
+                    },
+                );
+                self.v_ab_last = out.v_ab;
+                (Some(out.duties), est, None, None)
+            }
+            Controller::Drive {
+                drive,
+                state,
+                limits,
+                primary,
+            } => {
+                let script = self.config.scenario.drive.as_ref();
+                let cmd = Command {
+                    enable: script.is_some_and(|d| t + 0.5 * self.ts >= d.enable_s),
+                    speed_rpm: speed_cmd_rpm as f32,
+                    clear_fault: false,
+                };
+                let i_peak = i_abc.a.abs().max(i_abc.b.abs()).max(i_abc.c.abs());
+                if i_peak > limits.i_trip_a {
+                    self.causes.over_trip.get_or_insert(self.k);
+                }
+                let bus = v_bus as f32;
+                if !(limits.bus_min_v..=limits.bus_max_v).contains(&bus) {
+                    self.causes.bus_out.get_or_insert(self.k);
+                }
+                let out = drive.step(
+                    state,
+                    &DriveInput {
+                        i_abc,
+                        v_bus: bus,
+                        overrun: false,
+                    },
+                    &cmd,
+                );
+                if let Some(tr) = out.transition {
+                    self.transitions.push((t, tr));
+                    if let Reason::Fault(f) = tr.reason {
+                        self.causes.fault.get_or_insert((self.k, f));
+                    }
+                }
+                let tel = out.telemetry;
+                let est = Estimate {
+                    theta_e: tel.theta_e_primary,
+                    omega_m: tel.speed_rpm * (std::f32::consts::PI / 30.0),
+                    load_nm: (*primary == Primary::SlidingTorque).then_some(tel.load_nm),
+                    sliding: None,
+                };
+                self.v_ab_last = state.v_ab_last;
+                let monitor = (tel.theta_e_monitor as f64).to_degrees();
+                (out.duties, est, Some(tel.mode), Some(monitor))
             }
         };
-        let speed_cmd_rpm = sc.speed_cmd_rpm.at(t);
-        let torque_ff_nm = match est.load_nm {
-            Some(x) if self.observer.compensates_load() => x,
-            _ => 0.0,
+        let sc = &self.config.scenario;
+        let (i_d, i_q) = self.plant.state.i_dq(&p);
+        let v_ab = if duties.is_some() {
+            self.v_ab_last
+        } else {
+            AlphaBeta::default()
         };
-        let out = self.foc.step(
-            &mut self.foc_state,
-            &FocInput {
-                i_abc,
-                v_bus: self.config.bus_v as f32,
-                theta_e: est.theta_e,
-                omega_m: est.omega_m,
-                omega_m_ref: (speed_cmd_rpm * RAD_S_PER_RPM) as f32,
-                torque_ff_nm,
-            },
-        );
-        let (i_d, i_q) = self.plant.state.i_dq(p);
         let row = Row {
             t,
             speed_cmd_rpm,
@@ -358,9 +526,9 @@ impl Sim {
             theta_e_hat_deg: wrap_deg((est.theta_e as f64).to_degrees()),
             i_d,
             i_q,
-            v_alpha: out.v_ab.alpha as f64,
-            v_beta: out.v_ab.beta as f64,
-            load_nm: sc.load_at(t),
+            v_alpha: v_ab.alpha as f64,
+            v_beta: v_ab.beta as f64,
+            load_nm: sc.load_at(t, omega_m),
             load_hat_nm: est.load_nm.map(f64::from),
             s_a: est.sliding.map(|d| d.s_ab.alpha as f64),
             ks: est.sliding.map(|d| d.ks as f64),
@@ -373,16 +541,23 @@ impl Sim {
                     theta_e as f32,
                 ) as f64
             }),
+            mode,
+            theta_e_monitor_deg: monitor,
         };
         let n_sub = self.config.substeps;
         let h = self.ts / n_sub as f64;
-        self.plant.advance(
-            &self.inverter.hold(out.duties),
-            |dt| sc.load_at(t + dt),
-            h,
-            n_sub,
-        );
-        self.v_ab_last = out.v_ab;
+        let load = |dt: f64, w: f64| sc.load_at(t + dt, w);
+        match duties {
+            Some(d) => self.plant.advance(&self.inverter.hold(d), load, h, n_sub),
+            None => {
+                // All switches off: the freewheeling diodes return the (small) inductive
+                // energy to the bus within a fraction of a period; the currents are taken to
+                // zero at once and the terminals then float at the back-EMF.
+                self.plant.state.i_alpha = 0.0;
+                self.plant.state.i_beta = 0.0;
+                self.plant.advance(&OpenCircuit, load, h, n_sub);
+            }
+        }
         self.k += 1;
         let s = &self.plant.state;
         if [s.i_alpha, s.i_beta, s.theta_m, s.omega_m]
@@ -393,6 +568,37 @@ impl Sim {
         } else {
             Err(format!("plant state not finite at t = {:.4} s", self.t()))
         }
+    }
+
+    /// Steps from the cause of the drive's fault to PWM off: from the first sample beyond
+    /// the trip level (overcurrent), outside the bus limits (bus faults), or from the
+    /// injection (others).
+    fn fault_step(&self) -> Option<usize> {
+        let (k, f) = self.causes.fault?;
+        let cause = match f {
+            Fault::Overcurrent => self.causes.over_trip,
+            Fault::BusUndervoltage | Fault::BusOvervoltage => self.causes.bus_out,
+            _ => self.causes.injection,
+        }?;
+        Some(k.saturating_sub(cause))
+    }
+
+    /// The drive's latched fault, if any.
+    fn drive_fault(&self) -> Option<Fault> {
+        self.causes.fault.map(|(_, f)| f)
+    }
+}
+
+/// Snake-case name of a drive fault, as in the JSON summary.
+pub fn fault_name(f: Fault) -> &'static str {
+    match f {
+        Fault::Overcurrent => "overcurrent",
+        Fault::BusUndervoltage => "bus_undervoltage",
+        Fault::BusOvervoltage => "bus_overvoltage",
+        Fault::InvalidInput => "invalid_input",
+        Fault::ObserverLoss => "observer_loss",
+        Fault::Stall => "stall",
+        Fault::Overrun => "overrun",
     }
 }
 
@@ -411,11 +617,15 @@ pub fn run(config: SimConfig) -> anyhow::Result<Run> {
             }
         }
     }
+    let fault_step = sim.fault_step();
+    let fault = fault.or_else(|| sim.drive_fault().map(|f| fault_name(f).to_string()));
     Ok(Run {
-        config: sim.config,
         rows,
         plant: sim.plant,
         fault,
+        transitions: sim.transitions,
+        fault_step,
+        config: sim.config,
     })
 }
 

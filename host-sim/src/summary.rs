@@ -2,6 +2,7 @@
 
 use crate::sim::{Row, Run};
 use indexmap::IndexMap;
+use pmsm_sensorless::drive::{Mode, Reason};
 use serde::Serialize;
 
 /// Angle error beyond which the controller's `i_q` no longer produces torque in the intended
@@ -50,6 +51,30 @@ pub struct Summary {
     pub fault: Option<String>,
     /// Metrics per window, in the scenario's order (`null` for a window the run never reached).
     pub windows: IndexMap<String, Option<WindowMetrics>>,
+    /// Drive scenarios: steps from the fault's cause to PWM off (`null` without a fault).
+    pub fault_step: Option<usize>,
+    /// Drive scenarios: every mode change.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub transitions: Vec<TransitionRecord>,
+    /// Drive scenarios: times of the hand-overs to sensorless [s].
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub handovers_s: Vec<f64>,
+    /// Drive scenarios: lowest |true speed| while sensorless [rpm].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lowest_sensorless_rpm: Option<f64>,
+}
+
+/// One mode change of the drive.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TransitionRecord {
+    /// Time [s].
+    pub t: f64,
+    /// Mode before.
+    pub from: String,
+    /// Mode after.
+    pub to: String,
+    /// Why.
+    pub reason: String,
 }
 
 /// Metrics of the rows with `t0 ≤ t < t1`; `None` if there are none.
@@ -99,14 +124,35 @@ impl Summary {
             }
             windows.insert(w.name.to_string(), m);
         }
+        let expected = (sc.duration_s * run.config.rate_hz).round() as usize;
+        let stopped_early = run.rows.len() < expected;
+        let sensorless = run.rows.iter().filter(|r| r.mode == Some(Mode::Sensorless));
         Summary {
             scenario: sc.name.to_string(),
             motor: sc.motor_name.clone(),
             observer: run.config.observer.name().to_string(),
             rate_hz: run.config.rate_hz,
-            lost_lock: lost_lock || run.fault.is_some(),
+            lost_lock: lost_lock || stopped_early,
             fault: run.fault.clone(),
             windows,
+            fault_step: run.fault_step,
+            transitions: run
+                .transitions
+                .iter()
+                .map(|(t, tr)| TransitionRecord {
+                    t: *t,
+                    from: format!("{:?}", tr.from),
+                    to: format!("{:?}", tr.to),
+                    reason: format!("{:?}", tr.reason),
+                })
+                .collect(),
+            handovers_s: run
+                .transitions
+                .iter()
+                .filter(|(_, tr)| tr.reason == Reason::HandOver)
+                .map(|(t, _)| *t)
+                .collect(),
+            lowest_sensorless_rpm: sensorless.map(|r| r.speed_rpm.abs()).reduce(f64::min),
         }
     }
 

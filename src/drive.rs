@@ -1,0 +1,765 @@
+//! The drive: the one function the 4 kHz interrupt calls.
+//!
+//! [`Drive::step`] takes the sampled phase currents and bus voltage and returns the three
+//! duties, or `None` for PWM off. Inside it: input checks and faults, the mode machine
+//! (idle → align → open-loop start → sensorless → back to open loop through zero speed →
+//! idle; fault from anywhere), both observers (Horng & Chin's sliding torque observer and
+//! Ortega et al.'s flux observer with its PLL) every step while the inverter is on, one of them
+//! feeding the controller and the other watching it, and the FOC with its 1 kHz speed loop.
+//!
+//! Open-loop start (I/f): a current of fixed magnitude is driven along the d axis of a frame at
+//! angle `θ_ol` whose frequency ramps; the rotor follows it, lagging by `asin(τ/(Nψ I_ol))`.
+//! Hand-over when the speed is above the observable range and the configured observer agrees
+//! with `θ_ol`; the speed loop then starts from the torque the open-loop current was making.
+
+use crate::foc::{CurrentLoopState, Foc, FocConfig, FocInput, FocState};
+use crate::frames::{Abc, AlphaBeta, Dq, SinCos};
+use crate::math::{clamp, wrap_pi};
+use crate::motor::{positive, Motor, MotorParams, ParamError};
+use crate::observer::flux::{FluxConfig, FluxObserver, FluxState};
+use crate::observer::pll::{Pll, PllConfig, PllState};
+use crate::observer::sliding::{SlidingConfig, SlidingObserver, SlidingState};
+use crate::svpwm::Duties;
+use core::f32::consts::PI;
+
+const RAD_S_PER_RPM: f32 = PI / 30.0;
+const RAD_PER_DEG: f32 = PI / 180.0;
+
+/// Which observer feeds the controller; the other one runs beside it as a monitor.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Primary {
+    /// Horng & Chin torque observer: θ̂, ω̂ and τ̂_L (fed forward in the speed loop).
+    SlidingTorque,
+    /// Ortega et al. flux observer for θ̂, PLL for ω̂.
+    Flux,
+}
+
+/// Protection limits.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Limits {
+    /// Limit of the speed loop's current command [A].
+    pub i_max_a: f32,
+    /// Phase-current trip level [A], > `i_max_a`.
+    pub i_trip_a: f32,
+    /// Largest current the sensing path can report [A]; beyond it a sample is invalid.
+    pub i_sense_max_a: f32,
+    /// Bus under-voltage trip [V].
+    pub bus_min_v: f32,
+    /// Bus over-voltage trip [V].
+    pub bus_max_v: f32,
+}
+
+/// Open-loop start and hand-over settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StartConfig {
+    /// d-axis current while aligning the rotor to θ_e = 0 [A].
+    pub align_current_a: f32,
+    /// Alignment time [s].
+    pub align_time_s: f32,
+    /// Magnitude of the open-loop (I/f) current [A].
+    pub open_loop_current_a: f32,
+    /// Speed-reference slew rate, also the open-loop frequency ramp [rpm/s].
+    pub accel_rpm_per_s: f32,
+    /// Hand-over to the observer is allowed above this |speed| [rpm].
+    pub handover_rpm: f32,
+    /// The observer's angle must agree with θ_ol within this [deg, electrical]...
+    pub handover_tol_deg: f32,
+    /// ...for this long [s].
+    pub handover_hold_s: f32,
+    /// Back to open loop when both |speed reference| and |ω̂| are below this [rpm].
+    pub handback_rpm: f32,
+    /// Stall if no hand-over within this time after the ramp passed `handover_rpm` [s].
+    pub handover_timeout_s: f32,
+}
+
+/// Health supervision settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HealthConfig {
+    /// Largest tolerated angle disagreement between the two observers [deg, electrical].
+    pub max_disagreement_deg: f32,
+    /// Largest tolerated speed disagreement [rpm].
+    pub max_speed_disagreement_rpm: f32,
+    /// A disagreement must last this long to be an observer loss [s].
+    pub loss_time_s: f32,
+    /// Speed collapse: |ω̂| below `handback_rpm` while the reference asks for more than
+    /// `handover_rpm`, for this long, is a stall [s].
+    pub stall_time_s: f32,
+}
+
+/// Everything the drive is built from. [`DriveConfig::new`] derives it from a motor.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DriveConfig {
+    /// The controller's motor model.
+    pub motor: MotorParams,
+    /// Step rate [Hz] (4000).
+    pub rate_hz: f32,
+    /// Current-loop bandwidth [Hz] (300).
+    pub current_bandwidth_hz: f32,
+    /// Speed-loop bandwidth [Hz] (20), run every 4th step.
+    pub speed_bandwidth_hz: f32,
+    /// Observer feeding the controller.
+    pub primary: Primary,
+    /// Protection limits.
+    pub limits: Limits,
+    /// Start-up and hand-over.
+    pub start: StartConfig,
+    /// Health supervision.
+    pub health: HealthConfig,
+    /// Rated speed [rpm]: the sliding gain must stay below (K_s,max)_E2 there.
+    pub rated_speed_rpm: f32,
+}
+
+impl DriveConfig {
+    /// Defaults from the motor's ratings: current command limit 1.5× the current of rated
+    /// torque, trip at 1.5× that, sensing range 2× the trip; bus trips at 0.75 and 1.25 of the
+    /// rated bus; align and open-loop currents 0.5 and 0.6 of the rated-torque current for
+    /// 0.2 s and up the ramp; ramp 1000 rpm/s; hand-over above 10 % of rated speed when the
+    /// angle agrees within 30° for 20 ms; hand-back below 6 %; observer loss after 30° or
+    /// 10 % of rated speed disagreement for 20 ms; stall after 1 s without hand-over or
+    /// 0.5 s of collapsed speed.
+    pub fn new(motor: &Motor, primary: Primary) -> Self {
+        let i_rated = motor.rated_torque_current_a();
+        let i_max = 1.5 * i_rated;
+        let i_trip = 1.5 * i_max;
+        let bus = motor.ratings.bus_v;
+        let speed = motor.ratings.speed_rpm;
+        Self {
+            motor: motor.params,
+            rate_hz: 4000.0,
+            current_bandwidth_hz: 300.0,
+            speed_bandwidth_hz: 20.0,
+            primary,
+            limits: Limits {
+                i_max_a: i_max,
+                i_trip_a: i_trip,
+                i_sense_max_a: 2.0 * i_trip,
+                bus_min_v: 0.75 * bus,
+                bus_max_v: 1.25 * bus,
+            },
+            start: StartConfig {
+                align_current_a: 0.5 * i_rated,
+                align_time_s: 0.2,
+                open_loop_current_a: 0.6 * i_rated,
+                accel_rpm_per_s: 1000.0,
+                handover_rpm: 0.1 * speed,
+                handover_tol_deg: 30.0,
+                handover_hold_s: 0.02,
+                handback_rpm: 0.06 * speed,
+                handover_timeout_s: 1.0,
+            },
+            health: HealthConfig {
+                max_disagreement_deg: 30.0,
+                max_speed_disagreement_rpm: 0.1 * speed,
+                loss_time_s: 0.02,
+                stall_time_s: 0.5,
+            },
+            rated_speed_rpm: speed,
+        }
+    }
+
+    /// Validates every setting and derives all gains: FOC, the paper's sliding torque
+    /// observer, the flux observer's γ for the lowest sensorless speed (`handback_rpm`), a
+    /// 50 Hz PLL. The error names the bad field.
+    pub fn build(&self) -> Result<Drive, ParamError> {
+        let m = self.motor.validate()?;
+        let rate = positive("rate_hz", self.rate_hz)?;
+        let l = self.limits;
+        let s = self.start;
+        let h = self.health;
+        positive("i_max_a", l.i_max_a)?;
+        positive("i_trip_a - i_max_a", l.i_trip_a - l.i_max_a)?;
+        positive("i_sense_max_a - i_trip_a", l.i_sense_max_a - l.i_trip_a)?;
+        positive("bus_min_v", l.bus_min_v)?;
+        positive("bus_max_v - bus_min_v", l.bus_max_v - l.bus_min_v)?;
+        positive("align_current_a", s.align_current_a)?;
+        positive("align_time_s", s.align_time_s)?;
+        positive("open_loop_current_a", s.open_loop_current_a)?;
+        if s.align_current_a > l.i_max_a || s.open_loop_current_a > l.i_max_a {
+            return Err(ParamError::OutOfRange("open_loop_current_a"));
+        }
+        positive("accel_rpm_per_s", s.accel_rpm_per_s)?;
+        positive("handback_rpm", s.handback_rpm)?;
+        positive(
+            "handover_rpm - handback_rpm",
+            s.handover_rpm - s.handback_rpm,
+        )?;
+        positive("handover_tol_deg", s.handover_tol_deg)?;
+        positive("handover_hold_s", s.handover_hold_s)?;
+        positive("handover_timeout_s", s.handover_timeout_s)?;
+        positive("max_disagreement_deg", h.max_disagreement_deg)?;
+        positive("max_speed_disagreement_rpm", h.max_speed_disagreement_rpm)?;
+        positive("loss_time_s", h.loss_time_s)?;
+        positive("stall_time_s", h.stall_time_s)?;
+        let foc = FocConfig {
+            current_bandwidth_hz: self.current_bandwidth_hz,
+            speed_bandwidth_hz: self.speed_bandwidth_hz,
+            current_rate_hz: rate,
+            ..FocConfig::new(m, l.i_max_a)
+        }
+        .build()?;
+        let sliding_cfg = SlidingConfig {
+            rate_hz: rate,
+            ..SlidingConfig::torque(m)
+        };
+        let sliding = sliding_cfg.build()?;
+        // K_s inside its bounds (Horng & Chin Sec 4): below the discrete-time bound, whose
+        // binding eigenvalue is −(R/L + K_s/ε) ((K_s,max)_T = ε(2/T − R/L)), and below
+        // (K_s,max)_E2 at the rated speed.
+        if let crate::observer::sliding::SlidingGain::Constant(ks) = sliding_cfg.ks {
+            let eps = sliding_cfg.epsilon_a;
+            let ks_max_t = eps * (2.0 * rate - m.r_ohm / m.l_h);
+            let ks_max_e2 = crate::bounds::ks_max_e2(&m, self.rated_speed_rpm * RAD_S_PER_RPM, eps);
+            if ks >= ks_max_t || ks > ks_max_e2 {
+                return Err(ParamError::OutOfRange("ks"));
+            }
+        }
+        let flux = FluxConfig::new(m, rate, s.handback_rpm).build()?;
+        let pll = PllConfig {
+            rate_hz: rate,
+            bandwidth_hz: 50.0,
+            damping: 1.0,
+        }
+        .build()?;
+        let ts = 1.0 / rate;
+        let steps = |t: f32| (t * rate) as u32;
+        Ok(Drive {
+            foc,
+            sliding,
+            flux,
+            pll,
+            primary: self.primary,
+            ts,
+            n: m.n(),
+            limits: l,
+            align_current_a: s.align_current_a,
+            align_steps: steps(s.align_time_s).max(1),
+            open_loop_current_a: s.open_loop_current_a,
+            accel_per_step: s.accel_rpm_per_s * ts,
+            handover_rpm: s.handover_rpm,
+            handover_tol: s.handover_tol_deg * RAD_PER_DEG,
+            handover_steps: steps(s.handover_hold_s).max(1),
+            handback_rpm: s.handback_rpm,
+            handover_timeout_steps: steps(s.handover_timeout_s).max(1),
+            max_disagreement: h.max_disagreement_deg * RAD_PER_DEG,
+            max_speed_disagreement_rpm: h.max_speed_disagreement_rpm,
+            loss_steps: steps(h.loss_time_s).max(1),
+            stall_steps: steps(h.stall_time_s).max(1),
+        })
+    }
+}
+
+/// Operating mode.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Mode {
+    /// PWM off, waiting for enable.
+    #[default]
+    Idle,
+    /// d-axis current at θ_e = 0 pulls the rotor to a known angle.
+    Align,
+    /// Current-controlled open loop with a frequency ramp.
+    OpenLoop,
+    /// FOC on the configured observer.
+    Sensorless,
+    /// PWM off, latched until cleared.
+    Fault,
+}
+
+/// Why the drive stopped switching.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Fault {
+    /// A phase current beyond `i_trip_a`.
+    Overcurrent,
+    /// Bus below `bus_min_v`.
+    BusUndervoltage,
+    /// Bus above `bus_max_v`.
+    BusOvervoltage,
+    /// A non-finite sample, or a current beyond the sensing range.
+    InvalidInput,
+    /// The observers disagreed beyond the limits for longer than `loss_time_s`.
+    ObserverLoss,
+    /// No hand-over after the ramp, or the speed collapsed under load.
+    Stall,
+    /// The caller reported that the previous step overran its period.
+    Overrun,
+}
+
+/// Why the mode changed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Reason {
+    /// Enable command.
+    Enabled,
+    /// Alignment time elapsed.
+    Aligned,
+    /// The observer agreed with the open-loop angle above the observable speed.
+    HandOver,
+    /// Speed and reference fell below the hand-back speed (stop or reversal).
+    HandBack,
+    /// The open-loop ramp reached zero speed with a zero command.
+    Stopped,
+    /// Enable withdrawn.
+    Disabled,
+    /// A fault.
+    Fault(Fault),
+    /// Fault cleared by command.
+    Cleared,
+}
+
+/// One mode change, for the log.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Transition {
+    /// Mode before.
+    pub from: Mode,
+    /// Mode after.
+    pub to: Mode,
+    /// Why.
+    pub reason: Reason,
+}
+
+/// Samples of one period.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DriveInput {
+    /// Phase currents [A].
+    pub i_abc: Abc,
+    /// DC bus voltage [V].
+    pub v_bus: f32,
+    /// The previous step did not finish within its period.
+    pub overrun: bool,
+}
+
+/// What the user asks for.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Command {
+    /// Run (true) or stop switching (false). From idle the drive starts when enabled with a
+    /// non-zero speed command.
+    pub enable: bool,
+    /// Speed command [rpm, mechanical]; the drive slews to it.
+    pub speed_rpm: f32,
+    /// Clear a latched fault (back to idle).
+    pub clear_fault: bool,
+}
+
+/// Small fixed-size record for the log, to be pushed at a low rate.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Telemetry {
+    /// Mode.
+    pub mode: Mode,
+    /// Latched fault, if any.
+    pub fault: Option<Fault>,
+    /// Slewed speed reference [rpm].
+    pub speed_ref_rpm: f32,
+    /// Speed used by the controller [rpm] (primary estimate, or the open-loop speed).
+    pub speed_rpm: f32,
+    /// Primary observer's electrical angle [rad].
+    pub theta_e_primary: f32,
+    /// Monitor observer's electrical angle [rad].
+    pub theta_e_monitor: f32,
+    /// Angle used by the controller (θ_ol in open loop) [rad].
+    pub theta_e_control: f32,
+    /// Measured d current in the controller's frame [A].
+    pub i_d: f32,
+    /// Measured q current in the controller's frame [A].
+    pub i_q: f32,
+    /// Load-torque estimate of the sliding observer [N·m].
+    pub load_nm: f32,
+    /// K_s,min estimated from the equivalent injection, eqs (28)-(30): max |w| [A/s].
+    pub ks_min_est: f32,
+    /// Health: |θ̂_primary − θ̂_monitor| [deg, electrical].
+    pub disagreement_deg: f32,
+    /// Health: |ω̂_primary − ω̂_monitor| [rpm].
+    pub speed_disagreement_rpm: f32,
+}
+
+/// Result of one step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DriveOutput {
+    /// Duties to load, each in [0, 1]; `None`: all switches off.
+    pub duties: Option<Duties>,
+    /// The mode change this step made, if any.
+    pub transition: Option<Transition>,
+    /// This step's record.
+    pub telemetry: Telemetry,
+}
+
+/// A built drive (all coefficients per step).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Drive {
+    foc: Foc,
+    sliding: SlidingObserver,
+    flux: FluxObserver,
+    pll: Pll,
+    primary: Primary,
+    ts: f32,
+    n: f32,
+    limits: Limits,
+    align_current_a: f32,
+    align_steps: u32,
+    open_loop_current_a: f32,
+    /// Speed slew per step [rpm].
+    accel_per_step: f32,
+    handover_rpm: f32,
+    handover_tol: f32,
+    handover_steps: u32,
+    handback_rpm: f32,
+    handover_timeout_steps: u32,
+    max_disagreement: f32,
+    max_speed_disagreement_rpm: f32,
+    loss_steps: u32,
+    stall_steps: u32,
+}
+
+/// Running state of the drive.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DriveState {
+    /// Mode.
+    pub mode: Mode,
+    /// Latched fault.
+    pub fault: Option<Fault>,
+    /// Steps spent in the current mode.
+    pub mode_steps: u32,
+    /// FOC integrators.
+    pub foc: FocState,
+    /// Sliding observer.
+    pub sliding: SlidingState,
+    /// Flux observer.
+    pub flux: FluxState,
+    /// PLL on the flux observer's angle.
+    pub pll: PllState,
+    /// Open-loop angle [rad, electrical].
+    pub theta_ol: f32,
+    /// Open-loop speed [rpm, mechanical].
+    pub speed_ol_rpm: f32,
+    /// Slewed speed reference [rpm].
+    pub speed_ref_rpm: f32,
+    /// Voltage applied over the period that just ended [V].
+    pub v_ab_last: AlphaBeta,
+    /// Consecutive steps of hand-over agreement.
+    pub agree_steps: u32,
+    /// Steps since the ramp passed the hand-over speed without a hand-over.
+    pub waiting_steps: u32,
+    /// Consecutive steps of observer disagreement.
+    pub disagree_steps: u32,
+    /// Consecutive steps of collapsed speed.
+    pub collapse_steps: u32,
+}
+
+impl Default for DriveState {
+    fn default() -> Self {
+        Self {
+            mode: Mode::Idle,
+            fault: None,
+            mode_steps: 0,
+            foc: FocState::default(),
+            sliding: SlidingState::default(),
+            flux: FluxState::default(),
+            pll: PllState::default(),
+            theta_ol: 0.0,
+            speed_ol_rpm: 0.0,
+            speed_ref_rpm: 0.0,
+            v_ab_last: AlphaBeta::default(),
+            agree_steps: 0,
+            waiting_steps: 0,
+            disagree_steps: 0,
+            collapse_steps: 0,
+        }
+    }
+}
+
+/// Both observers' view of the rotor this step.
+#[derive(Clone, Copy, Debug)]
+struct Views {
+    theta_primary: f32,
+    omega_primary: f32,
+    theta_monitor: f32,
+    omega_monitor: f32,
+}
+
+/// `x` moved toward `target` by at most `step`.
+fn slew(x: f32, target: f32, step: f32) -> f32 {
+    x + clamp(target - x, -step, step)
+}
+
+impl Drive {
+    /// One control period. Never panics, never returns a duty outside [0, 1]; any fault turns
+    /// the PWM off in the same step.
+    pub fn step(&self, st: &mut DriveState, input: &DriveInput, cmd: &Command) -> DriveOutput {
+        let from = st.mode;
+        let mut reason = None;
+        // 1. Input checks (a fault is latched until cleared).
+        if st.mode != Mode::Fault {
+            if let Some(f) = self.check_input(st.mode, input) {
+                reason = Some(self.enter_fault(st, f));
+            }
+        }
+        // 2. Commands.
+        match st.mode {
+            Mode::Fault if cmd.clear_fault => {
+                *st = DriveState::default();
+                reason = Some(Reason::Cleared);
+            }
+            Mode::Fault => {}
+            Mode::Idle if cmd.enable && cmd.speed_rpm != 0.0 => {
+                *st = DriveState {
+                    mode: Mode::Align,
+                    ..DriveState::default()
+                };
+                reason = Some(Reason::Enabled);
+            }
+            Mode::Idle => {}
+            _ if !cmd.enable => {
+                *st = DriveState::default();
+                reason = Some(Reason::Disabled);
+            }
+            _ => {}
+        }
+        // 3. Control.
+        let i_ab = input.i_abc.to_alpha_beta();
+        let mut telemetry = Telemetry {
+            mode: st.mode,
+            fault: st.fault,
+            ..Telemetry::default()
+        };
+        let duties = match st.mode {
+            Mode::Idle | Mode::Fault => None,
+            Mode::Align | Mode::OpenLoop | Mode::Sensorless => {
+                let views = self.observe(st, i_ab);
+                let (duties, r) = self.control(st, input, cmd, views, &mut telemetry);
+                if r.is_some() {
+                    reason = r;
+                }
+                duties
+            }
+        };
+        if reason.is_some() && st.mode != from {
+            st.mode_steps = 0;
+        } else {
+            st.mode_steps = st.mode_steps.saturating_add(1);
+        }
+        telemetry.mode = st.mode;
+        telemetry.fault = st.fault;
+        DriveOutput {
+            duties: if st.mode == Mode::Fault { None } else { duties },
+            transition: reason.filter(|_| st.mode != from).map(|reason| Transition {
+                from,
+                to: st.mode,
+                reason,
+            }),
+            telemetry,
+        }
+    }
+
+    /// Faults that a sample alone shows.
+    fn check_input(&self, mode: Mode, input: &DriveInput) -> Option<Fault> {
+        let i = input.i_abc;
+        let l = &self.limits;
+        if input.overrun {
+            return Some(Fault::Overrun);
+        }
+        if !i.is_finite() || !input.v_bus.is_finite() {
+            return Some(Fault::InvalidInput);
+        }
+        let i_peak = i.a.abs().max(i.b.abs()).max(i.c.abs());
+        if i_peak > l.i_sense_max_a {
+            return Some(Fault::InvalidInput);
+        }
+        if i_peak > l.i_trip_a {
+            return Some(Fault::Overcurrent);
+        }
+        if input.v_bus > l.bus_max_v {
+            return Some(Fault::BusOvervoltage);
+        }
+        // Under-voltage only matters while switching.
+        if mode != Mode::Idle && input.v_bus < l.bus_min_v {
+            return Some(Fault::BusUndervoltage);
+        }
+        None
+    }
+
+    fn enter_fault(&self, st: &mut DriveState, fault: Fault) -> Reason {
+        st.mode = Mode::Fault;
+        st.fault = Some(fault);
+        Reason::Fault(fault)
+    }
+
+    /// Runs both observers on this sample.
+    fn observe(&self, st: &mut DriveState, i_ab: AlphaBeta) -> Views {
+        let v = st.v_ab_last;
+        self.sliding.update(&mut st.sliding, i_ab, v);
+        self.flux.update(&mut st.flux, i_ab, v);
+        let omega_pll = self.pll.update(&mut st.pll, st.flux.theta_e) / self.n;
+        let (sl, fl) = (
+            (st.sliding.theta_e, st.sliding.omega_m),
+            (st.flux.theta_e, omega_pll),
+        );
+        let (p, m) = match self.primary {
+            Primary::SlidingTorque => (sl, fl),
+            Primary::Flux => (fl, sl),
+        };
+        Views {
+            theta_primary: p.0,
+            omega_primary: p.1,
+            theta_monitor: m.0,
+            omega_monitor: m.1,
+        }
+    }
+
+    /// Restarts both observers at a known rotor state.
+    fn reset_observers(&self, st: &mut DriveState, i_ab: AlphaBeta, theta_e: f32, omega_m: f32) {
+        self.sliding.reset(&mut st.sliding, i_ab, theta_e, omega_m);
+        self.flux.reset(&mut st.flux, i_ab, theta_e);
+        self.pll.reset(&mut st.pll, theta_e, omega_m * self.n);
+    }
+
+    /// Mode logic and the current/speed loops; returns the duties and a mode-change reason.
+    fn control(
+        &self,
+        st: &mut DriveState,
+        input: &DriveInput,
+        cmd: &Command,
+        views: Views,
+        tel: &mut Telemetry,
+    ) -> (Option<Duties>, Option<Reason>) {
+        let i_ab = input.i_abc.to_alpha_beta();
+        let cmd_rpm = if cmd.speed_rpm.is_finite() {
+            cmd.speed_rpm
+        } else {
+            0.0
+        };
+        let mut reason = None;
+        let disagreement = wrap_pi(views.theta_primary - views.theta_monitor).abs();
+        let speed_disagreement = (views.omega_primary - views.omega_monitor).abs() / RAD_S_PER_RPM;
+        tel.theta_e_primary = views.theta_primary;
+        tel.theta_e_monitor = views.theta_monitor;
+        tel.disagreement_deg = disagreement / RAD_PER_DEG;
+        tel.speed_disagreement_rpm = speed_disagreement;
+        tel.load_nm = st.sliding.load_nm;
+        tel.ks_min_est = st.sliding.w.alpha.abs().max(st.sliding.w.beta.abs());
+        // (angle, speed [rad/s], current command) for the FOC this step.
+        let (theta, omega_m, i_ref, speed_loop) = match st.mode {
+            Mode::Align => {
+                if st.mode_steps + 1 >= self.align_steps {
+                    // Rotor at θ_e = 0, at rest: start the observers there.
+                    self.reset_observers(st, i_ab, 0.0, 0.0);
+                    st.mode = Mode::OpenLoop;
+                    st.theta_ol = 0.0;
+                    st.speed_ol_rpm = 0.0;
+                    reason = Some(Reason::Aligned);
+                }
+                (0.0, 0.0, Dq::new(self.align_current_a, 0.0), false)
+            }
+            Mode::OpenLoop => {
+                let before = st.speed_ol_rpm;
+                st.speed_ol_rpm = slew(st.speed_ol_rpm, cmd_rpm, self.accel_per_step);
+                st.speed_ref_rpm = st.speed_ol_rpm;
+                let omega = st.speed_ol_rpm * RAD_S_PER_RPM;
+                st.theta_ol = wrap_pi(st.theta_ol + self.n * omega * self.ts);
+                let half = 0.5 * self.handover_rpm;
+                if before.abs() < half && st.speed_ol_rpm.abs() >= half {
+                    // Half-way to the hand-over speed the rotor turns with θ_ol (behind it by
+                    // the load angle): restart the observers there, where they can see it.
+                    self.reset_observers(st, i_ab, st.theta_ol, st.speed_ol_rpm * RAD_S_PER_RPM);
+                }
+                let fast_enough = st.speed_ol_rpm.abs() >= self.handover_rpm;
+                // The configured observer follows the open-loop angle, and the monitor agrees
+                // with it within half the limits the sensorless health check applies.
+                let agrees = wrap_pi(views.theta_primary - st.theta_ol).abs() < self.handover_tol
+                    && disagreement < 0.5 * self.max_disagreement
+                    && speed_disagreement < 0.5 * self.max_speed_disagreement_rpm;
+                st.agree_steps = if fast_enough && agrees {
+                    st.agree_steps + 1
+                } else {
+                    0
+                };
+                st.waiting_steps = if fast_enough {
+                    st.waiting_steps.saturating_add(1)
+                } else {
+                    0
+                };
+                if cmd_rpm == 0.0 && st.speed_ol_rpm == 0.0 {
+                    *st = DriveState::default();
+                    return (None, Some(Reason::Stopped));
+                }
+                if st.agree_steps >= self.handover_steps {
+                    // Start the speed loop from the torque the open-loop current makes in the
+                    // observer's frame, and the reference from the observed speed.
+                    let i_ol = self.open_loop_current_a;
+                    st.foc.speed.integral =
+                        i_ol * SinCos::of(st.theta_ol - views.theta_primary).sin;
+                    st.foc.i_q_ref = st.foc.speed.integral;
+                    st.foc.tick = 0;
+                    st.speed_ref_rpm = views.omega_primary / RAD_S_PER_RPM;
+                    st.mode = Mode::Sensorless;
+                    st.disagree_steps = 0;
+                    st.collapse_steps = 0;
+                    reason = Some(Reason::HandOver);
+                } else if st.waiting_steps >= self.handover_timeout_steps {
+                    return (None, Some(self.enter_fault(st, Fault::Stall)));
+                }
+                (
+                    st.theta_ol,
+                    omega,
+                    Dq::new(self.open_loop_current_a, 0.0),
+                    false,
+                )
+            }
+            Mode::Sensorless => {
+                st.speed_ref_rpm = slew(st.speed_ref_rpm, cmd_rpm, self.accel_per_step);
+                let speed = views.omega_primary / RAD_S_PER_RPM;
+                // Health: the two observers must agree.
+                let disagree = disagreement > self.max_disagreement
+                    || speed_disagreement > self.max_speed_disagreement_rpm;
+                st.disagree_steps = if disagree { st.disagree_steps + 1 } else { 0 };
+                if st.disagree_steps >= self.loss_steps {
+                    return (None, Some(self.enter_fault(st, Fault::ObserverLoss)));
+                }
+                // Stall: the speed collapsed although the reference asks for speed.
+                let collapsed =
+                    speed.abs() < self.handback_rpm && st.speed_ref_rpm.abs() > self.handover_rpm;
+                st.collapse_steps = if collapsed { st.collapse_steps + 1 } else { 0 };
+                if st.collapse_steps >= self.stall_steps {
+                    return (None, Some(self.enter_fault(st, Fault::Stall)));
+                }
+                if st.speed_ref_rpm.abs() < self.handback_rpm && speed.abs() < self.handback_rpm {
+                    st.mode = Mode::OpenLoop;
+                    st.theta_ol = views.theta_primary;
+                    st.speed_ol_rpm = speed;
+                    st.agree_steps = 0;
+                    st.waiting_steps = 0;
+                    reason = Some(Reason::HandBack);
+                }
+                (
+                    views.theta_primary,
+                    views.omega_primary,
+                    Dq::default(),
+                    true,
+                )
+            }
+            Mode::Idle | Mode::Fault => return (None, reason),
+        };
+        let foc_in = FocInput {
+            i_abc: input.i_abc,
+            v_bus: input.v_bus,
+            theta_e: theta,
+            omega_m,
+            omega_m_ref: st.speed_ref_rpm * RAD_S_PER_RPM,
+            torque_ff_nm: match self.primary {
+                Primary::SlidingTorque if speed_loop => st.sliding.load_nm,
+                _ => 0.0,
+            },
+        };
+        let out = if speed_loop {
+            self.foc.step(&mut st.foc, &foc_in)
+        } else {
+            let mut current: CurrentLoopState = st.foc.current;
+            let out = self.foc.current_step(&mut current, &foc_in, i_ref);
+            st.foc.current = current;
+            out
+        };
+        st.v_ab_last = out.v_ab;
+        tel.theta_e_control = theta;
+        tel.speed_rpm = omega_m / RAD_S_PER_RPM;
+        tel.speed_ref_rpm = st.speed_ref_rpm;
+        tel.i_d = out.i_dq.d;
+        tel.i_q = out.i_dq.q;
+        (Some(out.duties), reason)
+    }
+}

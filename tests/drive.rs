@@ -1,0 +1,279 @@
+//! The drive: start from standstill, stop and reverse, faults, and a property test of `step`.
+
+use pmsm_host_sim::observer::ObserverKind;
+use pmsm_host_sim::profile::Pwl;
+use pmsm_host_sim::scenario::{self, Scenario};
+use pmsm_host_sim::sim::{run, SimConfig};
+use pmsm_host_sim::summary::Summary;
+use pmsm_sensorless::drive::{Command, DriveConfig, DriveInput, DriveState, Mode, Primary};
+use pmsm_sensorless::frames::Abc;
+use pmsm_sensorless::motor::{ParamError, HORNG_SINANO};
+use proptest::prelude::*;
+use proptest::test_runner::{Config, RngSeed};
+
+fn summary(sc: Scenario, kind: ObserverKind, noise_a: f64) -> Summary {
+    let mut cfg = SimConfig::new(sc, kind);
+    cfg.noise_sigma_a = noise_a;
+    Summary::of(&run(cfg).unwrap())
+}
+
+#[test]
+fn start_stop_reverse_and_test_motor_with_both_observers() {
+    for sc in [scenario::start_stop_reverse(), scenario::start_test_motor()] {
+        for kind in [ObserverKind::SlidingTorque, ObserverKind::Flux] {
+            for noise in [0.0, 0.01] {
+                let s = summary(sc.clone(), kind, noise);
+                println!(
+                    "{} {} noise {noise}: hand-overs at {:?} s, lowest sensorless speed {:.1} rpm",
+                    sc.name,
+                    kind.name(),
+                    s.handovers_s,
+                    s.lowest_sensorless_rpm.unwrap_or(f64::NAN)
+                );
+                assert_eq!(s.fault, None, "{} {} {noise}", sc.name, kind.name());
+                assert!(!s.lost_lock, "{} {} {noise}", sc.name, kind.name());
+                for (name, w) in &s.windows {
+                    let w = w.as_ref().unwrap();
+                    let rel = w.speed_err_mean_rpm / w.speed_cmd_mean_rpm;
+                    println!(
+                        "  {name}: speed error {:+.4} %, mean |θ err| {:.3}°",
+                        100.0 * rel,
+                        w.theta_err_mean_abs_deg_e
+                    );
+                    assert!(
+                        rel.abs() < 0.01,
+                        "{} {} {noise} {name}: {rel}",
+                        sc.name,
+                        kind.name()
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn faults_turn_the_pwm_off_in_time() {
+    // Overcurrent, bus and invalid samples within one step of the cause; observer loss within
+    // the disagreement time (20 ms = 80 steps) plus the steps the disagreement needs to build.
+    let cases = [
+        (scenario::fault_overcurrent(), "overcurrent", 1),
+        (scenario::fault_bus_undervoltage(), "bus_undervoltage", 1),
+        (scenario::fault_nan_current(), "invalid_input", 1),
+        (scenario::fault_observer_loss(), "observer_loss", 80 + 20),
+    ];
+    for (sc, fault, max_steps) in cases {
+        for kind in [ObserverKind::SlidingTorque, ObserverKind::Flux] {
+            let r = run(SimConfig::new(sc.clone(), kind)).unwrap();
+            let s = Summary::of(&r);
+            println!(
+                "{} {}: fault {:?} after {:?} steps",
+                sc.name,
+                kind.name(),
+                s.fault,
+                s.fault_step
+            );
+            assert_eq!(
+                s.fault.as_deref(),
+                Some(fault),
+                "{} {}",
+                sc.name,
+                kind.name()
+            );
+            assert!(
+                s.fault_step.unwrap() <= max_steps,
+                "{}: {:?}",
+                sc.name,
+                s.fault_step
+            );
+            // PWM stays off from the fault on: no voltage applied.
+            let t_fault = s.transitions.last().unwrap().t;
+            assert!(r
+                .rows
+                .iter()
+                .filter(|x| x.t > t_fault)
+                .all(|x| x.v_alpha == 0.0 && x.v_beta == 0.0));
+        }
+    }
+}
+
+#[test]
+fn direct_reversal_passes_through_open_loop() {
+    let mut sc = scenario::start_stop_reverse();
+    sc.speed_cmd_rpm = Pwl::new(vec![(0.0, 500.0), (1.5, 500.0), (1.5, -500.0)]);
+    sc.duration_s = 3.5;
+    sc.windows = vec![
+        scenario::Window::new("w500", 1.0, 1.5),
+        scenario::Window::new("w_neg500_loaded", 3.0, 3.5),
+    ];
+    for kind in [ObserverKind::SlidingTorque, ObserverKind::Flux] {
+        let s = summary(sc.clone(), kind, 0.0);
+        let reasons: Vec<_> = s.transitions.iter().map(|t| t.reason.as_str()).collect();
+        println!("{}: {reasons:?}", kind.name());
+        assert_eq!(
+            reasons,
+            ["Enabled", "Aligned", "HandOver", "HandBack", "HandOver"]
+        );
+        assert!(!s.lost_lock && s.fault.is_none());
+        for w in s.windows.values() {
+            let w = w.as_ref().unwrap();
+            assert!((w.speed_err_mean_rpm / w.speed_cmd_mean_rpm).abs() < 0.01);
+        }
+    }
+}
+
+#[test]
+fn a_locked_rotor_is_a_stall() {
+    let mut sc = scenario::start_stop_reverse();
+    sc.load_shape = Pwl::constant(1.0);
+    sc.load_nm = 5.0; // far beyond what the open-loop current can move
+    sc.duration_s = 2.0;
+    let s = summary(sc, ObserverKind::Flux, 0.0);
+    assert_eq!(s.fault.as_deref(), Some("stall"));
+}
+
+#[test]
+fn impossible_settings_name_the_field() {
+    let base = DriveConfig::new(&HORNG_SINANO, Primary::Flux);
+    assert!(base.build().is_ok());
+    let mut c = base;
+    c.limits.i_trip_a = 0.5 * c.limits.i_max_a;
+    assert_eq!(
+        c.build().unwrap_err(),
+        ParamError::NotPositive("i_trip_a - i_max_a")
+    );
+    let mut c = base;
+    c.start.handover_rpm = 10.0;
+    assert_eq!(
+        c.build().unwrap_err(),
+        ParamError::NotPositive("handover_rpm - handback_rpm")
+    );
+    let mut c = base;
+    // K_s = 1000π above (K_s,max)_E2 = 2456 A/s at a rated speed of 500 rpm.
+    c.rated_speed_rpm = 500.0;
+    assert_eq!(c.build().unwrap_err(), ParamError::OutOfRange("ks"));
+    let mut c = base;
+    c.motor.l_h = f32::NAN;
+    assert_eq!(c.build().unwrap_err(), ParamError::NotFinite("l_h"));
+}
+
+#[test]
+fn a_fault_latches_until_cleared() {
+    let drive = DriveConfig::new(&HORNG_SINANO, Primary::SlidingTorque)
+        .build()
+        .unwrap();
+    let mut st = DriveState::default();
+    let ok = DriveInput {
+        i_abc: Abc::default(),
+        v_bus: 48.0,
+        overrun: false,
+    };
+    let run = Command {
+        enable: true,
+        speed_rpm: 500.0,
+        clear_fault: false,
+    };
+    assert!(drive.step(&mut st, &ok, &run).duties.is_some());
+    let out = drive.step(
+        &mut st,
+        &DriveInput {
+            overrun: true,
+            ..ok
+        },
+        &run,
+    );
+    assert!(out.duties.is_none());
+    assert_eq!(st.mode, Mode::Fault);
+    for _ in 0..10 {
+        assert!(drive.step(&mut st, &ok, &run).duties.is_none(), "latched");
+    }
+    let out = drive.step(
+        &mut st,
+        &ok,
+        &Command {
+            clear_fault: true,
+            ..run
+        },
+    );
+    assert!(out.duties.is_none());
+    assert_eq!(st.mode, Mode::Idle);
+    assert!(
+        drive.step(&mut st, &ok, &run).duties.is_some(),
+        "runs again after clearing"
+    );
+}
+
+fn wild_f32() -> impl Strategy<Value = f32> {
+    prop_oneof![
+        4 => -10.0f32..10.0,
+        1 => -1e3f32..1e3,
+        1 => Just(f32::NAN),
+        1 => Just(f32::INFINITY),
+        1 => Just(f32::NEG_INFINITY),
+        1 => Just(0.0f32),
+        1 => Just(f32::MAX),
+        1 => Just(-f32::MAX),
+        1 => Just(f32::MIN_POSITIVE),
+    ]
+}
+
+fn bus() -> impl Strategy<Value = f32> {
+    prop_oneof![4 => Just(48.0f32), 2 => 0.0f32..100.0, 1 => wild_f32()]
+}
+
+fn step_input() -> impl Strategy<Value = (DriveInput, Command)> {
+    (
+        wild_f32(),
+        wild_f32(),
+        wild_f32(),
+        bus(),
+        prop::bool::weighted(0.01),
+        wild_f32(),
+        prop::bool::weighted(0.9),
+        prop::bool::weighted(0.05),
+    )
+        .prop_map(
+            |(a, b, c, v_bus, overrun, speed_rpm, enable, clear_fault)| {
+                (
+                    DriveInput {
+                        i_abc: Abc::new(a, b, c),
+                        v_bus,
+                        overrun,
+                    },
+                    Command {
+                        enable,
+                        speed_rpm,
+                        clear_fault,
+                    },
+                )
+            },
+        )
+}
+
+proptest! {
+    #![proptest_config(Config {
+        cases: 10_000,
+        rng_seed: RngSeed::Fixed(0xd21e),
+        failure_persistence: None,
+        ..Config::default()
+    })]
+
+    /// 10,000 random sequences of samples and commands, NaN, ±Inf, huge values and zero bus
+    /// included: `step` never panics and never returns a duty outside [0, 1].
+    #[test]
+    fn step_never_panics_and_duties_stay_in_range(seq in prop::collection::vec(step_input(), 1..60), primary in prop_oneof![Just(Primary::SlidingTorque), Just(Primary::Flux)]) {
+        let drive = DriveConfig::new(&HORNG_SINANO, primary).build().unwrap();
+        let mut st = DriveState::default();
+        for (input, cmd) in &seq {
+            let out = drive.step(&mut st, input, cmd);
+            if let Some(d) = out.duties {
+                for x in [d.a, d.b, d.c] {
+                    prop_assert!((0.0..=1.0).contains(&x), "duty {x}");
+                }
+            }
+            if st.mode == Mode::Fault {
+                prop_assert!(out.duties.is_none());
+            }
+        }
+    }
+}
