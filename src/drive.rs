@@ -81,8 +81,8 @@ pub struct HealthConfig {
     pub max_speed_disagreement_rpm: f32,
     /// A disagreement must last this long to be an observer loss [s].
     pub loss_time_s: f32,
-    /// Speed collapse: |ω̂| below `handback_rpm` while the reference asks for more than
-    /// `handover_rpm`, for this long, is a stall [s].
+    /// Speed collapse: the speed loop at its current limit with |ω̂| below half the reference
+    /// for this long is a stall [s].
     pub stall_time_s: f32,
 }
 
@@ -116,7 +116,7 @@ impl DriveConfig {
     /// 0.2 s and up the ramp; ramp 1000 rpm/s; hand-over above 10 % of rated speed when the
     /// angle agrees within 30° for 20 ms; hand-back below 6 %; observer loss after 30° or
     /// 10 % of rated speed disagreement for 20 ms; stall after 1 s without hand-over or
-    /// 0.5 s of collapsed speed.
+    /// 0.1 s at the current limit below half the speed reference.
     pub fn new(motor: &Motor, primary: Primary) -> Self {
         let i_rated = motor.rated_torque_current_a();
         let i_max = 1.5 * i_rated;
@@ -151,7 +151,7 @@ impl DriveConfig {
                 max_disagreement_deg: 30.0,
                 max_speed_disagreement_rpm: 0.1 * speed,
                 loss_time_s: 0.02,
-                stall_time_s: 0.5,
+                stall_time_s: 0.1,
             },
             rated_speed_rpm: speed,
         }
@@ -711,9 +711,10 @@ impl Drive {
                 if st.disagree_steps >= self.loss_steps {
                     return (None, Some(self.enter_fault(st, Fault::ObserverLoss)));
                 }
-                // Stall: the speed collapsed although the reference asks for speed.
-                let collapsed =
-                    speed.abs() < self.handback_rpm && st.speed_ref_rpm.abs() > self.handover_rpm;
+                // Stall: the speed loop is at its current limit and the speed has fallen below
+                // half the reference (the load is more than the motor can carry).
+                let at_limit = st.foc.i_q_ref.abs() >= 0.99 * self.limits.i_max_a;
+                let collapsed = at_limit && speed.abs() < 0.5 * st.speed_ref_rpm.abs();
                 st.collapse_steps = if collapsed { st.collapse_steps + 1 } else { 0 };
                 if st.collapse_steps >= self.stall_steps {
                     return (None, Some(self.enter_fault(st, Fault::Stall)));

@@ -133,6 +133,19 @@ fn a_locked_rotor_is_a_stall() {
 }
 
 #[test]
+fn a_speed_collapse_under_load_is_a_stall() {
+    // The load rises slowly to 5 N·m, more than the test motor's 1.5× current limit can
+    // make (4.5 N·m): the speed sags at the current limit while the observers still agree.
+    let mut sc = scenario::start_test_motor();
+    sc.load_shape = Pwl::ramp(1.5, 0.0, 2.5, 1.0);
+    sc.load_nm = 5.0;
+    sc.duration_s = 3.5;
+    let s = summary(sc, ObserverKind::Flux, 0.0);
+    println!("{:?}", s.transitions.last());
+    assert_eq!(s.fault.as_deref(), Some("stall"));
+}
+
+#[test]
 fn impossible_settings_name_the_field() {
     let base = DriveConfig::new(&HORNG_SINANO, Primary::Flux);
     assert!(base.build().is_ok());
