@@ -290,3 +290,10 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn telemetry_is_a_small_fixed_size_record() {
+    let size = std::mem::size_of::<pmsm_sensorless::drive::Telemetry>();
+    println!("Telemetry: {size} bytes");
+    assert!(size <= 64, "{size}");
+}

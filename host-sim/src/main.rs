@@ -368,6 +368,22 @@ fn run(args: RunArgs) -> anyhow::Result<String> {
             None => outln!(out, "{name:<12} (not reached)"),
         }
     }
+    for tr in &summary.transitions {
+        outln!(
+            out,
+            "{:>9.4} s  {} -> {} ({})",
+            tr.t,
+            tr.from,
+            tr.to,
+            tr.reason
+        );
+    }
+    if let Some(k) = summary.fault_step {
+        outln!(out, "fault {} steps after its cause", k);
+    }
+    if let Some(v) = summary.lowest_sensorless_rpm {
+        outln!(out, "lowest sensorless speed {v:.1} rpm");
+    }
     outln!(out, "plot: {}", png.display());
     outln!(out, "csv:  {}", csv.display());
     outln!(out,

@@ -84,6 +84,23 @@ pub fn write_plot(run: &Run, path: &Path) -> anyhow::Result<()> {
             y: &load_hat,
         });
     }
+    let monitor_err = col(&|r| {
+        r.theta_e_monitor_deg
+            .map_or(f64::NAN, |m| crate::sim::wrap_deg(m - r.theta_e_deg))
+    });
+    let mut angle_series = vec![Series {
+        label: "θ_e error",
+        x: &t,
+        y: &theta_err,
+    }];
+    if rows.iter().any(|r| r.theta_e_monitor_deg.is_some()) {
+        angle_series[0].label = "configured observer";
+        angle_series.push(Series {
+            label: "monitor observer",
+            x: &t,
+            y: &monitor_err,
+        });
+    }
     let ks = col(&|r| r.ks.unwrap_or(f64::NAN));
     let ks_min = col(&|r| r.ks_min.unwrap_or(f64::NAN));
     let s_a = col(&|r| r.s_a.unwrap_or(f64::NAN));
@@ -112,11 +129,7 @@ pub fn write_plot(run: &Run, path: &Path) -> anyhow::Result<()> {
         Panel {
             title: "Position error: estimated − true θ_e",
             y_label: "deg (electrical)",
-            series: vec![Series {
-                label: "θ_e error",
-                x: &t,
-                y: &theta_err,
-            }],
+            series: angle_series,
         },
         Panel {
             title: "Stator current, true rotor frame",
