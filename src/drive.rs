@@ -26,6 +26,7 @@ const RAD_S_PER_RPM: f32 = PI / 30.0;
 const RAD_PER_DEG: f32 = PI / 180.0;
 
 /// Which observer feeds the controller; the other one runs beside it as a monitor.
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Primary {
     /// Horng & Chin torque observer: θ̂, ω̂ and τ̂_L (fed forward in the speed loop).
@@ -185,7 +186,14 @@ impl DriveConfig {
         )?;
         positive("handover_tol_deg", s.handover_tol_deg)?;
         positive("handover_hold_s", s.handover_hold_s)?;
-        positive("handover_timeout_s", s.handover_timeout_s)?;
+        positive(
+            "handover_timeout_s - handover_hold_s",
+            s.handover_timeout_s - s.handover_hold_s,
+        )?;
+        if s.align_time_s * rate < 2.0 {
+            return Err(ParamError::OutOfRange("align_time_s"));
+        }
+        positive("rated_speed_rpm", self.rated_speed_rpm)?;
         positive("max_disagreement_deg", h.max_disagreement_deg)?;
         positive("max_speed_disagreement_rpm", h.max_speed_disagreement_rpm)?;
         positive("loss_time_s", h.loss_time_s)?;
@@ -204,7 +212,9 @@ impl DriveConfig {
         let sliding = sliding_cfg.build()?;
         // K_s inside its bounds (Horng & Chin Sec 4): below the discrete-time bound, whose
         // binding eigenvalue is −(R/L + K_s/ε) ((K_s,max)_T = ε(2/T − R/L)), and below
-        // (K_s,max)_E2 at the rated speed.
+        // (K_s,max)_E2 at the rated speed. E2 grows with speed: the paper's constant
+        // K_s = 1000π exceeds it below about 620 rpm on the Sinano motor, where the (always
+        // unstable) second equilibrium exists, as in the paper's own experiment.
         if let crate::observer::sliding::SlidingGain::Constant(ks) = sliding_cfg.ks {
             let eps = sliding_cfg.epsilon_a;
             let ks_max_t = eps * (2.0 * rate - m.r_ohm / m.l_h);
@@ -230,6 +240,7 @@ impl DriveConfig {
             primary: self.primary,
             ts,
             n: m.n(),
+            inv_kt: 1.0 / m.torque_constant(),
             limits: l,
             align_current_a: s.align_current_a,
             align_steps: steps(s.align_time_s).max(1),
@@ -249,6 +260,7 @@ impl DriveConfig {
 }
 
 /// Operating mode.
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Mode {
     /// PWM off, waiting for enable.
@@ -265,6 +277,7 @@ pub enum Mode {
 }
 
 /// Why the drive stopped switching.
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Fault {
     /// A phase current beyond `i_trip_a`.
@@ -275,7 +288,8 @@ pub enum Fault {
     BusOvervoltage,
     /// A non-finite sample, or a current beyond the sensing range.
     InvalidInput,
-    /// The observers disagreed beyond the limits for longer than `loss_time_s`.
+    /// The observers disagreed beyond the limits for longer than `loss_time_s`, or one of them
+    /// could not update (its state would have become non-finite) while sensorless.
     ObserverLoss,
     /// No hand-over after the ramp, or the speed collapsed under load.
     Stall,
@@ -284,6 +298,7 @@ pub enum Fault {
 }
 
 /// Why the mode changed.
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Reason {
     /// Enable command.
@@ -305,6 +320,7 @@ pub enum Reason {
 }
 
 /// One mode change, for the log.
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Transition {
     /// Mode before.
@@ -334,11 +350,13 @@ pub struct Command {
     pub enable: bool,
     /// Speed command [rpm, mechanical]; the drive slews to it.
     pub speed_rpm: f32,
-    /// Clear a latched fault (back to idle).
+    /// Clear a latched fault (back to idle); the drive then starts again only after `enable`
+    /// has been low.
     pub clear_fault: bool,
 }
 
 /// Small fixed-size record for the log, to be pushed at a low rate.
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Telemetry {
     /// Mode.
@@ -361,7 +379,9 @@ pub struct Telemetry {
     pub i_q: f32,
     /// Load-torque estimate of the sliding observer [N·m].
     pub load_nm: f32,
-    /// K_s,min estimated from the equivalent injection, eqs (28)-(30): max |w| [A/s].
+    /// max(|w_a|, |w_b|) of the sliding observer [A/s]: while it slides this is the bracket of
+    /// eq (28) (the equivalent injection (29)-(30)), i.e. K_s,min; it cannot exceed K_s, so a
+    /// value at K_s means the sliding mode is lost.
     pub ks_min_est: f32,
     /// Health: |θ̂_primary − θ̂_monitor| [deg, electrical].
     pub disagreement_deg: f32,
@@ -390,6 +410,8 @@ pub struct Drive {
     primary: Primary,
     ts: f32,
     n: f32,
+    /// 1/(N ψ_f) [A/(N·m)].
+    inv_kt: f32,
     limits: Limits,
     align_current_a: f32,
     align_steps: u32,
@@ -440,6 +462,8 @@ pub struct DriveState {
     pub disagree_steps: u32,
     /// Consecutive steps of collapsed speed.
     pub collapse_steps: u32,
+    /// False after a fault is cleared until the enable command has been seen low.
+    pub armed: bool,
 }
 
 impl Default for DriveState {
@@ -460,6 +484,7 @@ impl Default for DriveState {
             waiting_steps: 0,
             disagree_steps: 0,
             collapse_steps: 0,
+            armed: true,
         }
     }
 }
@@ -467,6 +492,8 @@ impl Default for DriveState {
 /// Both observers' view of the rotor this step.
 #[derive(Clone, Copy, Debug)]
 struct Views {
+    /// Both observers produced a finite update this step.
+    ok: bool,
     theta_primary: f32,
     omega_primary: f32,
     theta_monitor: f32,
@@ -484,20 +511,31 @@ impl Drive {
     pub fn step(&self, st: &mut DriveState, input: &DriveInput, cmd: &Command) -> DriveOutput {
         let from = st.mode;
         let mut reason = None;
-        // 1. Input checks (a fault is latched until cleared).
-        if st.mode != Mode::Fault {
-            if let Some(f) = self.check_input(st.mode, input) {
+        // A start needs the enable command to have been low since the last fault was cleared.
+        if !cmd.enable {
+            st.armed = true;
+        }
+        let starting = from == Mode::Idle && cmd.enable && st.armed && cmd.speed_rpm != 0.0;
+        // 1. Input checks (a fault is latched until cleared; a fault found in this very step
+        //    is never cleared by it).
+        let mut new_fault = false;
+        if from != Mode::Fault {
+            if let Some(f) = self.check_input(from, starting, input, cmd) {
                 reason = Some(self.enter_fault(st, f));
+                new_fault = true;
             }
         }
         // 2. Commands.
         match st.mode {
-            Mode::Fault if cmd.clear_fault => {
-                *st = DriveState::default();
+            Mode::Fault if cmd.clear_fault && !new_fault => {
+                *st = DriveState {
+                    armed: false,
+                    ..DriveState::default()
+                };
                 reason = Some(Reason::Cleared);
             }
             Mode::Fault => {}
-            Mode::Idle if cmd.enable && cmd.speed_rpm != 0.0 => {
+            Mode::Idle if starting => {
                 *st = DriveState {
                     mode: Mode::Align,
                     ..DriveState::default()
@@ -547,14 +585,20 @@ impl Drive {
         }
     }
 
-    /// Faults that a sample alone shows.
-    fn check_input(&self, mode: Mode, input: &DriveInput) -> Option<Fault> {
+    /// Faults that a sample (and the command) alone show. `starting`: this step leaves idle.
+    fn check_input(
+        &self,
+        mode: Mode,
+        starting: bool,
+        input: &DriveInput,
+        cmd: &Command,
+    ) -> Option<Fault> {
         let i = input.i_abc;
         let l = &self.limits;
         if input.overrun {
             return Some(Fault::Overrun);
         }
-        if !i.is_finite() || !input.v_bus.is_finite() {
+        if !i.is_finite() || !input.v_bus.is_finite() || !cmd.speed_rpm.is_finite() {
             return Some(Fault::InvalidInput);
         }
         let i_peak = i.a.abs().max(i.b.abs()).max(i.c.abs());
@@ -567,8 +611,8 @@ impl Drive {
         if input.v_bus > l.bus_max_v {
             return Some(Fault::BusOvervoltage);
         }
-        // Under-voltage only matters while switching.
-        if mode != Mode::Idle && input.v_bus < l.bus_min_v {
+        // Under-voltage only matters while switching, or about to.
+        if (mode != Mode::Idle || starting) && input.v_bus < l.bus_min_v {
             return Some(Fault::BusUndervoltage);
         }
         None
@@ -583,8 +627,8 @@ impl Drive {
     /// Runs both observers on this sample.
     fn observe(&self, st: &mut DriveState, i_ab: AlphaBeta) -> Views {
         let v = st.v_ab_last;
-        self.sliding.update(&mut st.sliding, i_ab, v);
-        self.flux.update(&mut st.flux, i_ab, v);
+        let ok_sliding = self.sliding.update(&mut st.sliding, i_ab, v);
+        let ok_flux = self.flux.update(&mut st.flux, i_ab, v);
         let omega_pll = self.pll.update(&mut st.pll, st.flux.theta_e) / self.n;
         let (sl, fl) = (
             (st.sliding.theta_e, st.sliding.omega_m),
@@ -595,6 +639,7 @@ impl Drive {
             Primary::Flux => (fl, sl),
         };
         Views {
+            ok: ok_sliding && ok_flux,
             theta_primary: p.0,
             omega_primary: p.1,
             theta_monitor: m.0,
@@ -636,7 +681,7 @@ impl Drive {
         // (angle, speed [rad/s], current command) for the FOC this step.
         let (theta, omega_m, i_ref, speed_loop) = match st.mode {
             Mode::Align => {
-                if st.mode_steps + 1 >= self.align_steps {
+                if st.mode_steps >= self.align_steps.saturating_sub(1) {
                     // Rotor at θ_e = 0, at rest: start the observers there.
                     self.reset_observers(st, i_ab, 0.0, 0.0);
                     st.mode = Mode::OpenLoop;
@@ -704,18 +749,35 @@ impl Drive {
             Mode::Sensorless => {
                 st.speed_ref_rpm = slew(st.speed_ref_rpm, cmd_rpm, self.accel_per_step);
                 let speed = views.omega_primary / RAD_S_PER_RPM;
-                // Health: the two observers must agree.
+                // Health: both observers must update, and agree.
+                if !views.ok {
+                    return (None, Some(self.enter_fault(st, Fault::ObserverLoss)));
+                }
                 let disagree = disagreement > self.max_disagreement
                     || speed_disagreement > self.max_speed_disagreement_rpm;
-                st.disagree_steps = if disagree { st.disagree_steps + 1 } else { 0 };
+                st.disagree_steps = if disagree {
+                    st.disagree_steps.saturating_add(1)
+                } else {
+                    0
+                };
                 if st.disagree_steps >= self.loss_steps {
                     return (None, Some(self.enter_fault(st, Fault::ObserverLoss)));
                 }
                 // Stall: the speed loop is at its current limit and the speed has fallen below
                 // half the reference (the load is more than the motor can carry).
                 let at_limit = st.foc.i_q_ref.abs() >= 0.99 * self.limits.i_max_a;
-                let collapsed = at_limit && speed.abs() < 0.5 * st.speed_ref_rpm.abs();
-                st.collapse_steps = if collapsed { st.collapse_steps + 1 } else { 0 };
+                // Measured along the reference's direction: turning the wrong way counts too.
+                let along = if st.speed_ref_rpm < 0.0 {
+                    -speed
+                } else {
+                    speed
+                };
+                let collapsed = at_limit && along < 0.5 * st.speed_ref_rpm.abs();
+                st.collapse_steps = if collapsed {
+                    st.collapse_steps.saturating_add(1)
+                } else {
+                    0
+                };
                 if st.collapse_steps >= self.stall_steps {
                     return (None, Some(self.enter_fault(st, Fault::Stall)));
                 }

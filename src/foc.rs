@@ -235,7 +235,7 @@ impl Foc {
                 self.speed
                     .update(&mut state.speed, input.omega_m_ref - input.omega_m, ff_a);
         }
-        state.tick += 1;
+        state.tick = state.tick.saturating_add(1);
         if state.tick >= self.speed_divider {
             state.tick = 0;
         }

@@ -57,8 +57,8 @@ impl PiConfig {
 impl Pi {
     /// One sample: `u = clamp(ff + kp·e + I)`, with `I += ki·Ts·e` only when that does not push
     /// a saturated output further into saturation. `ff` is a feed-forward added before the clamp.
-    /// A non-finite `error` or `ff` leaves the integrator untouched and returns the clamp of `ff`
-    /// treated as 0 (a safe, bounded output).
+    /// If `error` or `ff` is not finite, both are ignored: the integrator is left untouched and
+    /// the output is the clamped integral alone (bounded and finite).
     pub fn update(&self, state: &mut PiState, error: f32, ff: f32) -> f32 {
         if !error.is_finite() || !ff.is_finite() {
             return clamp(state.integral, self.out_min, self.out_max);

@@ -166,6 +166,12 @@ fn impossible_settings_name_the_field() {
     c.rated_speed_rpm = 500.0;
     assert_eq!(c.build().unwrap_err(), ParamError::OutOfRange("ks"));
     let mut c = base;
+    c.start.handover_hold_s = 2.0; // longer than the 1 s timeout: hand-over could never happen
+    assert_eq!(
+        c.build().unwrap_err(),
+        ParamError::NotPositive("handover_timeout_s - handover_hold_s")
+    );
+    let mut c = base;
     c.motor.l_h = f32::NAN;
     assert_eq!(c.build().unwrap_err(), ParamError::NotFinite("l_h"));
 }
@@ -211,9 +217,92 @@ fn a_fault_latches_until_cleared() {
     assert!(out.duties.is_none());
     assert_eq!(st.mode, Mode::Idle);
     assert!(
-        drive.step(&mut st, &ok, &run).duties.is_some(),
-        "runs again after clearing"
+        drive.step(&mut st, &ok, &run).duties.is_none(),
+        "no restart while enable is held"
     );
+    drive.step(
+        &mut st,
+        &ok,
+        &Command {
+            enable: false,
+            ..run
+        },
+    );
+    assert!(
+        drive.step(&mut st, &ok, &run).duties.is_some(),
+        "runs again after enable cycles"
+    );
+}
+
+#[test]
+fn a_fault_found_in_the_step_that_asks_to_clear_stays_latched() {
+    let drive = DriveConfig::new(&HORNG_SINANO, Primary::Flux)
+        .build()
+        .unwrap();
+    let mut st = DriveState::default();
+    let ok = DriveInput {
+        i_abc: Abc::default(),
+        v_bus: 48.0,
+        overrun: false,
+    };
+    let run = Command {
+        enable: true,
+        speed_rpm: 500.0,
+        clear_fault: true,
+    };
+    drive.step(&mut st, &ok, &run);
+    let over = DriveInput {
+        i_abc: Abc::new(10.0, -5.0, -5.0),
+        ..ok
+    }; // above the 6.75 A trip
+    let out = drive.step(&mut st, &over, &run);
+    assert!(out.duties.is_none());
+    assert_eq!(st.fault, Some(pmsm_sensorless::drive::Fault::Overcurrent));
+    assert_eq!(st.mode, Mode::Fault);
+}
+
+#[test]
+fn starting_on_a_low_bus_or_with_a_bad_command_is_a_fault() {
+    use pmsm_sensorless::drive::Fault;
+    let drive = DriveConfig::new(&HORNG_SINANO, Primary::Flux)
+        .build()
+        .unwrap();
+    let ok = DriveInput {
+        i_abc: Abc::default(),
+        v_bus: 48.0,
+        overrun: false,
+    };
+    let run = Command {
+        enable: true,
+        speed_rpm: 500.0,
+        clear_fault: false,
+    };
+    let mut st = DriveState::default();
+    let out = drive.step(&mut st, &DriveInput { v_bus: 0.0, ..ok }, &run);
+    assert!(out.duties.is_none());
+    assert_eq!(st.fault, Some(Fault::BusUndervoltage));
+    let mut st = DriveState::default();
+    let out = drive.step(
+        &mut st,
+        &ok,
+        &Command {
+            speed_rpm: f32::NAN,
+            ..run
+        },
+    );
+    assert!(out.duties.is_none());
+    assert_eq!(st.fault, Some(Fault::InvalidInput));
+    // Idle with a low bus and no start request is not a fault.
+    let mut st = DriveState::default();
+    drive.step(
+        &mut st,
+        &DriveInput { v_bus: 0.0, ..ok },
+        &Command {
+            enable: false,
+            ..run
+        },
+    );
+    assert_eq!(st.fault, None);
 }
 
 fn wild_f32() -> impl Strategy<Value = f32> {

@@ -19,7 +19,7 @@ pub struct PllConfig {
     pub rate_hz: f32,
     /// Natural frequency ω_n/2π [Hz], below `rate_hz/(4π)` (so `ω_n·T < 0.5`).
     pub bandwidth_hz: f32,
-    /// Damping ζ, > 0 (1 = critically damped).
+    /// Damping ζ, > 0 (1 = critically damped), with `2ζω_n·T < 1`.
     pub damping: f32,
 }
 
@@ -51,6 +51,10 @@ impl PllConfig {
         let ts = 1.0 / rate;
         if w_n * ts >= 0.5 {
             return Err(ParamError::OutOfRange("bandwidth_hz"));
+        }
+        // The proportional step Kp·T must stay below 1 for the discrete loop to be stable.
+        if 2.0 * zeta * w_n * ts >= 1.0 {
+            return Err(ParamError::OutOfRange("damping"));
         }
         Ok(Pll {
             ts,
