@@ -1,0 +1,8 @@
+#!/usr/bin/env bash
+# Cargo runner for the emulated Cortex-M4F: QEMU mps2-an386 with semihosting, the defmt frames
+# on its stdout decoded by defmt-print. Exits with QEMU's exit code (the firmware's verdict).
+set -euo pipefail
+elf="$1"
+qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -nographic \
+    -semihosting-config enable=on,target=native -kernel "$elf" \
+    | defmt-print -e "$elf"
