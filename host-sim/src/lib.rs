@@ -4,6 +4,7 @@
 //! sensor with seeded noise, scenarios of both papers, metrics, CSV/PNG/JSON output.
 
 pub mod bounds;
+pub mod cycles;
 pub mod inverter;
 pub mod motor_file;
 pub mod observer;

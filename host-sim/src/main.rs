@@ -40,6 +40,66 @@ enum Command {
     Bounds(BoundsArgs),
     /// Limits on the flux observer's gain γ (Ortega et al. eq (9), Proposition 4).
     Gamma(GammaArgs),
+    /// Instruction and cycle counts of the core on the emulated Cortex-M4F, firmware size.
+    Cycles(CyclesArgs),
+}
+
+#[derive(clap::Args)]
+struct CyclesArgs {
+    /// Print JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+fn cycles(args: CyclesArgs) -> anyhow::Result<String> {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .ok_or_else(|| anyhow::anyhow!("no workspace root"))?;
+    let r = pmsm_host_sim::cycles::measure(root)?;
+    let mut out = String::new();
+    if args.json {
+        outln!(out, "{}", serde_json::to_string(&r)?);
+    } else {
+        outln!(out, "Cortex-M4F (QEMU mps2-an386, one trace line per instruction), cycles at zero wait states:");
+        outln!(
+            out,
+            "  step, both observers + speed loop: {} instructions, ~{} cycles",
+            r.step_instructions,
+            r.step_cycles_est
+        );
+        outln!(
+            out,
+            "  step without the speed loop:       ~{} cycles",
+            r.step_no_speed_loop_cycles_est
+        );
+        outln!(
+            out,
+            "  sliding torque observer update:    ~{} cycles",
+            r.sliding_cycles_est
+        );
+        outln!(
+            out,
+            "  flux observer + PLL update:        ~{} cycles",
+            r.flux_cycles_est
+        );
+        outln!(
+            out,
+            "  FOC current loop + SVPWM:          ~{} cycles",
+            r.foc_svpwm_cycles_est
+        );
+        outln!(
+            out,
+            "board firmware: flash {} bytes, static RAM {} bytes",
+            r.flash_bytes,
+            r.ram_bytes
+        );
+        outln!(
+            out,
+            "f64 soft-float routines linked: {:?}",
+            r.f64_soft_float_symbols
+        );
+    }
+    Ok(out)
 }
 
 #[derive(clap::Args)]
@@ -487,6 +547,7 @@ fn main() -> ExitCode {
         Command::Run(args) => run(*args),
         Command::Bounds(args) => bounds(args),
         Command::Gamma(args) => gamma(args),
+        Command::Cycles(args) => cycles(args),
     };
     match result {
         Ok(text) => {

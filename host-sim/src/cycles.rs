@@ -1,0 +1,420 @@
+//! `pmsm-sim cycles`: deterministic per-call instruction counts of the core on the emulated
+//! Cortex-M4F, Cortex-M4 cycle estimates, and the board firmware's flash and static RAM.
+//!
+//! Method: the bench binary (`examples/qemu-m4f/src/bin/bench.rs`) calls each measured
+//! function between two marker functions. QEMU (`mps2-an386`) runs it with
+//! `-singlestep -d exec,nochain`, which logs one line per executed instruction with its PC
+//! and symbol; the instructions between a begin and an end marker are the call's (the
+//! marker call's own `bl` included). Each is weighted with the Cortex-M4 timing table
+//! (ARM DDI 0439 sec 3.3): ALU, MUL, most VFP 1; loads and stores 2 (LDRD/STRD 3); LDM,
+//! STM, PUSH, POP 1 + n (+2 when POP loads PC); taken branches 3, not taken 1; VMLA/VMLS/
+//! VFMA family 3; VDIV/VSQRT 14; VLDR/VSTR 2, VPUSH/VPOP/VLDM/VSTM 1 + n; SDIV/UDIV 12
+//! (their worst case). Flash wait states and bus contention are not modelled: the estimates
+//! are for code running at zero wait states (or from RAM/CCM).
+
+use anyhow::{bail, Context};
+use serde::Serialize;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The answer of `pmsm-sim cycles`.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct CyclesReport {
+    /// Instructions of the drive's step with both observers and the speed loop (the
+    /// costliest step, one in four).
+    pub step_instructions: u64,
+    /// Cycle estimate of that step.
+    pub step_cycles_est: u64,
+    /// Cycle estimate of a step without the speed loop.
+    pub step_no_speed_loop_cycles_est: u64,
+    /// Cycle estimate of one sliding torque observer update.
+    pub sliding_cycles_est: u64,
+    /// Cycle estimate of one flux observer update plus its PLL.
+    pub flux_cycles_est: u64,
+    /// Cycle estimate of one current-loop step with SVPWM.
+    pub foc_svpwm_cycles_est: u64,
+    /// Board firmware: flash image (vector table, code, read-only data, .data image) [bytes].
+    pub flash_bytes: u64,
+    /// Board firmware: static RAM (.data, .bss, .uninit; the stack is not counted) [bytes].
+    pub ram_bytes: u64,
+    /// f64 soft-float routines linked into the board firmware or the bench (should be none).
+    pub f64_soft_float_symbols: Vec<String>,
+}
+
+/// One instruction of the disassembly.
+struct Insn {
+    mnemonic: String,
+    operands: String,
+}
+
+fn run(cmd: &mut Command, what: &str) -> anyhow::Result<String> {
+    let out = cmd
+        .output()
+        .with_context(|| format!("{what}: could not start {:?}", cmd.get_program()))?;
+    if !out.status.success() {
+        let err = String::from_utf8_lossy(&out.stderr);
+        let last = err
+            .lines()
+            .rev()
+            .find(|l| !l.trim().is_empty())
+            .unwrap_or("");
+        bail!("{what} failed ({}): {last}", out.status);
+    }
+    Ok(String::from_utf8_lossy(&out.stdout).into_owned())
+}
+
+/// A tool of the `llvm-tools` rustup component (installed by rust-toolchain.toml).
+fn llvm_tool(root: &Path, name: &str) -> anyhow::Result<PathBuf> {
+    let sysroot = run(
+        Command::new("rustc")
+            .arg("--print")
+            .arg("sysroot")
+            .current_dir(root),
+        "rustc --print sysroot",
+    )?;
+    let host = run(
+        Command::new("rustc")
+            .arg("--print")
+            .arg("host-tuple")
+            .current_dir(root),
+        "rustc --print host-tuple",
+    )?;
+    let path = PathBuf::from(sysroot.trim())
+        .join("lib/rustlib")
+        .join(host.trim())
+        .join("bin")
+        .join(name);
+    if !path.exists() {
+        bail!(
+            "{} not found: `rustup component add llvm-tools`",
+            path.display()
+        );
+    }
+    Ok(path)
+}
+
+fn cargo_build(root: &Path, args: &[&str], what: &str) -> anyhow::Result<()> {
+    run(
+        Command::new("cargo")
+            .args(["build", "--release", "--target", "thumbv7em-none-eabihf"])
+            .args(args)
+            .current_dir(root),
+        what,
+    )
+    .map(|_| ())
+}
+
+/// PC → instruction, from `llvm-objdump -d`.
+fn disassemble(objdump: &Path, elf: &Path) -> anyhow::Result<HashMap<u32, Insn>> {
+    let text = run(
+        Command::new(objdump)
+            .args(["-d", "--no-show-raw-insn"])
+            .arg(elf),
+        "llvm-objdump",
+    )?;
+    let mut map = HashMap::new();
+    for line in text.lines() {
+        let Some((addr, rest)) = line.split_once(':') else {
+            continue;
+        };
+        let Ok(pc) = u32::from_str_radix(addr.trim(), 16) else {
+            continue;
+        };
+        let mut parts = rest.trim().splitn(2, char::is_whitespace);
+        let mnemonic = parts.next().unwrap_or("").to_ascii_lowercase();
+        if mnemonic.is_empty() || mnemonic.starts_with('<') {
+            continue;
+        }
+        let operands = parts.next().unwrap_or("").trim().to_ascii_lowercase();
+        map.insert(pc, Insn { mnemonic, operands });
+    }
+    Ok(map)
+}
+
+/// Number of registers in a `{r4-r7, lr}` or `{s16-s23}` list.
+fn register_count(operands: &str) -> u64 {
+    let Some(start) = operands.find('{') else {
+        return 1;
+    };
+    let end = operands[start..]
+        .find('}')
+        .map_or(operands.len(), |e| start + e);
+    operands[start + 1..end]
+        .split(',')
+        .map(|r| {
+            let r = r.trim();
+            match r.split_once('-') {
+                Some((a, b)) => {
+                    let num = |s: &str| {
+                        s.trim_start_matches(|c: char| c.is_alphabetic())
+                            .parse::<u64>()
+                            .ok()
+                    };
+                    match (num(a), num(b)) {
+                        (Some(x), Some(y)) if y >= x => y - x + 1,
+                        _ => 1,
+                    }
+                }
+                None => 1,
+            }
+        })
+        .sum()
+}
+
+const CONDITIONS: [&str; 14] = [
+    "eq", "ne", "cs", "hs", "cc", "lo", "mi", "pl", "vs", "vc", "hi", "ls", "ge", "lt",
+];
+
+/// Whether a mnemonic (without width suffix) is a branch.
+fn is_branch(m: &str) -> bool {
+    let base = m.split('.').next().unwrap_or(m);
+    matches!(
+        base,
+        "b" | "bl" | "bx" | "blx" | "cbz" | "cbnz" | "tbb" | "tbh"
+    ) || (base.len() == 3 && base.starts_with('b') && CONDITIONS.contains(&&base[1..]))
+        || matches!(base, "bgt" | "ble" | "bal")
+}
+
+/// Cortex-M4 cycles of one executed instruction (`taken`: control went elsewhere than the
+/// next instruction).
+fn cycles(insn: &Insn, taken: bool) -> u64 {
+    let m = insn.mnemonic.as_str();
+    let base = m.split('.').next().unwrap_or(m);
+    if is_branch(m) {
+        return if taken { 3 } else { 1 };
+    }
+    if let Some(v) = base.strip_prefix('v') {
+        return match v {
+            _ if ["mla", "mls", "nmla", "nmls", "fma", "fms", "fnma", "fnms"]
+                .iter()
+                .any(|p| v.starts_with(p)) =>
+            {
+                3
+            }
+            _ if v.starts_with("div") || v.starts_with("sqrt") => 14,
+            _ if v.starts_with("ldr") || v.starts_with("str") => 2,
+            _ if v.starts_with("push")
+                || v.starts_with("pop")
+                || v.starts_with("ldm")
+                || v.starts_with("stm") =>
+            {
+                1 + register_count(&insn.operands)
+            }
+            _ => 1,
+        };
+    }
+    if base == "push" || base.starts_with("stm") {
+        return 1 + register_count(&insn.operands);
+    }
+    if base == "pop" || base.starts_with("ldm") {
+        let pc = insn.operands.contains("pc");
+        return 1 + register_count(&insn.operands) + if pc { 2 } else { 0 };
+    }
+    if base.starts_with("ldrd") || base.starts_with("strd") {
+        return 3;
+    }
+    if base.starts_with("ldr") || base.starts_with("str") {
+        return 2;
+    }
+    if base.starts_with("sdiv") || base.starts_with("udiv") {
+        return 12;
+    }
+    1
+}
+
+/// (PC, symbol) of each traced instruction.
+fn read_trace(text: &str) -> Vec<(u32, &str)> {
+    text.lines()
+        .filter_map(|l| {
+            let open = l.find('[')?;
+            let close = l[open..].find(']')? + open;
+            let pc = l[open + 1..close].split('/').nth(1)?;
+            let pc = u32::from_str_radix(pc, 16).ok()?;
+            let sym = l[close + 1..].trim();
+            Some((pc, sym))
+        })
+        .collect()
+}
+
+/// For each measured section: (instructions, cycles) of every occurrence.
+fn sections(
+    trace: &[(u32, &str)],
+    insns: &HashMap<u32, Insn>,
+) -> anyhow::Result<HashMap<String, Vec<(u64, u64)>>> {
+    let mut out: HashMap<String, Vec<(u64, u64)>> = HashMap::new();
+    let mut current: Option<(String, u64, u64)> = None;
+    for (k, &(pc, sym)) in trace.iter().enumerate() {
+        if let Some(name) = sym.strip_prefix("bench_begin_") {
+            current = Some((name.to_string(), 0, 0));
+            continue;
+        }
+        if let Some(name) = sym.strip_prefix("bench_end_") {
+            if let Some((open, n, c)) = current.take() {
+                if open == name {
+                    out.entry(open).or_default().push((n, c));
+                }
+            }
+            continue;
+        }
+        if let Some((_, n, c)) = current.as_mut() {
+            let insn = insns
+                .get(&pc)
+                .with_context(|| format!("no disassembly for traced pc {pc:#x} ({sym})"))?;
+            let next = trace.get(k + 1).map(|x| x.0);
+            let taken = next.is_some_and(|x| x != pc.wrapping_add(2) && x != pc.wrapping_add(4));
+            *n += 1;
+            *c += cycles(insn, taken);
+        }
+    }
+    Ok(out)
+}
+
+/// Sizes from `llvm-size -A`: (flash, static RAM).
+fn sizes(size_tool: &Path, elf: &Path) -> anyhow::Result<(u64, u64)> {
+    let text = run(Command::new(size_tool).arg("-A").arg(elf), "llvm-size")?;
+    let (mut flash, mut ram) = (0, 0);
+    for line in text.lines() {
+        let f: Vec<&str> = line.split_whitespace().collect();
+        let [name, size, _addr] = f[..] else { continue };
+        let Ok(size) = size.parse::<u64>() else {
+            continue;
+        };
+        match name {
+            ".vector_table" | ".text" | ".rodata" => flash += size,
+            ".data" => {
+                flash += size;
+                ram += size;
+            }
+            ".bss" | ".uninit" => ram += size,
+            _ => {}
+        }
+    }
+    Ok((flash, ram))
+}
+
+/// f64 soft-float routines among an ELF's symbols.
+fn soft_float_symbols(nm: &Path, elf: &Path) -> anyhow::Result<Vec<String>> {
+    let text = run(Command::new(nm).arg(elf), "llvm-nm")?;
+    let bad = [
+        "__aeabi_d",
+        "__aeabi_f2d",
+        "__aeabi_i2d",
+        "__aeabi_ui2d",
+        "__aeabi_l2d",
+        "__adddf3",
+        "__subdf3",
+        "__muldf3",
+        "__divdf3",
+        "__extendsfdf2",
+        "__truncdfsf2",
+    ];
+    let mut found: Vec<String> = text
+        .lines()
+        .filter_map(|l| l.split_whitespace().last())
+        .filter(|s| bad.iter().any(|b| s.starts_with(b)))
+        .map(str::to_string)
+        .collect();
+    found.sort();
+    found.dedup();
+    Ok(found)
+}
+
+/// Builds the bench and the board firmware, runs the bench under QEMU, and measures.
+pub fn measure(root: &Path) -> anyhow::Result<CyclesReport> {
+    let bench_manifest = root.join("examples/qemu-m4f/Cargo.toml");
+    cargo_build(
+        root,
+        &[
+            "--manifest-path",
+            &bench_manifest.to_string_lossy(),
+            "--bin",
+            "bench",
+        ],
+        "building the bench (thumbv7em)",
+    )?;
+    let bench = root.join("examples/qemu-m4f/target/thumbv7em-none-eabihf/release/bench");
+    cargo_build(
+        root,
+        &["--example", "b_g431b_esc1", "--features", "board"],
+        "building the board firmware (thumbv7em)",
+    )?;
+    let board = root.join("target/thumbv7em-none-eabihf/release/examples/b_g431b_esc1");
+    let dir = std::env::temp_dir().join(format!("pmsm-cycles-{}", std::process::id()));
+    std::fs::create_dir_all(&dir)?;
+    let trace_path = dir.join("trace.log");
+    run(
+        Command::new("qemu-system-arm")
+            .args(["-machine", "mps2-an386", "-cpu", "cortex-m4", "-nographic"])
+            .args(["-semihosting-config", "enable=on,target=native"])
+            .args(["-singlestep", "-d", "exec,nochain", "-D"])
+            .arg(&trace_path)
+            .arg("-kernel")
+            .arg(&bench),
+        "qemu-system-arm (apt-get install qemu-system-arm)",
+    )?;
+    let trace_text = std::fs::read_to_string(&trace_path)
+        .with_context(|| format!("reading {}", trace_path.display()))?;
+    let _ = std::fs::remove_dir_all(&dir);
+    let insns = disassemble(&llvm_tool(root, "llvm-objdump")?, &bench)?;
+    let found = sections(&read_trace(&trace_text), &insns)?;
+    let worst = |name: &str| -> anyhow::Result<(u64, u64)> {
+        let v = found
+            .get(name)
+            .filter(|v| !v.is_empty())
+            .with_context(|| format!("section {name} not found in the trace"))?;
+        Ok(v.iter().fold((0, 0), |a, &(n, c)| (a.0.max(n), a.1.max(c))))
+    };
+    let (step_n, step_c) = worst("step_speed_loop")?;
+    let (flash_bytes, ram_bytes) = sizes(&llvm_tool(root, "llvm-size")?, &board)?;
+    let nm = llvm_tool(root, "llvm-nm")?;
+    let mut f64_soft_float_symbols = soft_float_symbols(&nm, &board)?;
+    f64_soft_float_symbols.extend(soft_float_symbols(&nm, &bench)?);
+    f64_soft_float_symbols.sort();
+    f64_soft_float_symbols.dedup();
+    Ok(CyclesReport {
+        step_instructions: step_n,
+        step_cycles_est: step_c,
+        step_no_speed_loop_cycles_est: worst("step")?.1,
+        sliding_cycles_est: worst("sliding")?.1,
+        flux_cycles_est: worst("flux_pll")?.1,
+        foc_svpwm_cycles_est: worst("foc_svpwm")?.1,
+        flash_bytes,
+        ram_bytes,
+        f64_soft_float_symbols,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn insn(m: &str, o: &str) -> Insn {
+        Insn {
+            mnemonic: m.into(),
+            operands: o.into(),
+        }
+    }
+
+    #[test]
+    fn timing_table() {
+        assert_eq!(cycles(&insn("adds", "r0, r1"), false), 1);
+        assert_eq!(cycles(&insn("ldr", "r0, [r1]"), false), 2);
+        assert_eq!(cycles(&insn("push", "{r4, r5, r6, r7, lr}"), false), 6);
+        assert_eq!(cycles(&insn("pop", "{r4-r7, pc}"), true), 1 + 5 + 2);
+        assert_eq!(cycles(&insn("vpush", "{d8, d9}"), false), 3);
+        assert_eq!(cycles(&insn("vmla.f32", "s0, s1, s2"), false), 3);
+        assert_eq!(cycles(&insn("vdiv.f32", "s0, s1, s2"), false), 14);
+        assert_eq!(cycles(&insn("vldr", "s0, [r0]"), false), 2);
+        assert_eq!(cycles(&insn("bne.w", "0x800"), true), 3);
+        assert_eq!(cycles(&insn("bne", "0x800"), false), 1);
+        assert_eq!(cycles(&insn("bl", "0x800"), true), 3);
+        assert_eq!(register_count("{s16-s23}"), 8);
+    }
+
+    #[test]
+    fn trace_lines_parse() {
+        let t = "Trace 0: 0x7f [00800408/00002d80/00000110/ff000201] bench_begin_step\n";
+        assert_eq!(read_trace(t), vec![(0x2d80, "bench_begin_step")]);
+    }
+}
