@@ -14,7 +14,7 @@
 
 use crate::foc::{CurrentLoopState, Foc, FocConfig, FocInput, FocState};
 use crate::frames::{Abc, AlphaBeta, Dq, SinCos};
-use crate::math::{clamp, wrap_pi};
+use crate::math::{clamp, max, wrap_pi};
 use crate::motor::{positive, Motor, MotorParams, ParamError};
 use crate::observer::flux::{FluxConfig, FluxObserver, FluxState};
 use crate::observer::pll::{Pll, PllConfig, PllState};
@@ -601,7 +601,7 @@ impl Drive {
         if !i.is_finite() || !input.v_bus.is_finite() || !cmd.speed_rpm.is_finite() {
             return Some(Fault::InvalidInput);
         }
-        let i_peak = i.a.abs().max(i.b.abs()).max(i.c.abs());
+        let i_peak = max(max(i.a.abs(), i.b.abs()), i.c.abs());
         if i_peak > l.i_sense_max_a {
             return Some(Fault::InvalidInput);
         }
@@ -677,7 +677,7 @@ impl Drive {
         tel.disagreement_deg = disagreement / RAD_PER_DEG;
         tel.speed_disagreement_rpm = speed_disagreement;
         tel.load_nm = st.sliding.load_nm;
-        tel.ks_min_est = st.sliding.w.alpha.abs().max(st.sliding.w.beta.abs());
+        tel.ks_min_est = max(st.sliding.w.alpha.abs(), st.sliding.w.beta.abs());
         // (angle, speed [rad/s], current command) for the FOC this step.
         let (theta, omega_m, i_ref, speed_loop) = match st.mode {
             Mode::Align => {

@@ -12,6 +12,7 @@
 //! `v_d = PI_d − ω_e L i_q`, `v_q = PI_q + ω_e L i_d + ω_e ψ_f`.
 
 use crate::frames::{Abc, AlphaBeta, Dq, SinCos};
+use crate::math::advance;
 use crate::motor::{positive, MotorParams, ParamError};
 use crate::pi::{Pi, PiConfig, PiState};
 use crate::svpwm::{svpwm, Duties};
@@ -145,14 +146,15 @@ impl CurrentLoop {
         // Ortega Sec V iv: decoupling and back-EMF feed-forward.
         let v_d = self.kp * e_d + int_d - omega_e * self.l_h * i_dq.q;
         let v_q = self.kp * e_q + int_q + omega_e * (self.l_h * i_dq.d + self.flux_wb);
-        let mag = libm::sqrtf(v_d * v_d + v_q * v_q);
-        if !mag.is_finite() || !v_max.is_finite() || v_max <= 0.0 {
+        let mag2 = v_d * v_d + v_q * v_q;
+        if !mag2.is_finite() || !v_max.is_finite() || v_max <= 0.0 {
             return CurrentLoopOutput {
                 v_dq: Dq::default(),
                 saturated: true,
             };
         }
-        if mag <= v_max {
+        // Squares compared: the square root only when the vector must be cut.
+        if mag2 <= v_max * v_max {
             state.integral_d = int_d;
             state.integral_q = int_q;
             return CurrentLoopOutput {
@@ -160,7 +162,7 @@ impl CurrentLoop {
                 saturated: false,
             };
         }
-        let scale = v_max / mag;
+        let scale = v_max / libm::sqrtf(mag2);
         CurrentLoopOutput {
             v_dq: Dq::new(v_d * scale, v_q * scale),
             saturated: true,
@@ -251,12 +253,14 @@ impl Foc {
         i_dq_ref: Dq,
     ) -> FocOutput {
         let i_ab = input.i_abc.to_alpha_beta();
-        let i_dq = i_ab.to_dq(SinCos::of(input.theta_e));
+        let sc = SinCos::of(input.theta_e);
+        let i_dq = i_ab.to_dq(sc);
         let omega_e = self.pole_pairs * input.omega_m;
         let v_max = input.v_bus * INV_SQRT3;
         let out = self.current.update(state, i_dq, i_dq_ref, omega_e, v_max);
-        let theta_out = input.theta_e + omega_e * self.advance_s;
-        let v_ab_cmd = out.v_dq.to_alpha_beta(SinCos::of(theta_out));
+        // The angle at the middle of the period the voltage is held for.
+        let (sin, cos) = advance((sc.sin, sc.cos), input.theta_e, omega_e * self.advance_s);
+        let v_ab_cmd = out.v_dq.to_alpha_beta(SinCos { sin, cos });
         let pwm = svpwm(v_ab_cmd, input.v_bus);
         FocOutput {
             duties: pwm.duties,

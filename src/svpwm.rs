@@ -6,6 +6,7 @@
 //! inverter's voltage hexagon; larger commands are scaled back onto that circle.
 
 use crate::frames::{Abc, AlphaBeta};
+use crate::math::{max, min};
 
 /// 1/√3: the largest undistorted `|v_αβ|` per volt of DC bus.
 const INV_SQRT3: f32 = 0.577_350_26;
@@ -58,11 +59,12 @@ pub fn svpwm(v_ab: AlphaBeta, v_bus: f32) -> Svpwm {
         };
     }
     let v_max = v_bus * INV_SQRT3;
-    // Never NaN here (finite inputs); +inf when the squares overflow, which saturates.
-    let saturated = v_ab.magnitude() > v_max;
+    // Squares compared (no square root in the linear range); never NaN here (finite
+    // inputs); +inf when the squares overflow, which saturates.
+    let saturated = v_ab.alpha * v_ab.alpha + v_ab.beta * v_ab.beta > v_max * v_max;
     let v_ab_applied = if saturated {
         // Normalise by the larger component first so huge commands cannot overflow.
-        let m = libm::fabsf(v_ab.alpha).max(libm::fabsf(v_ab.beta));
+        let m = max(libm::fabsf(v_ab.alpha), libm::fabsf(v_ab.beta));
         let unit = AlphaBeta::new(v_ab.alpha / m, v_ab.beta / m);
         let k = v_max / unit.magnitude();
         AlphaBeta::new(unit.alpha * k, unit.beta * k)
@@ -70,7 +72,7 @@ pub fn svpwm(v_ab: AlphaBeta, v_bus: f32) -> Svpwm {
         v_ab
     };
     let v = v_ab_applied.to_abc();
-    let v0 = -0.5 * (v.a.max(v.b).max(v.c) + v.a.min(v.b).min(v.c));
+    let v0 = -0.5 * (max(max(v.a, v.b), v.c) + min(min(v.a, v.b), v.c));
     let duty = |x: f32| (0.5 + (x + v0) / v_bus).clamp(0.0, 1.0);
     Svpwm {
         duties: Duties {

@@ -243,3 +243,23 @@ fn wrap_in_range_for_every_finite_input() {
         }
     }
 }
+
+/// `advance` (rotation by a small angle) against f64 `sin_cos(θ + δ)`.
+#[test]
+fn advance_matches_f64_for_small_angles() {
+    let mut worst = 0.0f64;
+    for i in 0..2000 {
+        let theta = -std::f64::consts::PI + std::f64::consts::TAU * i as f64 / 2000.0;
+        for j in 0..=60 {
+            let delta = -0.3 + 0.6 * j as f64 / 60.0;
+            let sc = pmsm_sensorless::math::sin_cos(theta as f32);
+            let (s, c) = pmsm_sensorless::math::advance(sc, theta as f32, delta as f32);
+            let (s64, c64) = (theta as f32 as f64 + delta as f32 as f64).sin_cos();
+            worst = worst
+                .max((s as f64 - s64).abs())
+                .max((c as f64 - c64).abs());
+        }
+    }
+    println!("advance: max error {worst:.2e}");
+    assert!(worst < 3e-7, "{worst}");
+}
