@@ -335,15 +335,8 @@ pub fn start_test_motor() -> Scenario {
             Window::new("w800", 1.1, 1.5),
             Window::new("w800_loaded", 2.0, 2.5),
         ],
-        initial_speed_rpm: 0.0,
-        min_speed_rpm: 60.0,
-        i_max_a: None,
-        figures: "drive",
-        load_kind: LoadKind::Brake { sat_rpm: 30.0 },
-        drive: Some(DriveScript {
-            enable_s: 0.0,
-            injection: None,
-        }),
+        // Drive settings (brake load, start from standstill, enabled at 0) as there.
+        ..start_stop_reverse()
     }
 }
 
