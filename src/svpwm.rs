@@ -47,10 +47,17 @@ pub struct Svpwm {
 ///
 /// Linear (exact to f32 rounding) for `|v_ab| <= v_bus/√3`. Above it the vector is scaled
 /// down to that magnitude, keeping its angle, and `saturated` is set. If `v_bus` is not a
-/// finite number > 0, or `v_ab` is not finite, the result is 0.5 on all phases (zero volts),
+/// finite number > 0 with a finite reciprocal (not subnormal), or `v_ab` is not finite, the
+/// result is 0.5 on all phases (zero volts),
 /// `saturated = true` and `v_ab_applied = 0`. Duties are always within [0, 1], never NaN.
 pub fn svpwm(v_ab: AlphaBeta, v_bus: f32) -> Svpwm {
-    let valid = v_bus.is_finite() && v_bus > 0.0 && v_ab.alpha.is_finite() && v_ab.beta.is_finite();
+    // One division for the three duties; a bus so small that 1/v_bus overflows is invalid.
+    let inv_bus = 1.0 / v_bus;
+    let valid = v_bus.is_finite()
+        && v_bus > 0.0
+        && inv_bus.is_finite()
+        && v_ab.alpha.is_finite()
+        && v_ab.beta.is_finite();
     if !valid {
         return Svpwm {
             duties: Duties::NEUTRAL,
@@ -73,7 +80,7 @@ pub fn svpwm(v_ab: AlphaBeta, v_bus: f32) -> Svpwm {
     };
     let v = v_ab_applied.to_abc();
     let v0 = -0.5 * (max(max(v.a, v.b), v.c) + min(min(v.a, v.b), v.c));
-    let duty = |x: f32| (0.5 + (x + v0) / v_bus).clamp(0.0, 1.0);
+    let duty = |x: f32| (0.5 + (x + v0) * inv_bus).clamp(0.0, 1.0);
     Svpwm {
         duties: Duties {
             a: duty(v.a),
