@@ -271,9 +271,4 @@ impl Foc {
             saturated: out.saturated || pwm.saturated,
         }
     }
-
-    /// Speed-loop PI (for inspection and tests).
-    pub fn speed_pi(&self) -> &Pi {
-        &self.speed
-    }
 }

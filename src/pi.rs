@@ -76,14 +76,4 @@ impl Pi {
             self.out_max,
         )
     }
-
-    /// Proportional gain.
-    pub fn kp(&self) -> f32 {
-        self.kp
-    }
-
-    /// Integral gain per sample, `ki·Ts`.
-    pub fn ki_ts(&self) -> f32 {
-        self.ki_ts
-    }
 }

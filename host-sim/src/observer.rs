@@ -20,6 +20,18 @@ pub struct SlotInput {
     pub encoder_omega_m: f32,
 }
 
+impl SlotInput {
+    /// The ideal encoder's reading as an estimate.
+    pub fn encoder(&self) -> Estimate {
+        Estimate {
+            theta_e: self.encoder_theta_e,
+            omega_m: self.encoder_omega_m,
+            load_nm: None,
+            sliding: None,
+        }
+    }
+}
+
 /// What the slot gives the controller.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Estimate {
@@ -211,12 +223,7 @@ struct Encoder;
 
 impl Observer for Encoder {
     fn update(&mut self, input: &SlotInput) -> Estimate {
-        Estimate {
-            theta_e: input.encoder_theta_e,
-            omega_m: input.encoder_omega_m,
-            load_nm: None,
-            sliding: None,
-        }
+        input.encoder()
     }
 }
 

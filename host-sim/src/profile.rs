@@ -64,11 +64,6 @@ impl Pwl {
     pub fn scaled(&self, k: f64) -> Self {
         Self::new(self.points.iter().map(|&(t, v)| (t, v * k)).collect())
     }
-
-    /// Largest absolute value over the breakpoints.
-    pub fn max_abs(&self) -> f64 {
-        self.points.iter().fold(0.0, |m, &(_, v)| m.max(v.abs()))
-    }
 }
 
 #[cfg(test)]

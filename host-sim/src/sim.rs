@@ -364,11 +364,6 @@ impl Sim {
         &self.plant
     }
 
-    /// The configuration.
-    pub fn config(&self) -> &SimConfig {
-        &self.config
-    }
-
     /// Applies the scenario's injection when its time comes; returns whether the phase-b
     /// current sample is to read NaN.
     fn inject(&mut self, t: f64) -> bool {
@@ -438,12 +433,7 @@ impl Sim {
                     observer.reset(&slot);
                     let from = self.config.sensorless_from_rpm.unwrap_or(0.0);
                     *sensorless = omega_m.abs() >= from * RAD_S_PER_RPM;
-                    Estimate {
-                        theta_e: slot.encoder_theta_e,
-                        omega_m: slot.encoder_omega_m,
-                        load_nm: None,
-                        sliding: None,
-                    }
+                    slot.encoder()
                 };
                 let torque_ff_nm = match est.load_nm {
                     Some(x) if observer.compensates_load() => x,
