@@ -497,6 +497,8 @@ impl Default for DriveState {
 /// Both observers' view of the rotor this step.
 #[derive(Clone, Copy, Debug)]
 struct Views {
+    /// The measured current the observers saw [A].
+    i_ab: AlphaBeta,
     /// Both observers produced a finite update this step.
     ok: bool,
     theta_primary: f32,
@@ -644,6 +646,7 @@ impl Drive {
             Primary::Flux => (fl, sl),
         };
         Views {
+            i_ab,
             ok: ok_sliding && ok_flux,
             theta_primary: p.0,
             omega_primary: p.1,
@@ -668,7 +671,7 @@ impl Drive {
         views: Views,
         tel: &mut Telemetry,
     ) -> (Option<Duties>, Option<Reason>) {
-        let i_ab = input.i_abc.to_alpha_beta();
+        let i_ab = views.i_ab;
         let cmd_rpm = if cmd.speed_rpm.is_finite() {
             cmd.speed_rpm
         } else {
