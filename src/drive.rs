@@ -686,8 +686,8 @@ impl Drive {
         tel.speed_disagreement_rpm = speed_disagreement;
         tel.load_nm = st.sliding.load_nm;
         tel.ks_min_est = max(st.sliding.w.alpha.abs(), st.sliding.w.beta.abs());
-        // (angle, speed [rad/s], current command) for the FOC this step.
-        let (theta, omega_m, i_ref, speed_loop) = match st.mode {
+        // (angle, its sin/cos, speed [rad/s], current command) for the FOC this step.
+        let (theta, sc, omega_m, i_ref, speed_loop) = match st.mode {
             Mode::Align => {
                 if st.mode_steps >= self.align_steps.saturating_sub(1) {
                     // Rotor at θ_e = 0, at rest: start the observers there.
@@ -697,7 +697,8 @@ impl Drive {
                     st.speed_ol_rpm = 0.0;
                     reason = Some(Reason::Aligned);
                 }
-                (0.0, 0.0, Dq::new(self.align_current_a, 0.0), false)
+                let sc = SinCos { sin: 0.0, cos: 1.0 };
+                (0.0, sc, 0.0, Dq::new(self.align_current_a, 0.0), false)
             }
             Mode::OpenLoop => {
                 let before = st.speed_ol_rpm;
@@ -749,6 +750,7 @@ impl Drive {
                 }
                 (
                     st.theta_ol,
+                    SinCos::of(st.theta_ol),
                     omega,
                     Dq::new(self.open_loop_current_a, 0.0),
                     false,
@@ -797,8 +799,14 @@ impl Drive {
                     st.waiting_steps = 0;
                     reason = Some(Reason::HandBack);
                 }
+                // The sliding observer keeps the sin/cos of its angle.
+                let sc = match self.primary {
+                    Primary::SlidingTorque => st.sliding.sc,
+                    Primary::Flux => SinCos::of(views.theta_primary),
+                };
                 (
                     views.theta_primary,
+                    sc,
                     views.omega_primary,
                     Dq::default(),
                     true,
@@ -818,10 +826,10 @@ impl Drive {
             },
         };
         let out = if speed_loop {
-            self.foc.step(&mut st.foc, &foc_in)
+            self.foc.step_at(&mut st.foc, &foc_in, sc)
         } else {
             let mut current: CurrentLoopState = st.foc.current;
-            let out = self.foc.current_step(&mut current, &foc_in, i_ref);
+            let out = self.foc.current_step_at(&mut current, &foc_in, sc, i_ref);
             st.foc.current = current;
             out
         };

@@ -12,7 +12,7 @@
 //! `v_d = PI_d − ω_e L i_q`, `v_q = PI_q + ω_e L i_d + ω_e ψ_f`.
 
 use crate::frames::{Abc, AlphaBeta, Dq, SinCos};
-use crate::math::advance;
+use crate::math::{advance, all_finite};
 use crate::motor::{positive, MotorParams, ParamError};
 use crate::pi::{Pi, PiConfig, PiState};
 use crate::svpwm::{svpwm, Duties};
@@ -147,7 +147,7 @@ impl CurrentLoop {
         let v_d = self.kp * e_d + int_d - omega_e * self.l_h * i_dq.q;
         let v_q = self.kp * e_q + int_q + omega_e * (self.l_h * i_dq.d + self.flux_wb);
         let mag2 = v_d * v_d + v_q * v_q;
-        if !mag2.is_finite() || !v_max.is_finite() || v_max <= 0.0 {
+        if !(v_max > 0.0 && all_finite([mag2, v_max])) {
             return CurrentLoopOutput {
                 v_dq: Dq::default(),
                 saturated: true,
@@ -231,6 +231,12 @@ pub struct FocOutput {
 impl Foc {
     /// One current-loop period; every `speed_divider`-th call also runs the speed loop first.
     pub fn step(&self, state: &mut FocState, input: &FocInput) -> FocOutput {
+        self.step_at(state, input, SinCos::of(input.theta_e))
+    }
+
+    /// [`Foc::step`] with `sc` = sin/cos of `input.theta_e` already known (e.g. kept by the
+    /// observer that estimated the angle), which saves one trig evaluation.
+    pub fn step_at(&self, state: &mut FocState, input: &FocInput, sc: SinCos) -> FocOutput {
         if state.tick == 0 {
             let ff_a = input.torque_ff_nm * self.inv_kt;
             state.i_q_ref =
@@ -242,7 +248,7 @@ impl Foc {
             state.tick = 0;
         }
         let i_dq_ref = Dq::new(0.0, state.i_q_ref);
-        self.current_step(&mut state.current, input, i_dq_ref)
+        self.current_step_at(&mut state.current, input, sc, i_dq_ref)
     }
 
     /// One current-loop period with an explicit current command (no speed loop).
@@ -252,8 +258,18 @@ impl Foc {
         input: &FocInput,
         i_dq_ref: Dq,
     ) -> FocOutput {
+        self.current_step_at(state, input, SinCos::of(input.theta_e), i_dq_ref)
+    }
+
+    /// [`Foc::current_step`] with `sc` = sin/cos of `input.theta_e` already known.
+    pub fn current_step_at(
+        &self,
+        state: &mut CurrentLoopState,
+        input: &FocInput,
+        sc: SinCos,
+        i_dq_ref: Dq,
+    ) -> FocOutput {
         let i_ab = input.i_abc.to_alpha_beta();
-        let sc = SinCos::of(input.theta_e);
         let i_dq = i_ab.to_dq(sc);
         let omega_e = self.pole_pairs * input.omega_m;
         let v_max = input.v_bus * INV_SQRT3;

@@ -6,7 +6,7 @@
 //! inverter's voltage hexagon; larger commands are scaled back onto that circle.
 
 use crate::frames::{Abc, AlphaBeta};
-use crate::math::{max, min};
+use crate::math::{all_finite, clamp, max, min};
 
 /// 1/√3: the largest undistorted `|v_αβ|` per volt of DC bus.
 const INV_SQRT3: f32 = 0.577_350_26;
@@ -53,11 +53,7 @@ pub struct Svpwm {
 pub fn svpwm(v_ab: AlphaBeta, v_bus: f32) -> Svpwm {
     // One division for the three duties; a bus so small that 1/v_bus overflows is invalid.
     let inv_bus = 1.0 / v_bus;
-    let valid = v_bus.is_finite()
-        && v_bus > 0.0
-        && inv_bus.is_finite()
-        && v_ab.alpha.is_finite()
-        && v_ab.beta.is_finite();
+    let valid = v_bus > 0.0 && all_finite([v_bus, inv_bus, v_ab.alpha, v_ab.beta]);
     if !valid {
         return Svpwm {
             duties: Duties::NEUTRAL,
@@ -80,7 +76,7 @@ pub fn svpwm(v_ab: AlphaBeta, v_bus: f32) -> Svpwm {
     };
     let v = v_ab_applied.to_abc();
     let v0 = -0.5 * (max(max(v.a, v.b), v.c) + min(min(v.a, v.b), v.c));
-    let duty = |x: f32| (0.5 + (x + v0) * inv_bus).clamp(0.0, 1.0);
+    let duty = |x: f32| clamp(0.5 + (x + v0) * inv_bus, 0.0, 1.0);
     Svpwm {
         duties: Duties {
             a: duty(v.a),

@@ -263,3 +263,28 @@ fn advance_matches_f64_for_small_angles() {
     println!("advance: max error {worst:.2e}");
     assert!(worst < 3e-7, "{worst}");
 }
+
+#[test]
+fn all_finite_flags_every_non_finite_value() {
+    use pmsm_sensorless::math::all_finite;
+    let finite = [
+        0.0,
+        -0.0,
+        1.0,
+        -f32::MAX,
+        f32::MAX,
+        f32::MIN_POSITIVE,
+        1e-45,
+    ];
+    assert!(all_finite(finite));
+    assert!(all_finite::<0>([]));
+    for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+        for k in 0..finite.len() {
+            let mut xs = finite;
+            xs[k] = bad;
+            assert!(!all_finite(xs), "{bad} at {k}");
+        }
+    }
+    // +∞ and −∞ together must not cancel.
+    assert!(!all_finite([f32::INFINITY, f32::NEG_INFINITY]));
+}

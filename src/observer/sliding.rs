@@ -23,7 +23,7 @@
 //! (`½ N ω T` = 3.0° electrical at 1000 rpm and 4 kHz on the Sinano motor).
 
 use crate::frames::{AlphaBeta, SinCos};
-use crate::math::wrap_pi;
+use crate::math::{advance, all_finite, clamp, wrap_pi};
 use crate::motor::{non_negative, positive, MotorParams, ParamError};
 use core::f32::consts::TAU;
 
@@ -128,7 +128,7 @@ impl SlidingConfig {
             inv_epsilon: 1.0 / epsilon,
             ks,
             omega_low,
-            emf_advance_s: self.emf_advance_periods * ts,
+            emf_advance_periods: self.emf_advance_periods,
         })
     }
 }
@@ -157,7 +157,7 @@ pub struct SlidingObserver {
     inv_epsilon: f32,
     ks: SlidingGain,
     omega_low: f32,
-    emf_advance_s: f32,
+    emf_advance_periods: f32,
 }
 
 /// Running state of a sliding observer.
@@ -265,8 +265,7 @@ impl SlidingObserver {
     /// computes the new sliding variable and innovation. Returns false, leaving the state
     /// untouched, when an input is not finite or the update would not be.
     pub fn update(&self, st: &mut SlidingState, i_ab: AlphaBeta, v_ab: AlphaBeta) -> bool {
-        let finite = |x: AlphaBeta| x.alpha.is_finite() && x.beta.is_finite();
-        if !finite(i_ab) || !finite(v_ab) {
+        if !all_finite([i_ab.alpha, i_ab.beta, v_ab.alpha, v_ab.beta]) {
             return false;
         }
         let mut next = *st;
@@ -278,15 +277,21 @@ impl SlidingObserver {
         }
         next.s = AlphaBeta::new(next.i_hat.alpha - i_ab.alpha, next.i_hat.beta - i_ab.beta);
         let ks = self.sliding_gain(next.omega_m);
-        let sat = |x: f32| (x * self.inv_epsilon).clamp(-1.0, 1.0);
+        let sat = |x: f32| clamp(x * self.inv_epsilon, -1.0, 1.0);
         next.w = AlphaBeta::new(ks * sat(next.s.alpha), ks * sat(next.s.beta));
-        next.sc = SinCos::of(next.theta_e);
         next.g = self.gains(next.sc, next.omega_m, next.i_hat);
-        let ok = finite(next.i_hat)
-            && next.theta_e.is_finite()
-            && next.omega_m.is_finite()
-            && next.load_nm.is_finite()
-            && next.g.iter().all(|g| g.is_finite());
+        let [g1, g2, g3, g4] = next.g;
+        let ok = all_finite([
+            next.i_hat.alpha,
+            next.i_hat.beta,
+            next.theta_e,
+            next.omega_m,
+            next.load_nm,
+            g1,
+            g2,
+            g3,
+            g4,
+        ]);
         if ok {
             *st = next;
         }
@@ -297,22 +302,30 @@ impl SlidingObserver {
     /// innovation `w` and gains.
     fn propagate(&self, st: &mut SlidingState, v_ab: AlphaBeta) {
         let sc = st.sc;
-        // Back-EMF angle in the middle of the period (see the module doc).
-        let emf = SinCos::of(st.theta_e + self.n * st.omega_m * self.emf_advance_s);
+        let t = self.ts;
+        let step_e = t * self.n * st.omega_m; // (22): θ̂_e advance over the period [rad]
+                                              // Back-EMF angle in the middle of the period (see the module doc), by rotating the
+                                              // sin/cos of the angle at the start (one trig evaluation per update, at the end).
+        let (emf_sin, emf_cos) = advance(
+            (sc.sin, sc.cos),
+            st.theta_e,
+            step_e * self.emf_advance_periods,
+        );
         let (i, w, g) = (st.i_hat, st.w, st.g);
         let emf_gain = self.kn_over_l * st.omega_m;
         let di_a =
-            -self.r_over_l * i.alpha + emf_gain * emf.sin + self.inv_l * v_ab.alpha - w.alpha; // (20)
-        let di_b = -self.r_over_l * i.beta - emf_gain * emf.cos + self.inv_l * v_ab.beta - w.beta; // (21)
+            -self.r_over_l * i.alpha + emf_gain * emf_sin + self.inv_l * v_ab.alpha - w.alpha; // (20)
+        let di_b = -self.r_over_l * i.beta - emf_gain * emf_cos + self.inv_l * v_ab.beta - w.beta; // (21)
         let d_omega = -self.kn_over_h * (i.alpha * sc.sin - i.beta * sc.cos)
             - self.b_over_h * st.omega_m
             - self.inv_h * st.load_nm
             + g[0] * w.alpha
             + g[1] * w.beta; // (35)
         let d_load = g[2] * w.alpha + g[3] * w.beta; // (34)
-        let t = self.ts;
         st.i_hat = AlphaBeta::new(i.alpha + t * di_a, i.beta + t * di_b);
-        st.theta_e = wrap_pi(st.theta_e + t * self.n * st.omega_m); // (22)
+        st.theta_e = wrap_pi(st.theta_e + step_e); // (22)
+                                                   // Fresh each period (a rotation here would accumulate its rounding).
+        st.sc = SinCos::of(st.theta_e);
         st.omega_m += t * d_omega;
         st.load_nm += t * d_load;
     }
