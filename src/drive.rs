@@ -14,7 +14,7 @@
 
 use crate::foc::{CurrentLoopState, Foc, FocConfig, FocInput, FocState};
 use crate::frames::{Abc, AlphaBeta, Dq, SinCos};
-use crate::math::{clamp, max, wrap_pi};
+use crate::math::{all_finite, clamp, max, wrap_pi};
 use crate::motor::{positive, Motor, MotorParams, ParamError};
 use crate::observer::flux::{FluxConfig, FluxObserver, FluxState};
 use crate::observer::pll::{Pll, PllConfig, PllState};
@@ -605,7 +605,7 @@ impl Drive {
         if input.overrun {
             return Some(Fault::Overrun);
         }
-        if !i.is_finite() || !input.v_bus.is_finite() || !cmd.speed_rpm.is_finite() {
+        if !all_finite([i.a, i.b, i.c, input.v_bus, cmd.speed_rpm]) {
             return Some(Fault::InvalidInput);
         }
         let i_peak = max(max(i.a.abs(), i.b.abs()), i.c.abs());

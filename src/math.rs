@@ -75,13 +75,19 @@ pub fn atan2(y: f32, x: f32) -> f32 {
     }
     let swap = ay > ax;
     let (lo, hi) = if swap { (ax, ay) } else { (ay, ax) };
-    // t in [0, 1]; above tan(π/8) use atan t = π/4 + atan((t−1)/(t+1)).
-    let t = lo / hi;
-    let (u, base) = if t > 0.414_213_57 {
-        ((t - 1.0) / (t + 1.0), FRAC_PI_4)
+    // t = lo/hi in [0, 1]. One division: above tan(π/8), atan t = π/4 + atan((t−1)/(t+1))
+    // = π/4 + atan((lo − hi)/(lo + hi)); scaled by 1/4 (exact) where lo + hi could overflow.
+    let (lo, hi) = if hi > 1.0e38 {
+        (0.25 * lo, 0.25 * hi)
     } else {
-        (t, 0.0)
+        (lo, hi)
     };
+    let (num, den, base) = if lo > 0.414_213_57 * hi {
+        (lo - hi, lo + hi, FRAC_PI_4)
+    } else {
+        (lo, hi, 0.0)
+    };
+    let u = num / den;
     let z = u * u;
     let p = ((8.053_744_6e-2 * z - 1.387_768_5e-1) * z + 1.997_771_1e-1) * z - 3.333_295e-1;
     let mut a = base + (u + u * z * p);

@@ -19,7 +19,7 @@
 //! half-period lag.
 
 use crate::frames::AlphaBeta;
-use crate::math::atan2;
+use crate::math::{all_finite, atan2};
 use crate::motor::{positive, MotorParams, ParamError};
 
 /// Largest γ [1/(Wb²·s)] for which the forward-Euler gradient step of eq (9) is stable:
@@ -131,8 +131,7 @@ impl FluxObserver {
     /// One sample: `i_ab` measured now [A], `v_ab` the voltage applied over the period that just
     /// ended [V]. Returns false, leaving the state untouched, on non-finite input or output.
     pub fn update(&self, st: &mut FluxState, i_ab: AlphaBeta, v_ab: AlphaBeta) -> bool {
-        let finite = |x: AlphaBeta| x.alpha.is_finite() && x.beta.is_finite();
-        if !finite(i_ab) || !finite(v_ab) {
+        if !all_finite([i_ab.alpha, i_ab.beta, v_ab.alpha, v_ab.beta]) {
             return false;
         }
         let mut x = st.x_hat;
@@ -151,7 +150,7 @@ impl FluxObserver {
             x.alpha - self.l_h * i_ab.alpha,
             x.beta - self.l_h * i_ab.beta,
         );
-        if !finite(x) {
+        if !all_finite([x.alpha, x.beta]) {
             return false;
         }
         *st = FluxState {
