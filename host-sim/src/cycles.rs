@@ -7,10 +7,12 @@
 //! and symbol; the instructions between a begin and an end marker are the call's (the
 //! marker call's own `bl` included). Each is weighted with the Cortex-M4 timing table
 //! (ARM DDI 0439 sec 3.3): ALU, MUL, most VFP 1; loads and stores 2 (LDRD/STRD 3); LDM,
-//! STM, PUSH, POP 1 + n (+2 when POP loads PC); taken branches 3, not taken 1; VMLA/VMLS/
-//! VFMA family 3; VDIV/VSQRT 14; VLDR/VSTR 2, VPUSH/VPOP/VLDM/VSTM 1 + n; SDIV/UDIV 12
-//! (their worst case). Flash wait states and bus contention are not modelled: the estimates
-//! are for code running at zero wait states (or from RAM/CCM).
+//! STM, PUSH, POP 1 + n (+2 when POP loads PC); taken branches 3, not taken 1; TBB/TBH 6
+//! (their minimum); VMLA/VMLS/VFMA family 3; VDIV/VSQRT 14; VLDR/VSTR 2, VPUSH/VPOP/VLDM/
+//! VSTM 1 + n; SDIV/UDIV 12 (their worst case). Not modelled, both ways: the pipelining of
+//! neighbouring LDR/STR (one cycle less each) and 1-cycle `STR Rx,[Ry,#imm]`, which make the
+//! estimate high; flash wait states and bus contention, which make it low (the estimates
+//! are for code running at zero wait states, e.g. from RAM/CCM).
 
 use anyhow::{bail, Context};
 use serde::Serialize;
@@ -181,6 +183,10 @@ fn is_branch(m: &str) -> bool {
 fn cycles(insn: &Insn, taken: bool) -> u64 {
     let m = insn.mnemonic.as_str();
     let base = m.split('.').next().unwrap_or(m);
+    if base == "tbb" || base == "tbh" {
+        // A table load, an add and a pipeline reload: "at least six cycles".
+        return 6;
+    }
     if is_branch(m) {
         return if taken { 3 } else { 1 };
     }
@@ -409,6 +415,7 @@ mod tests {
         assert_eq!(cycles(&insn("bne.w", "0x800"), true), 3);
         assert_eq!(cycles(&insn("bne", "0x800"), false), 1);
         assert_eq!(cycles(&insn("bl", "0x800"), true), 3);
+        assert_eq!(cycles(&insn("tbb", "[pc, r0]"), true), 6);
         assert_eq!(register_count("{s16-s23}"), 8);
     }
 
