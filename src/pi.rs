@@ -1,6 +1,6 @@
 //! Discrete PI controller with output clamp and clamping (conditional-integration) anti-windup.
 
-use crate::math::clamp;
+use crate::math::{all_finite, clamp};
 use crate::motor::{non_negative, positive, ParamError};
 
 /// PI settings in SI units: `u = kp·e + ki·∫e dt`, clamped to `[out_min, out_max]`.
@@ -60,7 +60,7 @@ impl Pi {
     /// If `error` or `ff` is not finite, both are ignored: the integrator is left untouched and
     /// the output is the clamped integral alone (bounded and finite).
     pub fn update(&self, state: &mut PiState, error: f32, ff: f32) -> f32 {
-        if !error.is_finite() || !ff.is_finite() {
+        if !all_finite([error, ff]) {
             return clamp(state.integral, self.out_min, self.out_max);
         }
         let candidate = state.integral + self.ki_ts * error;

@@ -8,7 +8,7 @@
 //! to (−π, π], so the estimator lives on the circle. Forward Euler at the control rate; the
 //! integral state is kept as `Ki·z2` [rad/s].
 
-use crate::math::wrap_pi;
+use crate::math::{all_finite, wrap_pi};
 use crate::motor::{positive, ParamError};
 use core::f32::consts::TAU;
 
@@ -69,7 +69,7 @@ impl Pll {
     /// leaves the state untouched.
     pub fn update(&self, st: &mut PllState, theta: f32) -> f32 {
         let e = wrap_pi(theta - st.z1);
-        if !e.is_finite() {
+        if !all_finite([e]) {
             return st.omega;
         }
         st.integral += self.ki_ts * e;

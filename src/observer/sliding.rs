@@ -175,8 +175,6 @@ pub struct SlidingState {
     pub w: AlphaBeta,
     /// Sliding variable `S = î − i` of the last sample [A].
     pub s: AlphaBeta,
-    /// Gains G1..G4 of the last sample.
-    pub g: [f32; 4],
     /// `sin θ̂_e`, `cos θ̂_e` of the last sample (reused by the next propagation).
     pub sc: SinCos,
     /// False until the first sample has been taken.
@@ -192,7 +190,6 @@ impl Default for SlidingState {
             load_nm: 0.0,
             w: AlphaBeta::default(),
             s: AlphaBeta::default(),
-            g: [0.0; 4],
             sc: SinCos { sin: 0.0, cos: 1.0 },
             started: false,
         }
@@ -279,18 +276,13 @@ impl SlidingObserver {
         let ks = self.sliding_gain(next.omega_m);
         let sat = |x: f32| clamp(x * self.inv_epsilon, -1.0, 1.0);
         next.w = AlphaBeta::new(ks * sat(next.s.alpha), ks * sat(next.s.beta));
-        next.g = self.gains(next.sc, next.omega_m, next.i_hat);
-        let [g1, g2, g3, g4] = next.g;
+        // Non-finite gains in `propagate` show up in ω̂ or τ̂_L (w is finite and bounded).
         let ok = all_finite([
             next.i_hat.alpha,
             next.i_hat.beta,
             next.theta_e,
             next.omega_m,
             next.load_nm,
-            g1,
-            g2,
-            g3,
-            g4,
         ]);
         if ok {
             *st = next;
@@ -299,7 +291,7 @@ impl SlidingObserver {
     }
 
     /// Forward-Euler step of eqs (20)-(22), (34), (35) over one period with the stored
-    /// innovation `w` and gains.
+    /// innovation `w` and the gains at the state it was computed at.
     fn propagate(&self, st: &mut SlidingState, v_ab: AlphaBeta) {
         let sc = st.sc;
         let t = self.ts;
@@ -311,7 +303,9 @@ impl SlidingObserver {
             st.theta_e,
             step_e * self.emf_advance_periods,
         );
-        let (i, w, g) = (st.i_hat, st.w, st.g);
+        let (i, w) = (st.i_hat, st.w);
+        // The gains at the state the innovation w was computed at (the previous sample).
+        let g = self.gains(sc, st.omega_m, i);
         let emf_gain = self.kn_over_l * st.omega_m;
         let di_a =
             -self.r_over_l * i.alpha + emf_gain * emf_sin + self.inv_l * v_ab.alpha - w.alpha; // (20)
