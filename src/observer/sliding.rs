@@ -295,9 +295,10 @@ impl SlidingObserver {
     fn propagate(&self, st: &mut SlidingState, v_ab: AlphaBeta) {
         let sc = st.sc;
         let t = self.ts;
-        let step_e = t * self.n * st.omega_m; // (22): θ̂_e advance over the period [rad]
-                                              // Back-EMF angle in the middle of the period (see the module doc), by rotating the
-                                              // sin/cos of the angle at the start (one trig evaluation per update, at the end).
+        // (22): the advance of θ̂_e over the period [rad].
+        let step_e = t * self.n * st.omega_m;
+        // Back-EMF angle in the middle of the period (see the module doc), by rotating the
+        // sin/cos of the angle at the start (one trig evaluation per update, at the end).
         let (emf_sin, emf_cos) = advance(
             (sc.sin, sc.cos),
             st.theta_e,
@@ -317,8 +318,9 @@ impl SlidingObserver {
             + g[1] * w.beta; // (35)
         let d_load = g[2] * w.alpha + g[3] * w.beta; // (34)
         st.i_hat = AlphaBeta::new(i.alpha + t * di_a, i.beta + t * di_b);
-        st.theta_e = wrap_pi(st.theta_e + step_e); // (22)
-                                                   // Fresh each period (a rotation here would accumulate its rounding).
+        st.theta_e = wrap_pi(st.theta_e + step_e);
+        // (22) done; sin/cos fresh each period (rotating the stored pair would accumulate
+        // rounding).
         st.sc = SinCos::of(st.theta_e);
         st.omega_m += t * d_omega;
         st.load_nm += t * d_load;
