@@ -697,8 +697,13 @@ impl Drive {
                     st.speed_ol_rpm = 0.0;
                     reason = Some(Reason::Aligned);
                 }
-                let sc = SinCos { sin: 0.0, cos: 1.0 };
-                (0.0, sc, 0.0, Dq::new(self.align_current_a, 0.0), false)
+                (
+                    0.0,
+                    SinCos::ZERO,
+                    0.0,
+                    Dq::new(self.align_current_a, 0.0),
+                    false,
+                )
             }
             Mode::OpenLoop => {
                 let before = st.speed_ol_rpm;

@@ -44,6 +44,9 @@ pub struct SinCos {
 }
 
 impl SinCos {
+    /// `sin`/`cos` of θ = 0.
+    pub const ZERO: Self = Self { sin: 0.0, cos: 1.0 };
+
     /// `sin`/`cos` of `theta` (rad) with the core's f32 polynomial (see [`crate::math::sin_cos`]).
     pub fn of(theta: f32) -> Self {
         let (sin, cos) = crate::math::sin_cos(theta);

@@ -190,7 +190,7 @@ impl Default for SlidingState {
             load_nm: 0.0,
             w: AlphaBeta::default(),
             s: AlphaBeta::default(),
-            sc: SinCos { sin: 0.0, cos: 1.0 },
+            sc: SinCos::ZERO,
             started: false,
         }
     }
