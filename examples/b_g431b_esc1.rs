@@ -320,7 +320,7 @@ mod firmware {
             if self.step.is_multiple_of(TELEMETRY_EVERY) {
                 self.send(Event::Telemetry {
                     step: self.step,
-                    tel: out.telemetry,
+                    tel: self.drive.telemetry(&self.state),
                     i_abc,
                     v_bus,
                 });

@@ -359,7 +359,8 @@ pub struct Command {
     pub clear_fault: bool,
 }
 
-/// Small fixed-size record for the log, to be pushed at a low rate.
+/// Small fixed-size record for the log, read at a low rate with [`Drive::telemetry`] (the
+/// 4 kHz step does not build it).
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Telemetry {
@@ -377,9 +378,9 @@ pub struct Telemetry {
     pub theta_e_monitor: f32,
     /// Angle used by the controller (θ_ol in open loop) [rad].
     pub theta_e_control: f32,
-    /// Measured d current in the controller's frame [A].
+    /// Measured d current (the observers' last sample) in the controller's frame [A].
     pub i_d: f32,
-    /// Measured q current in the controller's frame [A].
+    /// Measured q current (the observers' last sample) in the controller's frame [A].
     pub i_q: f32,
     /// Load-torque estimate of the sliding observer [N·m].
     pub load_nm: f32,
@@ -400,8 +401,6 @@ pub struct DriveOutput {
     pub duties: Option<Duties>,
     /// The mode change this step made, if any.
     pub transition: Option<Transition>,
-    /// This step's record.
-    pub telemetry: Telemetry,
 }
 
 /// A built drive (all coefficients per step).
@@ -494,17 +493,25 @@ impl Default for DriveState {
     }
 }
 
-/// Both observers' view of the rotor this step.
+/// Both observers' estimates of the rotor: the primary's and the monitor's.
 #[derive(Clone, Copy, Debug)]
 struct Views {
-    /// The measured current the observers saw [A].
-    i_ab: AlphaBeta,
-    /// Both observers produced a finite update this step.
-    ok: bool,
     theta_primary: f32,
     omega_primary: f32,
     theta_monitor: f32,
     omega_monitor: f32,
+}
+
+impl Views {
+    /// |θ̂_primary − θ̂_monitor| wrapped to [0, π] [rad, electrical].
+    fn disagreement(&self) -> f32 {
+        wrap_pi(self.theta_primary - self.theta_monitor).abs()
+    }
+
+    /// |ω̂_primary − ω̂_monitor| [rpm].
+    fn speed_disagreement_rpm(&self) -> f32 {
+        (self.omega_primary - self.omega_monitor).abs() * RPM_PER_RAD_S
+    }
 }
 
 /// `x` moved toward `target` by at most `step`.
@@ -558,16 +565,11 @@ impl Drive {
         }
         // 3. Control.
         let i_ab = input.i_abc.to_alpha_beta();
-        let mut telemetry = Telemetry {
-            mode: st.mode,
-            fault: st.fault,
-            ..Telemetry::default()
-        };
         let duties = match st.mode {
             Mode::Idle | Mode::Fault => None,
             Mode::Align | Mode::OpenLoop | Mode::Sensorless => {
-                let views = self.observe(st, i_ab);
-                let (duties, r) = self.control(st, input, cmd, views, &mut telemetry);
+                let ok = self.observe(st, i_ab);
+                let (duties, r) = self.control(st, input, cmd, i_ab, ok);
                 if r.is_some() {
                     reason = r;
                 }
@@ -579,8 +581,6 @@ impl Drive {
         } else {
             st.mode_steps = st.mode_steps.saturating_add(1);
         }
-        telemetry.mode = st.mode;
-        telemetry.fault = st.fault;
         DriveOutput {
             duties: if st.mode == Mode::Fault { None } else { duties },
             transition: reason.filter(|_| st.mode != from).map(|reason| Transition {
@@ -588,7 +588,39 @@ impl Drive {
                 to: st.mode,
                 reason,
             }),
-            telemetry,
+        }
+    }
+
+    /// The log record of the state the last [`Drive::step`] left. Built on demand (at the log's
+    /// rate, not the control rate); the observer values are those of the last step they ran,
+    /// everything else is zero while the PWM is off.
+    pub fn telemetry(&self, st: &DriveState) -> Telemetry {
+        let off = Telemetry {
+            mode: st.mode,
+            fault: st.fault,
+            ..Telemetry::default()
+        };
+        let v = self.views(st);
+        let (theta, omega_m) = match st.mode {
+            Mode::Idle | Mode::Fault => return off,
+            Mode::Align => (0.0, 0.0),
+            Mode::OpenLoop => (st.theta_ol, st.speed_ol_rpm * RAD_S_PER_RPM),
+            Mode::Sensorless => (v.theta_primary, v.omega_primary),
+        };
+        let i_dq = st.flux.i_last.to_dq(SinCos::of(theta));
+        Telemetry {
+            speed_ref_rpm: st.speed_ref_rpm,
+            speed_rpm: omega_m * RPM_PER_RAD_S,
+            theta_e_primary: v.theta_primary,
+            theta_e_monitor: v.theta_monitor,
+            theta_e_control: theta,
+            i_d: i_dq.d,
+            i_q: i_dq.q,
+            load_nm: st.sliding.load_nm,
+            ks_min_est: max(st.sliding.w.alpha.abs(), st.sliding.w.beta.abs()),
+            disagreement_deg: v.disagreement() * DEG_PER_RAD,
+            speed_disagreement_rpm: v.speed_disagreement_rpm(),
+            ..off
         }
     }
 
@@ -631,23 +663,24 @@ impl Drive {
         Reason::Fault(fault)
     }
 
-    /// Runs both observers on this sample.
-    fn observe(&self, st: &mut DriveState, i_ab: AlphaBeta) -> Views {
+    /// Runs both observers (and the PLL) on this sample; false if either could not update.
+    fn observe(&self, st: &mut DriveState, i_ab: AlphaBeta) -> bool {
         let v = st.v_ab_last;
         let ok_sliding = self.sliding.update(&mut st.sliding, i_ab, v);
         let ok_flux = self.flux.update(&mut st.flux, i_ab, v);
-        let omega_pll = self.pll.update(&mut st.pll, st.flux.theta_e) * self.inv_n;
-        let (sl, fl) = (
-            (st.sliding.theta_e, st.sliding.omega_m),
-            (st.flux.theta_e, omega_pll),
-        );
+        self.pll.update(&mut st.pll, st.flux.theta_e);
+        ok_sliding && ok_flux
+    }
+
+    /// The observers' current estimates, primary and monitor.
+    fn views(&self, st: &DriveState) -> Views {
+        let sl = (st.sliding.theta_e, st.sliding.omega_m);
+        let fl = (st.flux.theta_e, st.pll.omega * self.inv_n);
         let (p, m) = match self.primary {
             Primary::SlidingTorque => (sl, fl),
             Primary::Flux => (fl, sl),
         };
         Views {
-            i_ab,
-            ok: ok_sliding && ok_flux,
             theta_primary: p.0,
             omega_primary: p.1,
             theta_monitor: m.0,
@@ -668,24 +701,18 @@ impl Drive {
         st: &mut DriveState,
         input: &DriveInput,
         cmd: &Command,
-        views: Views,
-        tel: &mut Telemetry,
+        i_ab: AlphaBeta,
+        observers_ok: bool,
     ) -> (Option<Duties>, Option<Reason>) {
-        let i_ab = views.i_ab;
+        let views = self.views(st);
         let cmd_rpm = if cmd.speed_rpm.is_finite() {
             cmd.speed_rpm
         } else {
             0.0
         };
         let mut reason = None;
-        let disagreement = wrap_pi(views.theta_primary - views.theta_monitor).abs();
-        let speed_disagreement = (views.omega_primary - views.omega_monitor).abs() * RPM_PER_RAD_S;
-        tel.theta_e_primary = views.theta_primary;
-        tel.theta_e_monitor = views.theta_monitor;
-        tel.disagreement_deg = disagreement * DEG_PER_RAD;
-        tel.speed_disagreement_rpm = speed_disagreement;
-        tel.load_nm = st.sliding.load_nm;
-        tel.ks_min_est = max(st.sliding.w.alpha.abs(), st.sliding.w.beta.abs());
+        let disagreement = views.disagreement();
+        let speed_disagreement = views.speed_disagreement_rpm();
         // (angle, its sin/cos, speed [rad/s], current command) for the FOC this step.
         let (theta, sc, omega_m, i_ref, speed_loop) = match st.mode {
             Mode::Align => {
@@ -765,7 +792,7 @@ impl Drive {
                 st.speed_ref_rpm = slew(st.speed_ref_rpm, cmd_rpm, self.accel_per_step);
                 let speed = views.omega_primary * RPM_PER_RAD_S;
                 // Health: both observers must update, and agree.
-                if !views.ok {
+                if !observers_ok {
                     return (None, Some(self.enter_fault(st, Fault::ObserverLoss)));
                 }
                 let disagree = disagreement > self.max_disagreement
@@ -839,11 +866,6 @@ impl Drive {
             out
         };
         st.v_ab_last = out.v_ab;
-        tel.theta_e_control = theta;
-        tel.speed_rpm = omega_m * RPM_PER_RAD_S;
-        tel.speed_ref_rpm = st.speed_ref_rpm;
-        tel.i_d = out.i_dq.d;
-        tel.i_q = out.i_dq.q;
         (Some(out.duties), reason)
     }
 }

@@ -488,7 +488,7 @@ impl Sim {
                         self.causes.fault.get_or_insert((self.k, f));
                     }
                 }
-                let tel = out.telemetry;
+                let tel = drive.telemetry(state);
                 let est = Estimate {
                     theta_e: tel.theta_e_primary,
                     omega_m: tel.speed_rpm * (std::f32::consts::PI / 30.0),

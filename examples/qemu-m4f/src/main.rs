@@ -141,7 +141,7 @@ mod firmware {
                     handovers += 1;
                 }
             }
-            let tel = out.telemetry;
+            let tel = drive.telemetry(&st);
             if k % 2000 == 0 {
                 defmt::info!("{}", tel);
             }
