@@ -131,6 +131,7 @@ impl CurrentLoop {
     /// `i_dq`, `i_dq_ref` [A]; `omega_e` electrical speed [rad/s]; `v_max` ≥ 0 the largest
     /// voltage magnitude the inverter can apply [V]. Anti-windup: when the vector is cut to
     /// `v_max`, neither integrator moves. Non-finite inputs give zero volts.
+    #[inline(always)]
     pub fn update(
         &self,
         state: &mut CurrentLoopState,
@@ -236,6 +237,7 @@ impl Foc {
 
     /// [`Foc::step`] with `sc` = sin/cos of `input.theta_e` already known (e.g. kept by the
     /// observer that estimated the angle), which saves one trig evaluation.
+    #[inline(always)]
     pub fn step_at(&self, state: &mut FocState, input: &FocInput, sc: SinCos) -> FocOutput {
         if state.tick == 0 {
             let ff_a = input.torque_ff_nm * self.inv_kt;
@@ -262,6 +264,7 @@ impl Foc {
     }
 
     /// [`Foc::current_step`] with `sc` = sin/cos of `input.theta_e` already known.
+    #[inline(always)]
     pub fn current_step_at(
         &self,
         state: &mut CurrentLoopState,
