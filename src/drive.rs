@@ -201,17 +201,20 @@ impl DriveConfig {
         positive("max_speed_disagreement_rpm", h.max_speed_disagreement_rpm)?;
         positive("loss_time_s", h.loss_time_s)?;
         positive("stall_time_s", h.stall_time_s)?;
-        let foc = FocConfig {
-            current_bandwidth_hz: self.current_bandwidth_hz,
-            speed_bandwidth_hz: self.speed_bandwidth_hz,
-            current_rate_hz: rate,
-            ..FocConfig::new(m, l.i_max_a)
-        }
-        .build()?;
         let sliding_cfg = SlidingConfig {
             rate_hz: rate,
             ..SlidingConfig::torque(m)
         };
+        // The controller applies its voltage at the sliding observer's back-EMF angle (the
+        // middle of the period), so it can use the sin/cos the observer keeps of it.
+        let foc = FocConfig {
+            current_bandwidth_hz: self.current_bandwidth_hz,
+            speed_bandwidth_hz: self.speed_bandwidth_hz,
+            current_rate_hz: rate,
+            angle_advance_periods: sliding_cfg.emf_advance_periods,
+            ..FocConfig::new(m, l.i_max_a)
+        }
+        .build()?;
         let sliding = sliding_cfg.build()?;
         // K_s inside its bounds (Horng & Chin Sec 4): below the discrete-time bound, whose
         // binding eigenvalue is −(R/L + K_s/ε) ((K_s,max)_T = ε(2/T − R/L)), and below
@@ -713,8 +716,9 @@ impl Drive {
         let mut reason = None;
         let disagreement = views.disagreement();
         let speed_disagreement = views.speed_disagreement_rpm();
-        // (angle, its sin/cos, speed [rad/s], current command) for the FOC this step.
-        let (theta, sc, omega_m, i_ref, speed_loop) = match st.mode {
+        // (angle, sin/cos of it and of the output angle, speed [rad/s], current command, speed
+        // loop on) for the FOC this step.
+        let (theta, (sc, sc_out), omega_m, i_ref, speed_loop) = match st.mode {
             Mode::Align => {
                 if st.mode_steps >= self.align_steps.saturating_sub(1) {
                     // Rotor at θ_e = 0, at rest: start the observers there.
@@ -726,7 +730,7 @@ impl Drive {
                 }
                 (
                     0.0,
-                    SinCos::ZERO,
+                    (SinCos::ZERO, SinCos::ZERO),
                     0.0,
                     Dq::new(self.align_current_a, 0.0),
                     false,
@@ -780,9 +784,10 @@ impl Drive {
                 } else if st.waiting_steps >= self.handover_timeout_steps {
                     return (None, Some(self.enter_fault(st, Fault::Stall)));
                 }
+                let sc = SinCos::of(st.theta_ol);
                 (
                     st.theta_ol,
-                    SinCos::of(st.theta_ol),
+                    (sc, self.foc.output_angle(sc, st.theta_ol, omega)),
                     omega,
                     Dq::new(self.open_loop_current_a, 0.0),
                     false,
@@ -831,14 +836,17 @@ impl Drive {
                     st.waiting_steps = 0;
                     reason = Some(Reason::HandBack);
                 }
-                // The sliding observer keeps the sin/cos of its angle.
-                let sc = match self.primary {
-                    Primary::SlidingTorque => st.sliding.sc,
-                    Primary::Flux => SinCos::of(views.theta_primary),
+                // The sliding observer keeps the sin/cos of its angle and of the output angle.
+                let angles = match self.primary {
+                    Primary::SlidingTorque => (st.sliding.sc, st.sliding.sc_mid),
+                    Primary::Flux => {
+                        let (theta, sc) = (views.theta_primary, SinCos::of(views.theta_primary));
+                        (sc, self.foc.output_angle(sc, theta, views.omega_primary))
+                    }
                 };
                 (
                     views.theta_primary,
-                    sc,
+                    angles,
                     views.omega_primary,
                     Dq::default(),
                     true,
@@ -858,10 +866,10 @@ impl Drive {
             },
         };
         let out = if speed_loop {
-            self.foc.step_at(&mut st.foc, &foc_in, sc)
+            self.foc.step_at(&mut st.foc, &foc_in, sc, sc_out)
         } else {
             let mut current: CurrentLoopState = st.foc.current;
-            let out = self.foc.current_step_at(&mut current, &foc_in, sc, i_ref);
+            let out = self.foc.current_step_at(&mut current, &foc_in, sc, sc_out, i_ref);
             st.foc.current = current;
             out
         };

@@ -232,13 +232,31 @@ pub struct FocOutput {
 impl Foc {
     /// One current-loop period; every `speed_divider`-th call also runs the speed loop first.
     pub fn step(&self, state: &mut FocState, input: &FocInput) -> FocOutput {
-        self.step_at(state, input, SinCos::of(input.theta_e))
+        let sc = SinCos::of(input.theta_e);
+        let sc_out = self.output_angle(sc, input.theta_e, input.omega_m);
+        self.step_at(state, input, sc, sc_out)
     }
 
-    /// [`Foc::step`] with `sc` = sin/cos of `input.theta_e` already known (e.g. kept by the
-    /// observer that estimated the angle), which saves one trig evaluation.
+    /// sin/cos of the angle the voltage of this period is applied at, `θ_e + advance·ω_e·Ts`
+    /// (see [`FocConfig::angle_advance_periods`]), from `sc` = sin/cos of `θ_e`.
+    pub fn output_angle(&self, sc: SinCos, theta_e: f32, omega_m: f32) -> SinCos {
+        let delta = self.pole_pairs * omega_m * self.advance_s;
+        let (sin, cos) = advance((sc.sin, sc.cos), theta_e, delta);
+        SinCos { sin, cos }
+    }
+
+    /// [`Foc::step`] with the sin/cos of `input.theta_e` (`sc`, for the Park transform of the
+    /// currents) and of the output angle (`sc_out`, for the inverse Park of the voltage, see
+    /// [`Foc::output_angle`]) already known, e.g. kept by the observer that estimated the
+    /// angle, which saves the trig evaluations.
     #[inline(always)]
-    pub fn step_at(&self, state: &mut FocState, input: &FocInput, sc: SinCos) -> FocOutput {
+    pub fn step_at(
+        &self,
+        state: &mut FocState,
+        input: &FocInput,
+        sc: SinCos,
+        sc_out: SinCos,
+    ) -> FocOutput {
         if state.tick == 0 {
             let ff_a = input.torque_ff_nm * self.inv_kt;
             state.i_q_ref =
@@ -250,7 +268,7 @@ impl Foc {
             state.tick = 0;
         }
         let i_dq_ref = Dq::new(0.0, state.i_q_ref);
-        self.current_step_at(&mut state.current, input, sc, i_dq_ref)
+        self.current_step_at(&mut state.current, input, sc, sc_out, i_dq_ref)
     }
 
     /// One current-loop period with an explicit current command (no speed loop).
@@ -260,16 +278,19 @@ impl Foc {
         input: &FocInput,
         i_dq_ref: Dq,
     ) -> FocOutput {
-        self.current_step_at(state, input, SinCos::of(input.theta_e), i_dq_ref)
+        let sc = SinCos::of(input.theta_e);
+        let sc_out = self.output_angle(sc, input.theta_e, input.omega_m);
+        self.current_step_at(state, input, sc, sc_out, i_dq_ref)
     }
 
-    /// [`Foc::current_step`] with `sc` = sin/cos of `input.theta_e` already known.
+    /// [`Foc::current_step`] with the angles of [`Foc::step_at`] already known.
     #[inline(always)]
     pub fn current_step_at(
         &self,
         state: &mut CurrentLoopState,
         input: &FocInput,
         sc: SinCos,
+        sc_out: SinCos,
         i_dq_ref: Dq,
     ) -> FocOutput {
         let i_ab = input.i_abc.to_alpha_beta();
@@ -277,9 +298,7 @@ impl Foc {
         let omega_e = self.pole_pairs * input.omega_m;
         let v_max = input.v_bus * INV_SQRT3;
         let out = self.current.update(state, i_dq, i_dq_ref, omega_e, v_max);
-        // The angle at the middle of the period the voltage is held for.
-        let (sin, cos) = advance((sc.sin, sc.cos), input.theta_e, omega_e * self.advance_s);
-        let v_ab_cmd = out.v_dq.to_alpha_beta(SinCos { sin, cos });
+        let v_ab_cmd = out.v_dq.to_alpha_beta(sc_out);
         let pwm = svpwm(v_ab_cmd, input.v_bus);
         FocOutput {
             duties: pwm.duties,

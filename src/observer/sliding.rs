@@ -128,7 +128,7 @@ impl SlidingConfig {
             inv_epsilon: 1.0 / epsilon,
             ks,
             omega_low,
-            emf_advance_periods: self.emf_advance_periods,
+            emf_advance_s: self.emf_advance_periods * ts * n,
         })
     }
 }
@@ -157,7 +157,8 @@ pub struct SlidingObserver {
     inv_epsilon: f32,
     ks: SlidingGain,
     omega_low: f32,
-    emf_advance_periods: f32,
+    /// a·T·N [s]: the EMF angle leads θ̂_e by this times ω̂ [rad].
+    emf_advance_s: f32,
 }
 
 /// Running state of a sliding observer.
@@ -177,6 +178,10 @@ pub struct SlidingState {
     pub s: AlphaBeta,
     /// `sin θ̂_e`, `cos θ̂_e` of the last sample (reused by the next propagation).
     pub sc: SinCos,
+    /// sin/cos of the back-EMF angle of the coming period, `θ̂_e + a N ω̂ T` with
+    /// `a` = [`SlidingConfig::emf_advance_periods`] (the middle of the period for a = ½): the
+    /// next propagation's EMF angle, also the angle a controller applies its voltage at.
+    pub sc_mid: SinCos,
     /// False until the first sample has been taken.
     pub started: bool,
 }
@@ -191,6 +196,7 @@ impl Default for SlidingState {
             w: AlphaBeta::default(),
             s: AlphaBeta::default(),
             sc: SinCos::ZERO,
+            sc_mid: SinCos::ZERO,
             started: false,
         }
     }
@@ -247,11 +253,13 @@ impl SlidingObserver {
     /// Restarts the observer at a known rotor state (e.g. after an open-loop start).
     pub fn reset(&self, state: &mut SlidingState, i_ab: AlphaBeta, theta_e: f32, omega_m: f32) {
         let theta_e = wrap_pi(theta_e);
+        let sc = SinCos::of(theta_e);
         *state = SlidingState {
             i_hat: i_ab,
             theta_e,
             omega_m,
-            sc: SinCos::of(theta_e),
+            sc,
+            sc_mid: self.emf_angle(sc, theta_e, omega_m),
             started: true,
             ..SlidingState::default()
         };
@@ -296,24 +304,15 @@ impl SlidingObserver {
     /// innovation `w` and the gains at the state it was computed at.
     #[inline(always)]
     fn propagate(&self, st: &mut SlidingState, v_ab: AlphaBeta) {
-        let sc = st.sc;
+        let (sc, emf) = (st.sc, st.sc_mid);
         let t = self.ts;
-        // (22): the advance of θ̂_e over the period [rad].
-        let step_e = t * self.n * st.omega_m;
-        // Back-EMF angle in the middle of the period (see the module doc), by rotating the
-        // sin/cos of the angle at the start (one trig evaluation per update, at the end).
-        let (emf_sin, emf_cos) = advance(
-            (sc.sin, sc.cos),
-            st.theta_e,
-            step_e * self.emf_advance_periods,
-        );
         let (i, w) = (st.i_hat, st.w);
         // The gains at the state the innovation w was computed at (the previous sample).
         let g = self.gains(sc, st.omega_m, i);
         let emf_gain = self.kn_over_l * st.omega_m;
         let di_a =
-            -self.r_over_l * i.alpha + emf_gain * emf_sin + self.inv_l * v_ab.alpha - w.alpha; // (20)
-        let di_b = -self.r_over_l * i.beta - emf_gain * emf_cos + self.inv_l * v_ab.beta - w.beta; // (21)
+            -self.r_over_l * i.alpha + emf_gain * emf.sin + self.inv_l * v_ab.alpha - w.alpha; // (20)
+        let di_b = -self.r_over_l * i.beta - emf_gain * emf.cos + self.inv_l * v_ab.beta - w.beta; // (21)
         let d_omega = -self.kn_over_h * (i.alpha * sc.sin - i.beta * sc.cos)
             - self.b_over_h * st.omega_m
             - self.inv_h * st.load_nm
@@ -321,11 +320,21 @@ impl SlidingObserver {
             + g[1] * w.beta; // (35)
         let d_load = g[2] * w.alpha + g[3] * w.beta; // (34)
         st.i_hat = AlphaBeta::new(i.alpha + t * di_a, i.beta + t * di_b);
-        st.theta_e = wrap_pi(st.theta_e + step_e);
-        // (22) done; sin/cos fresh each period (rotating the stored pair would accumulate
-        // rounding).
-        st.sc = SinCos::of(st.theta_e);
+        // (22)
+        st.theta_e = wrap_pi(st.theta_e + t * self.n * st.omega_m);
         st.omega_m += t * d_omega;
         st.load_nm += t * d_load;
+        // sin/cos fresh each period (rotating the stored pair would accumulate rounding);
+        // the next period's EMF angle by a small rotation of it.
+        st.sc = SinCos::of(st.theta_e);
+        st.sc_mid = self.emf_angle(st.sc, st.theta_e, st.omega_m);
+    }
+
+    /// sin/cos of `θ̂_e + a N ω̂ T` from `sc` = sin/cos of `θ̂_e` (see [`SlidingState::sc_mid`]).
+    #[inline(always)]
+    fn emf_angle(&self, sc: SinCos, theta_e: f32, omega_m: f32) -> SinCos {
+        let delta = self.emf_advance_s * omega_m;
+        let (sin, cos) = advance((sc.sin, sc.cos), theta_e, delta);
+        SinCos { sin, cos }
     }
 }
