@@ -869,7 +869,9 @@ impl Drive {
             self.foc.step_at(&mut st.foc, &foc_in, sc, sc_out)
         } else {
             let mut current: CurrentLoopState = st.foc.current;
-            let out = self.foc.current_step_at(&mut current, &foc_in, sc, sc_out, i_ref);
+            let out = self
+                .foc
+                .current_step_at(&mut current, &foc_in, sc, sc_out, i_ref);
             st.foc.current = current;
             out
         };

@@ -52,11 +52,12 @@ pub fn sin_cos(theta: f32) -> (f32, f32) {
     let z = r * r;
     let s = r + r * z * ((-1.951_529_6e-4 * z + 8.332_161e-3) * z - 1.666_665_5e-1);
     let c = ((2.443_315_7e-5 * z - 1.388_731_6e-3) * z + 4.166_664_6e-2) * z * z - 0.5 * z + 1.0;
-    match q & 3 {
-        0 => (s, c),
-        1 => (c, -s),
-        2 => (-s, -c),
-        _ => (-c, s),
+    // Quadrant q mod 4: odd swaps sin and cos (and negates the new cos), 2 and 3 negate both.
+    let (s, c) = if q & 1 != 0 { (c, -s) } else { (s, c) };
+    if q & 2 != 0 {
+        (-s, -c)
+    } else {
+        (s, c)
     }
 }
 
@@ -111,7 +112,8 @@ pub fn atan2(y: f32, x: f32) -> f32 {
 /// `theta − 2πk` in f64; inputs already in (−π, π] are returned unchanged. Measured 1.3e-6
 /// up to 1e5 rad, 3e-2 up to 1e6 rad. The result is in range for every finite input. NaN/±inf yield NaN. Floor-based, no loop.
 pub fn wrap_pi(theta: f32) -> f32 {
-    if theta > -PI && theta <= PI {
+    // One compare on the usual path (±π themselves take the other; false for NaN).
+    if libm::fabsf(theta) < PI {
         return theta;
     }
     // k = ceil(theta/2π − 1/2), so that theta = π gives k = 0.
