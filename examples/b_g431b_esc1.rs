@@ -261,11 +261,15 @@ mod firmware {
     impl Control {
         /// One control period: read the samples, step the drive, load the timer.
         ///
-        /// Not placed in RAM: the drive's hot functions live in the library and cannot be
-        /// given a `.data` link section from here, so moving only this wrapper would gain
-        /// nothing. Flash runs with 4 wait states behind the ART accelerator (prefetch,
-        /// instruction and data caches on); the step's cycle count is measured elsewhere, and
-        /// an overrun is reported to the drive (it faults with `Overrun`).
+        /// Runs from CCM SRAM (`.ramfunc`, memory.x), with `Drive::step` and everything it
+        /// inlines (observers, FOC, SVPWM) inlined into it: flash needs 4 wait states at
+        /// 170 MHz and the ART's 1 KiB instruction cache cannot hold the ~4 KiB step. Only
+        /// `math::sin_cos` (called once a step) and cold paths stay in flash. An overrun is
+        /// reported to the drive (it faults with `Overrun`).
+        // Not `unsafe`, but `#[link_section]` trips the `unsafe_code` lint: the section is one
+        // memory.x defines and `load_ramfunc` fills before the interrupt is enabled.
+        #[link_section = ".ramfunc.control_step"]
+        #[inline(never)]
         fn step(&mut self) {
             // Acknowledge the interrupt source first (RM0440 ADC_ISR: write 1 to clear).
             self.adc1.isr().write(|w| w.jeos().clear().jeoc().clear());
@@ -390,8 +394,32 @@ mod firmware {
         }
     }
 
+    /// Copies the control path (`.ramfunc`, see memory.x) from its load image in flash to CCM
+    /// SRAM. Must run before anything in it is called.
+    fn load_ramfunc() {
+        extern "C" {
+            static mut __sramfunc: u32;
+            static mut __eramfunc: u32;
+            static __siramfunc: u32;
+        }
+        // SAFETY: the three symbols come from memory.x: a word-aligned region of CCM SRAM that
+        // nothing else uses and its image in flash, of the same length. Nothing in the region
+        // runs before this copy (it is the first thing `main` does; no interrupt is enabled).
+        unsafe {
+            let dst = core::ptr::addr_of_mut!(__sramfunc);
+            let end = core::ptr::addr_of_mut!(__eramfunc);
+            let src = core::ptr::addr_of!(__siramfunc);
+            let words = (end as usize - dst as usize) / 4;
+            core::ptr::copy_nonoverlapping(src, dst, words);
+        }
+        // The copied words are code: finish the writes before any is fetched.
+        cortex_m::asm::dsb();
+        cortex_m::asm::isb();
+    }
+
     #[entry]
     fn main() -> ! {
+        load_ramfunc();
         let Some(dp) = pac::Peripherals::take() else {
             defmt::panic!("peripherals taken twice");
         };

@@ -525,6 +525,9 @@ fn slew(x: f32, target: f32, step: f32) -> f32 {
 impl Drive {
     /// One control period. Never panics, never returns a duty outside [0, 1]; any fault turns
     /// the PWM off in the same step.
+    // A hint, so a firmware can take the whole step into its own interrupt code (the B-G431B-ESC1
+    // firmware runs that from RAM).
+    #[inline]
     pub fn step(&self, st: &mut DriveState, input: &DriveInput, cmd: &Command) -> DriveOutput {
         let from = st.mode;
         let mut reason = None;
@@ -597,6 +600,8 @@ impl Drive {
     /// The log record of the state the last [`Drive::step`] left. Built on demand (at the log's
     /// rate, not the control rate); the observer values are those of the last step they ran,
     /// everything else is zero while the PWM is off.
+    // Not inlined: it belongs to the log path, not the control path.
+    #[inline(never)]
     pub fn telemetry(&self, st: &DriveState) -> Telemetry {
         let off = Telemetry {
             mode: st.mode,

@@ -36,10 +36,13 @@ pub struct CyclesReport {
     pub flux_cycles_est: u64,
     /// Cycle estimate of one current-loop step with SVPWM.
     pub foc_svpwm_cycles_est: u64,
-    /// Board firmware: flash image (vector table, code, read-only data, .data image) [bytes].
+    /// Board firmware: flash image (vector table, code, read-only data, the .data and
+    /// .ramfunc images) [bytes].
     pub flash_bytes: u64,
     /// Board firmware: static RAM (.data, .bss, .uninit; the stack is not counted) [bytes].
     pub ram_bytes: u64,
+    /// Board firmware: the control path copied to CCM SRAM (`.ramfunc`, 10 KiB there) [bytes].
+    pub ramfunc_bytes: u64,
     /// f64 soft-float routines linked into the board firmware or the bench (should be none).
     pub f64_soft_float_symbols: Vec<String>,
 }
@@ -276,10 +279,10 @@ fn sections(
     Ok(out)
 }
 
-/// Sizes from `llvm-size -A`: (flash, static RAM).
-fn sizes(size_tool: &Path, elf: &Path) -> anyhow::Result<(u64, u64)> {
+/// Sizes from `llvm-size -A`: (flash, static RAM, code in RAM).
+fn sizes(size_tool: &Path, elf: &Path) -> anyhow::Result<(u64, u64, u64)> {
     let text = run(Command::new(size_tool).arg("-A").arg(elf), "llvm-size")?;
-    let (mut flash, mut ram) = (0, 0);
+    let (mut flash, mut ram, mut ramfunc) = (0, 0, 0);
     for line in text.lines() {
         let f: Vec<&str> = line.split_whitespace().collect();
         let [name, size, _addr] = f[..] else { continue };
@@ -292,11 +295,15 @@ fn sizes(size_tool: &Path, elf: &Path) -> anyhow::Result<(u64, u64)> {
                 flash += size;
                 ram += size;
             }
+            ".ramfunc" => {
+                flash += size;
+                ramfunc += size;
+            }
             ".bss" | ".uninit" => ram += size,
             _ => {}
         }
     }
-    Ok((flash, ram))
+    Ok((flash, ram, ramfunc))
 }
 
 /// f64 soft-float routines among an ELF's symbols.
@@ -372,7 +379,7 @@ pub fn measure(root: &Path) -> anyhow::Result<CyclesReport> {
         Ok(v.iter().fold((0, 0), |a, &(n, c)| (a.0.max(n), a.1.max(c))))
     };
     let (step_n, step_c) = worst("step_speed_loop")?;
-    let (flash_bytes, ram_bytes) = sizes(&llvm_tool(root, "llvm-size")?, &board)?;
+    let (flash_bytes, ram_bytes, ramfunc_bytes) = sizes(&llvm_tool(root, "llvm-size")?, &board)?;
     let nm = llvm_tool(root, "llvm-nm")?;
     let mut f64_soft_float_symbols = soft_float_symbols(&nm, &board)?;
     f64_soft_float_symbols.extend(soft_float_symbols(&nm, &bench)?);
@@ -387,6 +394,7 @@ pub fn measure(root: &Path) -> anyhow::Result<CyclesReport> {
         foc_svpwm_cycles_est: worst("foc_svpwm")?.1,
         flash_bytes,
         ram_bytes,
+        ramfunc_bytes,
         f64_soft_float_symbols,
     })
 }

@@ -89,9 +89,10 @@ fn cycles(args: CyclesArgs) -> anyhow::Result<String> {
         );
         outln!(
             out,
-            "board firmware: flash {} bytes, static RAM {} bytes",
+            "board firmware: flash {} bytes, static RAM {} bytes, control path in CCM SRAM {} bytes",
             r.flash_bytes,
-            r.ram_bytes
+            r.ram_bytes,
+            r.ramfunc_bytes
         );
         outln!(
             out,
