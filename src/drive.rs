@@ -11,6 +11,12 @@
 //! angle `θ_ol` whose frequency ramps; the rotor follows it, lagging by `asin(τ/(Nψ I_ol))`.
 //! Hand-over when the speed is above the observable range and the configured observer agrees
 //! with `θ_ol`; the speed loop then starts from the torque the open-loop current was making.
+//!
+//! Cost: the blocks' per-sample functions (observers, PLL, FOC, PI, SVPWM) are
+//! `#[inline(always)]`, so the step compiles to one function: no per-block register save and
+//! restore, no structs passed through memory (measured: 1566 → 1296 cycles on the emulated
+//! M4F, `pmsm-sim cycles`). The log record is not built here: [`Drive::telemetry`] reads it
+//! from the state at the log's rate.
 
 use crate::foc::{CurrentLoopState, Foc, FocConfig, FocInput, FocState};
 use crate::frames::{Abc, AlphaBeta, Dq, SinCos};

@@ -386,3 +386,32 @@ fn telemetry_is_a_small_fixed_size_record() {
     println!("Telemetry: {size} bytes");
     assert!(size <= 64, "{size}");
 }
+
+#[test]
+fn telemetry_reads_the_state_the_step_left() {
+    use pmsm_sensorless::drive::Telemetry;
+    let drive = DriveConfig::new(&HORNG_SINANO, Primary::SlidingTorque)
+        .build()
+        .unwrap();
+    let mut st = DriveState::default();
+    // PWM off: only the mode.
+    assert_eq!(drive.telemetry(&st), Telemetry::default());
+    let input = DriveInput {
+        i_abc: Abc::new(0.0, 0.0, 0.0),
+        v_bus: 48.0,
+        overrun: false,
+    };
+    let cmd = Command {
+        enable: true,
+        speed_rpm: 500.0,
+        clear_fault: false,
+    };
+    drive.step(&mut st, &input, &cmd);
+    st.sliding.theta_e = 0.5;
+    st.sliding.load_nm = 0.1;
+    let tel = drive.telemetry(&st);
+    assert_eq!(tel.mode, Mode::Align);
+    assert_eq!((tel.theta_e_control, tel.speed_rpm), (0.0, 0.0));
+    assert_eq!((tel.theta_e_primary, tel.load_nm), (0.5, 0.1));
+    assert_eq!(tel.theta_e_monitor, st.flux.theta_e);
+}

@@ -212,6 +212,7 @@ impl SlidingObserver {
     /// `|ω̂| < ω̂_low` (Sec 5). G1, G2 in rad/(A·s) so that `G·w` is rad/s²; G3, G4 in N·m/A.
     /// For the velocity observer (λτ = 0) K3 = 0, G3 = G4 = 0 and these are the gains after
     /// eq (32).
+    // Inlined: the 4 kHz step compiles to one function (see `drive`).
     #[inline(always)]
     pub fn gains(&self, sc: SinCos, omega_m: f32, i_hat: AlphaBeta) -> [f32; 4] {
         let w = self.gain_speed(omega_m);
@@ -270,6 +271,7 @@ impl SlidingObserver {
     /// now with forward Euler (the previous innovation, eqs (20)-(22), (34), (35)), then
     /// computes the new sliding variable and innovation. Returns false, leaving the state
     /// untouched, when an input is not finite or the update would not be.
+    // Inlined: the 4 kHz step compiles to one function (see `drive`).
     #[inline(always)]
     pub fn update(&self, st: &mut SlidingState, i_ab: AlphaBeta, v_ab: AlphaBeta) -> bool {
         if !all_finite([i_ab.alpha, i_ab.beta, v_ab.alpha, v_ab.beta]) {
@@ -302,6 +304,7 @@ impl SlidingObserver {
 
     /// Forward-Euler step of eqs (20)-(22), (34), (35) over one period with the stored
     /// innovation `w` and the gains at the state it was computed at.
+    // Inlined: the 4 kHz step compiles to one function (see `drive`).
     #[inline(always)]
     fn propagate(&self, st: &mut SlidingState, v_ab: AlphaBeta) {
         let (sc, emf) = (st.sc, st.sc_mid);
@@ -331,6 +334,7 @@ impl SlidingObserver {
     }
 
     /// sin/cos of `θ̂_e + a N ω̂ T` from `sc` = sin/cos of `θ̂_e` (see [`SlidingState::sc_mid`]).
+    // Inlined: the 4 kHz step compiles to one function (see `drive`).
     #[inline(always)]
     fn emf_angle(&self, sc: SinCos, theta_e: f32, omega_m: f32) -> SinCos {
         let delta = self.emf_advance_s * omega_m;
