@@ -12,7 +12,7 @@
 //! `v_d = PI_d − ω_e L i_q`, `v_q = PI_q + ω_e L i_d + ω_e ψ_f`.
 
 use crate::frames::{Abc, AlphaBeta, Dq, SinCos};
-use crate::math::{advance, all_finite};
+use crate::math::all_finite;
 use crate::motor::{positive, MotorParams, ParamError};
 use crate::pi::{Pi, PiConfig, PiState};
 use crate::svpwm::{svpwm, Duties};
@@ -241,9 +241,7 @@ impl Foc {
     /// sin/cos of the angle the voltage of this period is applied at, `θ_e + advance·ω_e·Ts`
     /// (see [`FocConfig::angle_advance_periods`]), from `sc` = sin/cos of `θ_e`.
     pub fn output_angle(&self, sc: SinCos, theta_e: f32, omega_m: f32) -> SinCos {
-        let delta = self.pole_pairs * omega_m * self.advance_s;
-        let (sin, cos) = advance((sc.sin, sc.cos), theta_e, delta);
-        SinCos { sin, cos }
+        sc.advanced(theta_e, self.pole_pairs * omega_m * self.advance_s)
     }
 
     /// [`Foc::step`] with the sin/cos of `input.theta_e` (`sc`, for the Park transform of the

@@ -52,6 +52,14 @@ impl SinCos {
         let (sin, cos) = crate::math::sin_cos(theta);
         Self { sin, cos }
     }
+
+    /// `sin`/`cos` of `theta + delta` from these, the `sin`/`cos` of `theta` (rad): a rotation
+    /// for a small `delta` (see [`crate::math::advance`]).
+    #[inline]
+    pub fn advanced(self, theta: f32, delta: f32) -> Self {
+        let (sin, cos) = crate::math::advance((self.sin, self.cos), theta, delta);
+        Self { sin, cos }
+    }
 }
 
 const INV_SQRT3: f32 = 0.577_350_26;

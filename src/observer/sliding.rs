@@ -23,7 +23,7 @@
 //! (`½ N ω T` = 3.0° electrical at 1000 rpm and 4 kHz on the Sinano motor).
 
 use crate::frames::{AlphaBeta, SinCos};
-use crate::math::{advance, all_finite, clamp, wrap_pi};
+use crate::math::{all_finite, clamp, wrap_pi};
 use crate::motor::{non_negative, positive, MotorParams, ParamError};
 use core::f32::consts::TAU;
 
@@ -337,8 +337,6 @@ impl SlidingObserver {
     // Inlined: the 4 kHz step compiles to one function (see `drive`).
     #[inline(always)]
     fn emf_angle(&self, sc: SinCos, theta_e: f32, omega_m: f32) -> SinCos {
-        let delta = self.emf_advance_s * omega_m;
-        let (sin, cos) = advance((sc.sin, sc.cos), theta_e, delta);
-        SinCos { sin, cos }
+        sc.advanced(theta_e, self.emf_advance_s * omega_m)
     }
 }
