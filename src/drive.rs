@@ -27,6 +27,7 @@ use crate::observer::pll::{Pll, PllConfig, PllState};
 use crate::observer::sliding::{SlidingConfig, SlidingObserver, SlidingState};
 use crate::svpwm::Duties;
 use core::f32::consts::PI;
+use core::hint::cold_path;
 
 const RAD_S_PER_RPM: f32 = PI / 30.0;
 const RAD_PER_DEG: f32 = PI / 180.0;
@@ -523,6 +524,12 @@ impl Views {
     }
 }
 
+/// A fault found by a check: the rare path, laid out off the straight-line step.
+fn found(fault: Fault) -> Option<Fault> {
+    cold_path();
+    Some(fault)
+}
+
 /// `x` moved toward `target` by at most `step`.
 fn slew(x: f32, target: f32, step: f32) -> f32 {
     x + clamp(target - x, -step, step)
@@ -554,6 +561,7 @@ impl Drive {
         // 2. Commands.
         match st.mode {
             Mode::Fault if cmd.clear_fault && !new_fault => {
+                cold_path();
                 *st = DriveState {
                     armed: false,
                     ..DriveState::default()
@@ -562,6 +570,7 @@ impl Drive {
             }
             Mode::Fault => {}
             Mode::Idle if starting => {
+                cold_path();
                 *st = DriveState {
                     mode: Mode::Align,
                     ..DriveState::default()
@@ -570,6 +579,7 @@ impl Drive {
             }
             Mode::Idle => {}
             _ if !cmd.enable => {
+                cold_path();
                 *st = DriveState::default();
                 reason = Some(Reason::Disabled);
             }
@@ -649,29 +659,30 @@ impl Drive {
         let i = input.i_abc;
         let l = &self.limits;
         if input.overrun {
-            return Some(Fault::Overrun);
+            return found(Fault::Overrun);
         }
         if !all_finite([i.a, i.b, i.c, input.v_bus, cmd.speed_rpm]) {
-            return Some(Fault::InvalidInput);
+            return found(Fault::InvalidInput);
         }
         let i_peak = max(max(i.a.abs(), i.b.abs()), i.c.abs());
         if i_peak > l.i_sense_max_a {
-            return Some(Fault::InvalidInput);
+            return found(Fault::InvalidInput);
         }
         if i_peak > l.i_trip_a {
-            return Some(Fault::Overcurrent);
+            return found(Fault::Overcurrent);
         }
         if input.v_bus > l.bus_max_v {
-            return Some(Fault::BusOvervoltage);
+            return found(Fault::BusOvervoltage);
         }
         // Under-voltage only matters while switching, or about to.
         if (mode != Mode::Idle || starting) && input.v_bus < l.bus_min_v {
-            return Some(Fault::BusUndervoltage);
+            return found(Fault::BusUndervoltage);
         }
         None
     }
 
     fn enter_fault(&self, st: &mut DriveState, fault: Fault) -> Reason {
+        cold_path();
         st.mode = Mode::Fault;
         st.fault = Some(fault);
         Reason::Fault(fault)
@@ -780,6 +791,7 @@ impl Drive {
                     return (None, Some(Reason::Stopped));
                 }
                 if st.agree_steps >= self.handover_steps {
+                    cold_path();
                     // Start the speed loop from the torque the open-loop current makes in the
                     // observer's frame, and the reference from the observed speed.
                     let i_ol = self.open_loop_current_a;
@@ -840,6 +852,7 @@ impl Drive {
                     return (None, Some(self.enter_fault(st, Fault::Stall)));
                 }
                 if st.speed_ref_rpm.abs() < self.handback_rpm && speed.abs() < self.handback_rpm {
+                    cold_path();
                     st.mode = Mode::OpenLoop;
                     st.theta_ol = views.theta_primary;
                     st.speed_ol_rpm = speed;

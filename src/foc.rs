@@ -17,6 +17,7 @@ use crate::motor::{positive, MotorParams, ParamError};
 use crate::pi::{Pi, PiConfig, PiState};
 use crate::svpwm::{svpwm, Duties};
 use core::f32::consts::TAU;
+use core::hint::cold_path;
 
 const INV_SQRT3: f32 = 0.577_350_26;
 
@@ -150,6 +151,7 @@ impl CurrentLoop {
         let v_q = self.kp * e_q + int_q + omega_e * (self.l_h * i_dq.d + self.flux_wb);
         let mag2 = v_d * v_d + v_q * v_q;
         if !(v_max > 0.0 && all_finite([mag2, v_max])) {
+            cold_path();
             return CurrentLoopOutput {
                 v_dq: Dq::default(),
                 saturated: true,

@@ -8,6 +8,7 @@
 //! code is plain IEEE f32 arithmetic (Rust never fuses into FMA), so the M4F gives the same bits.
 
 use core::f32::consts::{FRAC_2_PI, FRAC_PI_2, FRAC_PI_4, PI, TAU};
+use core::hint::cold_path;
 
 /// π/2 split in three parts (Cody–Waite; the Cephes `DP1..DP3` for π/4, doubled).
 /// `PIO2_HI` has 8 significant bits and `PIO2_MID` 11, so `n * PIO2_HI` and `n * PIO2_MID`
@@ -41,6 +42,7 @@ pub fn sin_cos(theta: f32) -> (f32, f32) {
     let theta = if libm::fabsf(theta) <= REDUCE_MAX {
         theta
     } else if theta.is_finite() {
+        cold_path();
         wrap_pi(theta)
     } else {
         return (f32::NAN, f32::NAN);
@@ -116,6 +118,7 @@ pub fn wrap_pi(theta: f32) -> f32 {
     if libm::fabsf(theta) < PI {
         return theta;
     }
+    cold_path();
     // k = ceil(theta/2π − 1/2), so that theta = π gives k = 0.
     let turns = -libm::floorf(0.5 - theta * (0.5 * core::f32::consts::FRAC_1_PI));
     let mut r = sub_quarter_turns(theta, 4.0 * turns);
@@ -214,6 +217,7 @@ pub fn min(a: f32, b: f32) -> f32 {
 pub fn advance(sin_cos_theta: (f32, f32), theta: f32, delta: f32) -> (f32, f32) {
     let small = libm::fabsf(delta) <= 0.3; // false for NaN too
     if !small {
+        cold_path();
         return sin_cos(theta + delta);
     }
     let d2 = delta * delta;

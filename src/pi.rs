@@ -2,6 +2,7 @@
 
 use crate::math::{all_finite, clamp};
 use crate::motor::{non_negative, positive, ParamError};
+use core::hint::cold_path;
 
 /// PI settings in SI units: `u = kp·e + ki·∫e dt`, clamped to `[out_min, out_max]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -63,6 +64,7 @@ impl Pi {
     #[inline(always)]
     pub fn update(&self, state: &mut PiState, error: f32, ff: f32) -> f32 {
         if !all_finite([error, ff]) {
+            cold_path();
             return clamp(state.integral, self.out_min, self.out_max);
         }
         let candidate = state.integral + self.ki_ts * error;

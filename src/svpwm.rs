@@ -7,6 +7,7 @@
 
 use crate::frames::{Abc, AlphaBeta};
 use crate::math::{all_finite, clamp, max, min};
+use core::hint::cold_path;
 
 /// 1/√3: the largest undistorted `|v_αβ|` per volt of DC bus.
 const INV_SQRT3: f32 = 0.577_350_26;
@@ -57,6 +58,7 @@ pub fn svpwm(v_ab: AlphaBeta, v_bus: f32) -> Svpwm {
     let inv_bus = 1.0 / v_bus;
     let valid = v_bus > 0.0 && all_finite([v_bus, inv_bus, v_ab.alpha, v_ab.beta]);
     if !valid {
+        cold_path();
         return Svpwm {
             duties: Duties::NEUTRAL,
             saturated: true,

@@ -21,6 +21,7 @@
 use crate::frames::AlphaBeta;
 use crate::math::{all_finite, atan2};
 use crate::motor::{positive, MotorParams, ParamError};
+use core::hint::cold_path;
 
 /// Largest γ [1/(Wb²·s)] for which the forward-Euler gradient step of eq (9) is stable:
 /// `γΦ²T < 2`, i.e. `γ < 2·rate_hz/Φ²`. Above it a radial error of `x̂ − L i` grows by
@@ -134,6 +135,7 @@ impl FluxObserver {
     #[inline(always)]
     pub fn update(&self, st: &mut FluxState, i_ab: AlphaBeta, v_ab: AlphaBeta) -> bool {
         if !all_finite([i_ab.alpha, i_ab.beta, v_ab.alpha, v_ab.beta]) {
+            cold_path();
             return false;
         }
         let mut x = st.x_hat;
@@ -153,6 +155,7 @@ impl FluxObserver {
             x.beta - self.l_h * i_ab.beta,
         );
         if !all_finite([x.alpha, x.beta]) {
+            cold_path();
             return false;
         }
         *st = FluxState {

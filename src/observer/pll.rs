@@ -11,6 +11,7 @@
 use crate::math::{all_finite, wrap_pi};
 use crate::motor::{positive, ParamError};
 use core::f32::consts::TAU;
+use core::hint::cold_path;
 
 /// PLL settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -72,6 +73,7 @@ impl Pll {
     pub fn update(&self, st: &mut PllState, theta: f32) -> f32 {
         let e = wrap_pi(theta - st.z1);
         if !all_finite([e]) {
+            cold_path();
             return st.omega;
         }
         st.integral += self.ki_ts * e;

@@ -26,6 +26,7 @@ use crate::frames::{AlphaBeta, SinCos};
 use crate::math::{all_finite, clamp, wrap_pi};
 use crate::motor::{non_negative, positive, MotorParams, ParamError};
 use core::f32::consts::TAU;
+use core::hint::cold_path;
 
 /// How the sliding gain `K_s` [A/s] is chosen each step.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -235,8 +236,11 @@ impl SlidingObserver {
     /// `ω̂` as used in the gains: `±ω̂_low` when `|ω̂| < ω̂_low` (sign kept, + at zero).
     fn gain_speed(&self, omega_m: f32) -> f32 {
         if omega_m.abs() >= self.omega_low {
-            omega_m
-        } else if omega_m < 0.0 {
+            return omega_m;
+        }
+        // Below ω̂_low: start-up only.
+        cold_path();
+        if omega_m < 0.0 {
             -self.omega_low
         } else {
             self.omega_low
@@ -275,10 +279,12 @@ impl SlidingObserver {
     #[inline(always)]
     pub fn update(&self, st: &mut SlidingState, i_ab: AlphaBeta, v_ab: AlphaBeta) -> bool {
         if !all_finite([i_ab.alpha, i_ab.beta, v_ab.alpha, v_ab.beta]) {
+            cold_path();
             return false;
         }
         let mut next = *st;
         if !st.started {
+            cold_path();
             next.i_hat = i_ab;
             next.started = true;
         } else {
@@ -298,6 +304,8 @@ impl SlidingObserver {
         ]);
         if ok {
             *st = next;
+        } else {
+            cold_path();
         }
         ok
     }
