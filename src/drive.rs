@@ -730,11 +730,8 @@ impl Drive {
         observers_ok: bool,
     ) -> (Option<Duties>, Option<Reason>) {
         let views = self.views(st);
-        let cmd_rpm = if cmd.speed_rpm.is_finite() {
-            cmd.speed_rpm
-        } else {
-            0.0
-        };
+        // Finite: `check_input` passed this step (control runs only then).
+        let cmd_rpm = cmd.speed_rpm;
         let mut reason = None;
         let disagreement = views.disagreement();
         let speed_disagreement = views.speed_disagreement_rpm();
