@@ -107,6 +107,92 @@ fn gains_place_the_eigenvalues_at_random_operating_points() {
     }
 }
 
+/// One period of `update` against eqs (20)-(22), (34), (35) written out with the gains
+/// G1..G4 of `gains()` (the update multiplies the gains out with `w` and folds `T` into its
+/// coefficients): the same increments to f32 rounding, at random states, above and below
+/// ω̂_low.
+#[test]
+fn update_steps_the_equations_with_the_gains() {
+    let m = HORNG_SINANO.params;
+    let cfg = SlidingConfig::torque(m);
+    let obs = cfg.build().unwrap();
+    let (n, kn, l, h, b, r) = (
+        m.n() as f64,
+        (m.flux_wb * m.n()) as f64,
+        m.l_h as f64,
+        m.j_kgm2 as f64,
+        m.b_nms as f64,
+        m.r_ohm as f64,
+    );
+    let t = 1.0 / cfg.rate_hz as f64;
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    let mut worst: f64 = 0.0;
+    for _ in 0..500 {
+        let rpm = rng.random_range(-3000.0..3000.0);
+        let theta_e = rng.random_range(-PI..PI) as f32;
+        let omega = (rpm * RAD_S_PER_RPM) as f32;
+        let mut r2 = || rng.random_range(-2.0..2.0) as f32;
+        let i_hat = AlphaBeta::new(r2(), r2());
+        let mut st = Default::default();
+        obs.reset(&mut st, i_hat, theta_e, omega);
+        st.load_nm = 0.1 * r2();
+        st.w = AlphaBeta::new(1500.0 * r2(), 1500.0 * r2());
+        let (v, i_now) = (AlphaBeta::new(20.0 * r2(), 20.0 * r2()), i_hat);
+        let before = st;
+        assert!(obs.update(&mut st, i_now, v));
+        let g = obs
+            .gains(before.sc, before.omega_m, before.i_hat)
+            .map(f64::from);
+        let (s, c) = (before.sc.sin as f64, before.sc.cos as f64);
+        let (es, ec) = (before.sc_mid.sin as f64, before.sc_mid.cos as f64);
+        let (ia, ib, w0) = (i_hat.alpha as f64, i_hat.beta as f64, before.omega_m as f64);
+        let (wa, wb, tau) = (
+            before.w.alpha as f64,
+            before.w.beta as f64,
+            before.load_nm as f64,
+        );
+        // (The terms of the derivative, the value before and after the step.)
+        let checks = [
+            (
+                vec![-r / l * ia, kn / l * w0 * es, v.alpha as f64 / l, -wa],
+                ia,
+                st.i_hat.alpha,
+            ), // (20)
+            (
+                vec![-r / l * ib, -kn / l * w0 * ec, v.beta as f64 / l, -wb],
+                ib,
+                st.i_hat.beta,
+            ), // (21)
+            (
+                vec![
+                    -kn / h * (ia * s - ib * c),
+                    -b / h * w0,
+                    -tau / h,
+                    g[0] * wa,
+                    g[1] * wb,
+                ],
+                w0,
+                st.omega_m,
+            ), // (35)
+            (vec![g[2] * wa, g[3] * wb], tau, st.load_nm), // (34)
+        ];
+        for (terms, x0, x1) in &checks {
+            let want: f64 = terms.iter().sum();
+            let got = (*x1 as f64 - x0) / t;
+            // f32: the new state is rounded to half an ulp (4 ε covers that and the folded
+            // coefficients), i.e. 4 ε |x| / T in the derivative, plus 1e-5 of the terms'
+            // magnitudes for the arithmetic.
+            let scale: f64 = terms.iter().map(|x| x.abs()).sum();
+            let tol = 4.0 * f32::EPSILON as f64 * x1.abs() as f64 / t + 1e-5 * scale;
+            worst = worst.max((got - want).abs() / tol);
+        }
+    }
+    assert!(
+        worst <= 1.0,
+        "largest error in units of the tolerance: {worst:.2}"
+    );
+}
+
 #[test]
 fn printed_error_matrix_has_the_same_slow_eigenvalues() {
     // Eqs (46)-(50) at a K_s far above any practical value: the fast S poles separate and the

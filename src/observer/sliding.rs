@@ -111,21 +111,37 @@ impl SlidingConfig {
         }
         let n = m.n();
         let kn = m.flux_wb * n;
+        let (k1, k2, k3) = (
+            l_th + l_om + l_ta,
+            l_th * l_om + l_om * l_ta + l_ta * l_th,
+            l_th * l_om * l_ta,
+        );
+        let (b_over_h, l_over_kn2) = (m.b_nms / m.j_kgm2, m.l_h / (kn * n));
+        let g34_num = m.j_kgm2 * l_over_kn2 * k3;
         Ok(SlidingObserver {
             ts,
             n,
-            r_over_l: m.r_ohm / m.l_h,
-            kn_over_l: kn / m.l_h,
-            inv_l: 1.0 / m.l_h,
-            kn_over_h: kn / m.j_kgm2,
-            b_over_h: m.b_nms / m.j_kgm2,
-            inv_h: 1.0 / m.j_kgm2,
+            euler: EulerStep {
+                a_i: 1.0 - ts * m.r_ohm / m.l_h,
+                t_kn_over_l: ts * kn / m.l_h,
+                t_inv_l: ts / m.l_h,
+                tn: ts * n,
+                a_omega: 1.0 - ts * b_over_h,
+                t_kn_over_h: ts * kn / m.j_kgm2,
+                t_inv_h: ts / m.j_kgm2,
+                t_l_over_h: ts * m.l_h / m.j_kgm2,
+                t_lk2: ts * l_over_kn2 * k2,
+                t_lk3: ts * l_over_kn2 * k3 / n,
+                t_cy: ts * n * l_over_kn2 * (b_over_h - k1),
+                t_g34: ts * g34_num,
+            },
+            b_over_h,
             l_over_h: m.l_h / m.j_kgm2,
-            l_over_kn2: m.l_h / (kn * n),
-            k1: l_th + l_om + l_ta,
-            k2: l_th * l_om + l_om * l_ta + l_ta * l_th,
-            k3_over_n: l_th * l_om * l_ta / n,
-            g34_num: m.j_kgm2 * (m.l_h / (kn * n)) * l_th * l_om * l_ta,
+            l_over_kn2,
+            k1,
+            k2,
+            k3_over_n: k3 / n,
+            g34_num,
             inv_epsilon: 1.0 / epsilon,
             ks,
             omega_low,
@@ -139,12 +155,8 @@ impl SlidingConfig {
 pub struct SlidingObserver {
     ts: f32,
     n: f32,
-    r_over_l: f32,
-    kn_over_l: f32,
-    inv_l: f32,
-    kn_over_h: f32,
+    euler: EulerStep,
     b_over_h: f32,
-    inv_h: f32,
     l_over_h: f32,
     l_over_kn2: f32,
     /// K1 = λθ + λω + λτ [rad/s].
@@ -160,6 +172,36 @@ pub struct SlidingObserver {
     omega_low: f32,
     /// a·T·N [s]: the EMF angle leads θ̂_e by this times ω̂ [rad].
     emf_advance_s: f32,
+}
+
+/// The coefficients of one forward-Euler period of eqs (20)-(22), (34), (35), the period
+/// `T` folded in (see [`SlidingObserver::propagate`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct EulerStep {
+    /// 1 − T R/L.
+    a_i: f32,
+    /// T K N/L [A/(rad/s)].
+    t_kn_over_l: f32,
+    /// T/L [A/V].
+    t_inv_l: f32,
+    /// T N [s]: θ̂_e advance per rad/s of ω̂.
+    tn: f32,
+    /// 1 − T B/H.
+    a_omega: f32,
+    /// T K N/H [rad/(s·A)].
+    t_kn_over_h: f32,
+    /// T/H [rad/(s·N·m)].
+    t_inv_h: f32,
+    /// T L/H.
+    t_l_over_h: f32,
+    /// T L K2/(K N²).
+    t_lk2: f32,
+    /// T L K3/(K N³).
+    t_lk3: f32,
+    /// T N·L(B/H − K1)/(K N²): the `N ω̂ y` term of G1, G2 (ω̂ cancels).
+    t_cy: f32,
+    /// T H L K3/(K N²).
+    t_g34: f32,
 }
 
 /// Running state of a sliding observer.
@@ -312,31 +354,39 @@ impl SlidingObserver {
 
     /// Forward-Euler step of eqs (20)-(22), (34), (35) over one period with the stored
     /// innovation `w` and the gains at the state it was computed at.
+    ///
+    /// The period `T` is folded into the coefficients ([`EulerStep`]), and the gain terms are
+    /// [`SlidingObserver::gains`] multiplied out with `w`: with `p = c w_a + s w_b`,
+    /// `q = s w_a − c w_b` (angle θ̂_e, `ω̂` as in the gains),
+    /// `G1 w_a + G2 w_b = x p + N ω̂ y q` where `N ω̂ y = N L(B/H − K1)/(K N²)` does not depend
+    /// on ω̂, and `G3 w_a + G4 w_b = (H L K3/(K N² ω̂)) (p + q)`. The same values to rounding
+    /// (`tests/sliding.rs` checks it against the gains).
     // Inlined: the 4 kHz step compiles to one function (see `drive`).
     #[inline(always)]
     fn propagate(&self, st: &mut SlidingState, v_ab: AlphaBeta) {
+        let e = &self.euler;
         let (sc, emf) = (st.sc, st.sc_mid);
-        let t = self.ts;
         let (i, w) = (st.i_hat, st.w);
-        // The gains at the state the innovation w was computed at (the previous sample).
-        let g = self.gains(sc, st.omega_m, i);
-        let emf_gain = self.kn_over_l * st.omega_m;
-        let di_a =
-            -self.r_over_l * i.alpha + emf_gain * emf.sin + self.inv_l * v_ab.alpha - w.alpha; // (20)
-        let di_b = -self.r_over_l * i.beta - emf_gain * emf.cos + self.inv_l * v_ab.beta - w.beta; // (21)
-        let d_omega = -self.kn_over_h * (i.alpha * sc.sin - i.beta * sc.cos)
-            - self.b_over_h * st.omega_m
-            - self.inv_h * st.load_nm
-            + g[0] * w.alpha
-            + g[1] * w.beta; // (35)
-        let d_load = g[2] * w.alpha + g[3] * w.beta; // (34)
-        st.i_hat = AlphaBeta::new(i.alpha + t * di_a, i.beta + t * di_b);
-        // (22)
-        st.theta_e = wrap_pi(st.theta_e + t * self.n * st.omega_m);
-        st.omega_m += t * d_omega;
-        st.load_nm += t * d_load;
-        // sin/cos fresh each period (rotating the stored pair would accumulate rounding);
-        // the next period's EMF angle by a small rotation of it.
+        let inv_w = 1.0 / self.gain_speed(st.omega_m);
+        let p = sc.cos * w.alpha + sc.sin * w.beta;
+        let q = sc.sin * w.alpha - sc.cos * w.beta;
+        // T x of the gains: T/ω̂ (L/H (î_a c + î_b s) − L λ3/(K N²)), λ3 = K2 − K3/(N ω̂).
+        let t_x = inv_w
+            * (e.t_l_over_h * (i.alpha * sc.cos + i.beta * sc.sin) - e.t_lk2 + e.t_lk3 * inv_w);
+        let emf_gain = e.t_kn_over_l * st.omega_m;
+        st.i_hat = AlphaBeta::new(
+            e.a_i * i.alpha + emf_gain * emf.sin + e.t_inv_l * v_ab.alpha - self.ts * w.alpha, // (20)
+            e.a_i * i.beta - emf_gain * emf.cos + e.t_inv_l * v_ab.beta - self.ts * w.beta, // (21)
+        );
+        st.theta_e = wrap_pi(st.theta_e + e.tn * st.omega_m); // (22)
+        st.omega_m = e.a_omega * st.omega_m
+            - e.t_kn_over_h * (i.alpha * sc.sin - i.beta * sc.cos)
+            - e.t_inv_h * st.load_nm
+            + t_x * p
+            + e.t_cy * q; // (35)
+        st.load_nm += e.t_g34 * inv_w * (p + q); // (34)
+                                                 // sin/cos fresh each period (rotating the stored pair would accumulate rounding);
+                                                 // the next period's EMF angle by a small rotation of it.
         st.sc = SinCos::of(st.theta_e);
         st.sc_mid = self.emf_angle(st.sc, st.theta_e, st.omega_m);
     }
