@@ -151,16 +151,23 @@ fn update_steps_the_equations_with_the_gains() {
             before.w.beta as f64,
             before.load_nm as f64,
         );
-        // (The terms of the derivative, the value before and after the step.)
+        let wrapped_change = {
+            let d = (st.theta_e - before.theta_e) as f64;
+            (d - TAU * (d / TAU).round()) as f32
+        };
+        // (The terms of the derivative, the value before and after the step, the stored state
+        // whose rounding bounds the error.)
         let checks = [
             (
                 vec![-r / l * ia, kn / l * w0 * es, v.alpha as f64 / l, -wa],
                 ia,
                 st.i_hat.alpha,
+                st.i_hat.alpha,
             ), // (20)
             (
                 vec![-r / l * ib, -kn / l * w0 * ec, v.beta as f64 / l, -wb],
                 ib,
+                st.i_hat.beta,
                 st.i_hat.beta,
             ), // (21)
             (
@@ -173,17 +180,19 @@ fn update_steps_the_equations_with_the_gains() {
                 ],
                 w0,
                 st.omega_m,
+                st.omega_m,
             ), // (35)
-            (vec![g[2] * wa, g[3] * wb], tau, st.load_nm), // (34)
+            (vec![g[2] * wa, g[3] * wb], tau, st.load_nm, st.load_nm), // (34)
+            (vec![n * w0], 0.0, wrapped_change, st.theta_e),           // (22)
         ];
-        for (terms, x0, x1) in &checks {
+        for (terms, x0, x1, stored) in &checks {
             let want: f64 = terms.iter().sum();
             let got = (*x1 as f64 - x0) / t;
-            // f32: the new state is rounded to half an ulp (4 ε covers that and the folded
+            // f32: the stored state is rounded to half an ulp (4 ε covers that and the folded
             // coefficients), i.e. 4 ε |x| / T in the derivative, plus 1e-5 of the terms'
             // magnitudes for the arithmetic.
             let scale: f64 = terms.iter().map(|x| x.abs()).sum();
-            let tol = 4.0 * f32::EPSILON as f64 * x1.abs() as f64 / t + 1e-5 * scale;
+            let tol = 4.0 * f32::EPSILON as f64 * stored.abs() as f64 / t + 1e-5 * scale;
             worst = worst.max((got - want).abs() / tol);
         }
     }
