@@ -30,6 +30,9 @@ pub struct CyclesReport {
     pub step_cycles_est: u64,
     /// Cycle estimate of a step without the speed loop.
     pub step_no_speed_loop_cycles_est: u64,
+    /// Cycle estimate of the step with the speed loop when the flux observer feeds the
+    /// controller (`Primary::Flux`; the figures above are for the sliding observer's).
+    pub step_flux_primary_cycles_est: u64,
     /// Cycle estimate of one sliding torque observer update.
     pub sliding_cycles_est: u64,
     /// Cycle estimate of one flux observer update plus its PLL.
@@ -389,6 +392,7 @@ pub fn measure(root: &Path) -> anyhow::Result<CyclesReport> {
         step_instructions: step_n,
         step_cycles_est: step_c,
         step_no_speed_loop_cycles_est: worst("step")?.1,
+        step_flux_primary_cycles_est: worst("step_flux_primary")?.1,
         sliding_cycles_est: worst("sliding")?.1,
         flux_cycles_est: worst("flux_pll")?.1,
         foc_svpwm_cycles_est: worst("foc_svpwm")?.1,

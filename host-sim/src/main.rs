@@ -74,6 +74,11 @@ fn cycles(args: CyclesArgs) -> anyhow::Result<String> {
         );
         outln!(
             out,
+            "  same step, flux observer primary:  ~{} cycles",
+            r.step_flux_primary_cycles_est
+        );
+        outln!(
+            out,
             "  sliding torque observer update:    ~{} cycles",
             r.sliding_cycles_est
         );

@@ -52,6 +52,7 @@ mod firmware {
         bench_begin_sliding, bench_end_sliding, 3u32;
         bench_begin_flux_pll, bench_end_flux_pll, 4u32;
         bench_begin_foc_svpwm, bench_end_foc_svpwm, 5u32;
+        bench_begin_step_flux_primary, bench_end_step_flux_primary, 6u32;
     }
 
     /// Plausible samples at 1000 rpm (θ_e advancing 0.1047 rad per step), small load.
@@ -66,6 +67,7 @@ mod firmware {
         let m = HORNG_SINANO;
         let rate = 4000.0;
         let drive = DriveConfig::new(&m, Primary::SlidingTorque).build().ok();
+        let drive_flux = DriveConfig::new(&m, Primary::Flux).build().ok();
         let sliding = SlidingConfig::torque(m.params).build().ok();
         let flux = FluxConfig::new(m.params, rate, 60.0).build().ok();
         let pll = PllConfig {
@@ -76,8 +78,8 @@ mod firmware {
         .build()
         .ok();
         let foc = FocConfig::new(m.params, 4.5).build().ok();
-        let (Some(drive), Some(sliding), Some(flux), Some(pll), Some(foc)) =
-            (drive, sliding, flux, pll, foc)
+        let (Some(drive), Some(drive_flux), Some(sliding), Some(flux), Some(pll), Some(foc)) =
+            (drive, drive_flux, sliding, flux, pll, foc)
         else {
             defmt::error!("configuration failed");
             debug::exit(debug::EXIT_FAILURE);
@@ -129,6 +131,35 @@ mod firmware {
                 st.mode,
                 out.duties.is_some()
             );
+        }
+        // The same with the flux observer feeding the controller (its angle's sin/cos and the
+        // output angle computed in the step, the sliding observer as the monitor): the step
+        // with the speed loop.
+        let mut st = DriveState {
+            mode: Mode::Sensorless,
+            speed_ref_rpm: 1000.0,
+            ..DriveState::default()
+        };
+        sliding.reset(&mut st.sliding, i0, theta0, omega_m);
+        flux.reset(&mut st.flux, i0, theta0);
+        pll.reset(&mut st.pll, theta0, 4.0 * omega_m);
+        for k in 1..6u32 {
+            let (_, i) = sample(k);
+            let input = DriveInput {
+                i_abc: i.to_abc(),
+                v_bus: 48.0,
+                overrun: false,
+            };
+            let with_speed_loop = st.foc.tick == 0;
+            if with_speed_loop {
+                bench_begin_step_flux_primary();
+            }
+            let out = drive_flux.step(&mut st, black_box(&input), black_box(&cmd));
+            black_box(&out);
+            if with_speed_loop {
+                bench_end_step_flux_primary();
+            }
+            defmt::info!("flux primary step {}: mode {}", k, st.mode);
         }
         let mut s_state = SlidingState::default();
         sliding.reset(&mut s_state, i0, theta0, omega_m);
