@@ -89,27 +89,31 @@ mod firmware {
         };
         let omega_m = 104.72;
         let (theta0, i0) = sample(0);
-        // A drive already sensorless at 1000 rpm.
-        let mut st = DriveState {
-            mode: Mode::Sensorless,
-            speed_ref_rpm: 1000.0,
-            ..DriveState::default()
+        // A drive already sensorless at 1000 rpm, and its input at step k.
+        let sensorless = || {
+            let mut st = DriveState {
+                mode: Mode::Sensorless,
+                speed_ref_rpm: 1000.0,
+                ..DriveState::default()
+            };
+            sliding.reset(&mut st.sliding, i0, theta0, omega_m);
+            flux.reset(&mut st.flux, i0, theta0);
+            pll.reset(&mut st.pll, theta0, 4.0 * omega_m);
+            st
         };
-        sliding.reset(&mut st.sliding, i0, theta0, omega_m);
-        flux.reset(&mut st.flux, i0, theta0);
-        pll.reset(&mut st.pll, theta0, 4.0 * omega_m);
+        let input = |k| DriveInput {
+            i_abc: sample(k).1.to_abc(),
+            v_bus: 48.0,
+            overrun: false,
+        };
+        let mut st = sensorless();
         let cmd = Command {
             enable: true,
             speed_rpm: 1000.0,
             clear_fault: false,
         };
         for k in 1..6u32 {
-            let (_, i) = sample(k);
-            let input = DriveInput {
-                i_abc: i.to_abc(),
-                v_bus: 48.0,
-                overrun: false,
-            };
+            let input = input(k);
             let with_speed_loop = st.foc.tick == 0;
             if with_speed_loop {
                 bench_begin_step_speed_loop();
@@ -135,21 +139,9 @@ mod firmware {
         // The same with the flux observer feeding the controller (its angle's sin/cos and the
         // output angle computed in the step, the sliding observer as the monitor): the step
         // with the speed loop.
-        let mut st = DriveState {
-            mode: Mode::Sensorless,
-            speed_ref_rpm: 1000.0,
-            ..DriveState::default()
-        };
-        sliding.reset(&mut st.sliding, i0, theta0, omega_m);
-        flux.reset(&mut st.flux, i0, theta0);
-        pll.reset(&mut st.pll, theta0, 4.0 * omega_m);
+        let mut st = sensorless();
         for k in 1..6u32 {
-            let (_, i) = sample(k);
-            let input = DriveInput {
-                i_abc: i.to_abc(),
-                v_bus: 48.0,
-                overrun: false,
-            };
+            let input = input(k);
             let with_speed_loop = st.foc.tick == 0;
             if with_speed_loop {
                 bench_begin_step_flux_primary();
