@@ -385,8 +385,9 @@ impl SlidingObserver {
             + t_x * p
             + e.t_cy * q; // (35)
         st.load_nm += e.t_g34 * inv_w * (p + q); // (34)
-                                                 // sin/cos fresh each period (rotating the stored pair would accumulate rounding);
-                                                 // the next period's EMF angle by a small rotation of it.
+
+        // sin/cos fresh each period (rotating the stored pair would accumulate rounding);
+        // the next period's EMF angle by a small rotation of it.
         let (sin, cos) = sin_cos_inlined(st.theta_e);
         st.sc = SinCos { sin, cos };
         st.sc_mid = self.emf_angle(st.sc, st.theta_e, st.omega_m);
