@@ -861,8 +861,11 @@ impl Drive {
                 let angles = match self.primary {
                     Primary::SlidingTorque => (st.sliding.sc, st.sliding.sc_mid),
                     Primary::Flux => {
-                        let (theta, sc) = (views.theta_primary, SinCos::of(views.theta_primary));
-                        (sc, self.foc.output_angle(sc, theta, views.omega_primary))
+                        let sc = st.flux.sin_cos();
+                        let out =
+                            self.foc
+                                .output_angle(sc, views.theta_primary, views.omega_primary);
+                        (sc, out)
                     }
                 };
                 (

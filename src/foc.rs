@@ -166,7 +166,7 @@ impl CurrentLoop {
                 saturated: false,
             };
         }
-        let scale = v_max / libm::sqrtf(mag2);
+        let scale = v_max * crate::math::rsqrt(mag2);
         CurrentLoopOutput {
             v_dq: Dq::new(v_d * scale, v_q * scale),
             saturated: true,

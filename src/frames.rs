@@ -73,7 +73,7 @@ impl AlphaBeta {
 
     /// Euclidean magnitude `|x_αβ|` (amplitude of the phase quantity).
     pub fn magnitude(self) -> f32 {
-        libm::sqrtf(self.alpha * self.alpha + self.beta * self.beta)
+        crate::math::sqrt(self.alpha * self.alpha + self.beta * self.beta)
     }
 
     /// Park transform `x_dq = e^{-Jθ} x_αβ` (Ortega Remark 1).
@@ -108,7 +108,7 @@ impl Dq {
 
     /// Euclidean magnitude `|x_dq|`, equal to `|x_αβ|`.
     pub fn magnitude(self) -> f32 {
-        libm::sqrtf(self.d * self.d + self.q * self.q)
+        crate::math::sqrt(self.d * self.d + self.q * self.q)
     }
 }
 

@@ -6,7 +6,7 @@
 //! inverter's voltage hexagon; larger commands are scaled back onto that circle.
 
 use crate::frames::{Abc, AlphaBeta};
-use crate::math::{all_finite, clamp, max, min};
+use crate::math::{all_finite, clamp, max, min, rsqrt};
 use core::hint::cold_path;
 
 /// 1/√3: the largest undistorted `|v_αβ|` per volt of DC bus.
@@ -71,9 +71,9 @@ pub fn svpwm(v_ab: AlphaBeta, v_bus: f32) -> Svpwm {
     let saturated = v_ab.alpha * v_ab.alpha + v_ab.beta * v_ab.beta > v_max * v_max;
     let v_ab_applied = if saturated {
         // Normalise by the larger component first so huge commands cannot overflow.
-        let m = max(libm::fabsf(v_ab.alpha), libm::fabsf(v_ab.beta));
-        let unit = AlphaBeta::new(v_ab.alpha / m, v_ab.beta / m);
-        let k = v_max / unit.magnitude();
+        let inv_m = 1.0 / max(libm::fabsf(v_ab.alpha), libm::fabsf(v_ab.beta));
+        let unit = AlphaBeta::new(v_ab.alpha * inv_m, v_ab.beta * inv_m);
+        let k = v_max * rsqrt(unit.alpha * unit.alpha + unit.beta * unit.beta);
         AlphaBeta::new(unit.alpha * k, unit.beta * k)
     } else {
         v_ab

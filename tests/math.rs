@@ -4,7 +4,7 @@
 
 use core::f32::consts::{PI, TAU};
 use core::f64::consts::{PI as PI64, TAU as TAU64};
-use pmsm_sensorless::math::{atan2, sin_cos, wrap_2pi, wrap_pi};
+use pmsm_sensorless::math::{self, atan2, sin_cos, wrap_2pi, wrap_pi};
 
 /// Documented bounds (see the doc comments in `src/math.rs`).
 const SIN_COS_MAX_ERR: f64 = 1.2e-7;
@@ -287,4 +287,29 @@ fn all_finite_flags_every_non_finite_value() {
     }
     // +∞ and −∞ together must not cancel.
     assert!(!all_finite([f32::INFINITY, f32::NEG_INFINITY]));
+}
+
+/// Relative error of `rsqrt` and `sqrt` against f64 over every 97th f32 bit pattern of the
+/// normal positive range (8.7e7 values), and the special inputs.
+#[test]
+fn rsqrt_and_sqrt_match_f64() {
+    let (mut worst_r, mut worst_s) = (0.0f64, 0.0f64);
+    let mut bits = f32::MIN_POSITIVE.to_bits();
+    while bits <= f32::MAX.to_bits() {
+        let x = f32::from_bits(bits);
+        let exact = (x as f64).sqrt();
+        worst_r = worst_r.max((math::rsqrt(x) as f64 * exact - 1.0).abs());
+        worst_s = worst_s.max((math::sqrt(x) as f64 / exact - 1.0).abs());
+        bits += 97;
+    }
+    assert!(worst_r < 4e-7, "rsqrt relative error {worst_r:e}");
+    assert!(worst_s < 5e-7, "sqrt relative error {worst_s:e}");
+    assert_eq!(math::rsqrt(0.0), f32::INFINITY);
+    assert_eq!(math::rsqrt(f32::INFINITY), 0.0);
+    assert!(math::rsqrt(-1.0).is_nan() && math::rsqrt(f32::NAN).is_nan());
+    assert_eq!(math::sqrt(0.0), 0.0);
+    assert_eq!(math::sqrt(f32::INFINITY), f32::INFINITY);
+    assert!(math::sqrt(-1.0).is_nan() && math::sqrt(f32::NAN).is_nan());
+    let tiny = f32::from_bits(1); // subnormal: the library path
+    assert!((math::sqrt(tiny) as f64 / (tiny as f64).sqrt() - 1.0).abs() < 1e-6);
 }
