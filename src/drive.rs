@@ -7,6 +7,12 @@
 //! Ortega et al.'s flux observer with its PLL) every step while the inverter is on, one of them
 //! feeding the controller and the other watching it, and the FOC with its 1 kHz speed loop.
 //!
+//! The 1 kHz work is spread over the four steps of each millisecond ([`Slot`]), one part per
+//! step, so that no step carries all of it: the flux observer's angle (an arctangent) with the
+//! angle comparisons (the observers' disagreement; in open loop the hand-over check), the
+//! sensorless supervision, the PLL, the speed loop. The observers' state equations, the
+//! current loop and the PWM run every step.
+//!
 //! Open-loop start (I/f): a current of fixed magnitude is driven along the d axis of a frame at
 //! angle `θ_ol` whose frequency ramps; the rotor follows it, lagging by `asin(τ/(Nψ I_ol))`.
 //! Hand-over when the speed is above the observable range and the configured observer agrees
@@ -18,7 +24,7 @@
 //! M4F, `pmsm-sim cycles`). The log record is not built here: [`Drive::telemetry`] reads it
 //! from the state at the log's rate.
 
-use crate::foc::{CurrentLoopState, Foc, FocConfig, FocInput, FocState};
+use crate::foc::{Foc, FocConfig, FocInput, FocState};
 use crate::frames::{Abc, AlphaBeta, Dq, SinCos};
 use crate::math::{all_finite, clamp, max, wrap_pi};
 use crate::motor::{positive, Motor, MotorParams, ParamError};
@@ -218,6 +224,7 @@ impl DriveConfig {
             current_bandwidth_hz: self.current_bandwidth_hz,
             speed_bandwidth_hz: self.speed_bandwidth_hz,
             current_rate_hz: rate,
+            speed_divider: SLOTS,
             angle_advance_periods: sliding_cfg.emf_advance_periods,
             ..FocConfig::new(m, l.i_max_a)
         }
@@ -238,13 +245,14 @@ impl DriveConfig {
         }
         let flux = FluxConfig::new(m, rate, s.handback_rpm).build()?;
         let pll = PllConfig {
-            rate_hz: rate,
+            rate_hz: rate / SLOTS as f32,
             bandwidth_hz: 50.0,
             damping: 1.0,
         }
         .build()?;
         let ts = 1.0 / rate;
         let steps = |t: f32| (t * rate) as u32;
+        let slot_cycles = |t: f32| (t * rate / SLOTS as f32) as u32;
         Ok(Drive {
             foc,
             sliding,
@@ -260,15 +268,16 @@ impl DriveConfig {
             align_steps: steps(s.align_time_s).max(1),
             open_loop_current_a: s.open_loop_current_a,
             accel_per_step: s.accel_rpm_per_s * ts,
+            accel_per_slot_cycle: s.accel_rpm_per_s * ts * SLOTS as f32,
             handover_rpm: s.handover_rpm,
             handover_tol: s.handover_tol_deg * RAD_PER_DEG,
-            handover_steps: steps(s.handover_hold_s).max(1),
+            handover_checks: slot_cycles(s.handover_hold_s).max(1),
             handback_rpm: s.handback_rpm,
-            handover_timeout_steps: steps(s.handover_timeout_s).max(1),
+            handover_timeout_checks: slot_cycles(s.handover_timeout_s).max(1),
             max_disagreement: h.max_disagreement_deg * RAD_PER_DEG,
             max_speed_disagreement_rpm: h.max_speed_disagreement_rpm,
-            loss_steps: steps(h.loss_time_s).max(1),
-            stall_steps: steps(h.stall_time_s).max(1),
+            loss_checks: slot_cycles(h.loss_time_s).max(1),
+            stall_checks: slot_cycles(h.stall_time_s).max(1),
         })
     }
 }
@@ -288,6 +297,37 @@ pub enum Mode {
     Sensorless,
     /// PWM off, latched until cleared.
     Fault,
+}
+
+/// Steps per millisecond-slot cycle: each [`Slot`] comes every 4th step (1 kHz at 4 kHz).
+pub const SLOTS: u32 = 4;
+
+/// The part of the 1 kHz work a step does besides the every-step work (see the module doc).
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Slot {
+    /// The flux observer's θ̂ (Ortega Sec V arctangent), the two observers' angle
+    /// disagreement at this sample and, in open loop, the hand-over check.
+    #[default]
+    MonitorAngle,
+    /// Sensorless health (observer loss, stall) and the hand-back.
+    Supervision,
+    /// The PLL speed estimate on the flux observer's θ̂.
+    Pll,
+    /// Speed-reference slew and the speed PI.
+    SpeedLoop,
+}
+
+impl Slot {
+    /// The slot of the next step.
+    fn next(self) -> Self {
+        match self {
+            Slot::MonitorAngle => Slot::Supervision,
+            Slot::Supervision => Slot::Pll,
+            Slot::Pll => Slot::SpeedLoop,
+            Slot::SpeedLoop => Slot::MonitorAngle,
+        }
+    }
 }
 
 /// Why the drive stopped switching.
@@ -432,15 +472,21 @@ pub struct Drive {
     open_loop_current_a: f32,
     /// Speed slew per step [rpm].
     accel_per_step: f32,
+    /// Speed slew per slot cycle (the speed loop's period) [rpm].
+    accel_per_slot_cycle: f32,
     handover_rpm: f32,
     handover_tol: f32,
-    handover_steps: u32,
+    /// Hand-over checks (1 kHz) in agreement before sensorless.
+    handover_checks: u32,
     handback_rpm: f32,
-    handover_timeout_steps: u32,
+    /// Hand-over checks (1 kHz) above the hand-over speed before a stall.
+    handover_timeout_checks: u32,
     max_disagreement: f32,
     max_speed_disagreement_rpm: f32,
-    loss_steps: u32,
-    stall_steps: u32,
+    /// Supervision checks (1 kHz) of disagreement before an observer loss.
+    loss_checks: u32,
+    /// Supervision checks (1 kHz) of collapsed speed before a stall.
+    stall_checks: u32,
 }
 
 /// Running state of the drive.
@@ -468,14 +514,18 @@ pub struct DriveState {
     pub speed_ref_rpm: f32,
     /// Voltage applied over the period that just ended [V].
     pub v_ab_last: AlphaBeta,
-    /// Consecutive steps of hand-over agreement.
-    pub agree_steps: u32,
-    /// Steps since the ramp passed the hand-over speed without a hand-over.
-    pub waiting_steps: u32,
-    /// Consecutive steps of observer disagreement.
-    pub disagree_steps: u32,
-    /// Consecutive steps of collapsed speed.
-    pub collapse_steps: u32,
+    /// Consecutive hand-over checks (1 kHz) in agreement.
+    pub agree_checks: u32,
+    /// Hand-over checks (1 kHz) since the ramp passed the hand-over speed.
+    pub waiting_checks: u32,
+    /// Consecutive supervision checks (1 kHz) with the observers in disagreement.
+    pub disagree_checks: u32,
+    /// Consecutive supervision checks (1 kHz) with the speed collapsed.
+    pub collapse_checks: u32,
+    /// This step's part of the 1 kHz work.
+    pub slot: Slot,
+    /// |θ̂_primary − θ̂_monitor| at the last [`Slot::MonitorAngle`] step [rad, electrical].
+    pub angle_disagreement: f32,
     /// False after a fault is cleared until the enable command has been seen low.
     pub armed: bool,
 }
@@ -494,10 +544,12 @@ impl Default for DriveState {
             speed_ol_rpm: 0.0,
             speed_ref_rpm: 0.0,
             v_ab_last: AlphaBeta::default(),
-            agree_steps: 0,
-            waiting_steps: 0,
-            disagree_steps: 0,
-            collapse_steps: 0,
+            agree_checks: 0,
+            waiting_checks: 0,
+            disagree_checks: 0,
+            collapse_checks: 0,
+            slot: Slot::MonitorAngle,
+            angle_disagreement: 0.0,
             armed: true,
         }
     }
@@ -603,6 +655,7 @@ impl Drive {
         } else {
             st.mode_steps = st.mode_steps.saturating_add(1);
         }
+        st.slot = st.slot.next();
         DriveOutput {
             duties: if st.mode == Mode::Fault { None } else { duties },
             transition: reason.filter(|_| st.mode != from).map(|reason| Transition {
@@ -624,7 +677,10 @@ impl Drive {
             fault: st.fault,
             ..Telemetry::default()
         };
-        let v = self.views(st);
+        // The flux angle of this very sample (the step takes it at 1 kHz).
+        let mut fresh = *st;
+        fresh.flux.update_angle();
+        let v = self.views(&fresh);
         let (theta, omega_m) = match st.mode {
             Mode::Idle | Mode::Fault => return off,
             Mode::Align => (0.0, 0.0),
@@ -688,12 +744,22 @@ impl Drive {
         Reason::Fault(fault)
     }
 
-    /// Runs both observers (and the PLL) on this sample; false if either could not update.
+    /// Runs both observers on this sample, and the flux angle and the PLL in their slots;
+    /// false if either observer could not update.
     fn observe(&self, st: &mut DriveState, i_ab: AlphaBeta) -> bool {
         let v = st.v_ab_last;
         let ok_sliding = self.sliding.update(&mut st.sliding, i_ab, v);
-        let ok_flux = self.flux.update(&mut st.flux, i_ab, v);
-        self.pll.update(&mut st.pll, st.flux.theta_e);
+        let ok_flux = self.flux.integrate(&mut st.flux, i_ab, v);
+        match st.slot {
+            Slot::MonitorAngle => {
+                st.flux.update_angle();
+                st.angle_disagreement = self.views(st).disagreement();
+            }
+            Slot::Pll => {
+                self.pll.update(&mut st.pll, st.flux.theta_e);
+            }
+            Slot::Supervision | Slot::SpeedLoop => {}
+        }
         ok_sliding && ok_flux
     }
 
@@ -713,6 +779,15 @@ impl Drive {
         }
     }
 
+    /// The speed loop's load-torque feed-forward: the sliding torque observer's τ̂_L when it is
+    /// the primary [N·m].
+    fn torque_ff_nm(&self, st: &DriveState) -> f32 {
+        match self.primary {
+            Primary::SlidingTorque => st.sliding.load_nm,
+            Primary::Flux => 0.0,
+        }
+    }
+
     /// Restarts both observers at a known rotor state.
     fn reset_observers(&self, st: &mut DriveState, i_ab: AlphaBeta, theta_e: f32, omega_m: f32) {
         self.sliding.reset(&mut st.sliding, i_ab, theta_e, omega_m);
@@ -729,15 +804,12 @@ impl Drive {
         i_ab: AlphaBeta,
         observers_ok: bool,
     ) -> (Option<Duties>, Option<Reason>) {
-        let views = self.views(st);
         // Finite: `check_input` passed this step (control runs only then).
         let cmd_rpm = cmd.speed_rpm;
         let mut reason = None;
-        let disagreement = views.disagreement();
-        let speed_disagreement = views.speed_disagreement_rpm();
-        // (angle, sin/cos of it and of the output angle, speed [rad/s], current command, speed
-        // loop on) for the FOC this step.
-        let (theta, (sc, sc_out), omega_m, i_ref, speed_loop) = match st.mode {
+        // (angle, sin/cos of it and of the output angle, speed [rad/s], current command) for
+        // the current loop this step.
+        let (theta, (sc, sc_out), omega_m, i_ref) = match st.mode {
             Mode::Align => {
                 if st.mode_steps >= self.align_steps.saturating_sub(1) {
                     // Rotor at θ_e = 0, at rest: start the observers there.
@@ -752,7 +824,6 @@ impl Drive {
                     (SinCos::ZERO, SinCos::ZERO),
                     0.0,
                     Dq::new(self.align_current_a, 0.0),
-                    false,
                 )
             }
             Mode::OpenLoop => {
@@ -767,114 +838,65 @@ impl Drive {
                     // the load angle): restart the observers there, where they can see it.
                     self.reset_observers(st, i_ab, st.theta_ol, st.speed_ol_rpm * RAD_S_PER_RPM);
                 }
-                let fast_enough = st.speed_ol_rpm.abs() >= self.handover_rpm;
-                // The configured observer follows the open-loop angle, and the monitor agrees
-                // with it within half the limits the sensorless health check applies.
-                let agrees = wrap_pi(views.theta_primary - st.theta_ol).abs() < self.handover_tol
-                    && disagreement < 0.5 * self.max_disagreement
-                    && speed_disagreement < 0.5 * self.max_speed_disagreement_rpm;
-                st.agree_steps = if fast_enough && agrees {
-                    st.agree_steps + 1
-                } else {
-                    0
-                };
-                st.waiting_steps = if fast_enough {
-                    st.waiting_steps.saturating_add(1)
-                } else {
-                    0
-                };
                 if cmd_rpm == 0.0 && st.speed_ol_rpm == 0.0 {
                     *st = DriveState::default();
                     return (None, Some(Reason::Stopped));
                 }
-                if st.agree_steps >= self.handover_steps {
-                    cold_path();
-                    // Start the speed loop from the torque the open-loop current makes in the
-                    // observer's frame, and the reference from the observed speed.
-                    let i_ol = self.open_loop_current_a;
-                    st.foc.speed.integral =
-                        i_ol * SinCos::of(st.theta_ol - views.theta_primary).sin;
-                    st.foc.i_q_ref = st.foc.speed.integral;
-                    st.foc.tick = 0;
-                    st.speed_ref_rpm = views.omega_primary * RPM_PER_RAD_S;
-                    st.mode = Mode::Sensorless;
-                    st.disagree_steps = 0;
-                    st.collapse_steps = 0;
-                    reason = Some(Reason::HandOver);
-                } else if st.waiting_steps >= self.handover_timeout_steps {
-                    return (None, Some(self.enter_fault(st, Fault::Stall)));
+                // The angles are compared at the sample the flux angle is taken at.
+                if st.slot == Slot::MonitorAngle {
+                    match self.hand_over(st) {
+                        Some(r @ Reason::Fault(_)) => return (None, Some(r)),
+                        r @ Some(_) => reason = r,
+                        None => {}
+                    }
                 }
                 let sc = SinCos::of(st.theta_ol);
                 (
                     st.theta_ol,
-                    (sc, self.foc.output_angle(sc, st.theta_ol, omega)),
+                    (sc, self.foc.output_angle(sc, omega)),
                     omega,
                     Dq::new(self.open_loop_current_a, 0.0),
-                    false,
                 )
             }
             Mode::Sensorless => {
-                st.speed_ref_rpm = slew(st.speed_ref_rpm, cmd_rpm, self.accel_per_step);
-                let speed = views.omega_primary * RPM_PER_RAD_S;
-                // Health: both observers must update, and agree.
+                // Both observers must update.
                 if !observers_ok {
                     return (None, Some(self.enter_fault(st, Fault::ObserverLoss)));
                 }
-                let disagree = disagreement > self.max_disagreement
-                    || speed_disagreement > self.max_speed_disagreement_rpm;
-                st.disagree_steps = if disagree {
-                    st.disagree_steps.saturating_add(1)
-                } else {
-                    0
+                // The flux angle is the one of the last `MonitorAngle` step (the current loop
+                // uses the sin/cos of this sample's rotor flux).
+                let (theta, omega_m) = match self.primary {
+                    Primary::SlidingTorque => (st.sliding.theta_e, st.sliding.omega_m),
+                    Primary::Flux => (st.flux.theta_e, st.pll.omega * self.inv_n),
                 };
-                if st.disagree_steps >= self.loss_steps {
-                    return (None, Some(self.enter_fault(st, Fault::ObserverLoss)));
+                match st.slot {
+                    Slot::SpeedLoop => {
+                        st.speed_ref_rpm =
+                            slew(st.speed_ref_rpm, cmd_rpm, self.accel_per_slot_cycle);
+                        let omega_m_ref = st.speed_ref_rpm * RAD_S_PER_RPM;
+                        let ff = self.torque_ff_nm(st);
+                        self.foc.speed_step(&mut st.foc, omega_m_ref, omega_m, ff);
+                    }
+                    Slot::Supervision => {
+                        if let Some(r) = self.supervise(st) {
+                            match r {
+                                Reason::Fault(_) => return (None, Some(r)),
+                                _ => reason = Some(r),
+                            }
+                        }
+                    }
+                    Slot::MonitorAngle | Slot::Pll => {}
                 }
-                // Stall: the speed loop is at its current limit and the speed has fallen below
-                // half the reference (the load is more than the motor can carry).
-                let at_limit = st.foc.i_q_ref.abs() >= 0.99 * self.limits.i_max_a;
-                // Measured along the reference's direction: turning the wrong way counts too.
-                let along = if st.speed_ref_rpm < 0.0 {
-                    -speed
-                } else {
-                    speed
-                };
-                let collapsed = at_limit && along < 0.5 * st.speed_ref_rpm.abs();
-                st.collapse_steps = if collapsed {
-                    st.collapse_steps.saturating_add(1)
-                } else {
-                    0
-                };
-                if st.collapse_steps >= self.stall_steps {
-                    return (None, Some(self.enter_fault(st, Fault::Stall)));
-                }
-                if st.speed_ref_rpm.abs() < self.handback_rpm && speed.abs() < self.handback_rpm {
-                    cold_path();
-                    st.mode = Mode::OpenLoop;
-                    st.theta_ol = views.theta_primary;
-                    st.speed_ol_rpm = speed;
-                    st.agree_steps = 0;
-                    st.waiting_steps = 0;
-                    reason = Some(Reason::HandBack);
-                }
-                // The sliding observer keeps the sin/cos of its angle and of the output angle.
+                // The sliding observer keeps the sin/cos of its angle and of the output angle;
+                // the flux observer's is its rotor-flux vector normalised.
                 let angles = match self.primary {
                     Primary::SlidingTorque => (st.sliding.sc, st.sliding.sc_mid),
                     Primary::Flux => {
                         let sc = st.flux.sin_cos();
-                        let out =
-                            self.foc
-                                .output_angle(sc, views.theta_primary, views.omega_primary);
-                        (sc, out)
+                        (sc, self.foc.output_angle(sc, omega_m))
                     }
                 };
-                (
-                    views.theta_primary,
-                    angles,
-                    views.omega_primary,
-                    Dq::default(),
-                    true,
-                )
+                (theta, angles, omega_m, Dq::new(0.0, st.foc.i_q_ref))
             }
             Mode::Idle | Mode::Fault => return (None, reason),
         };
@@ -884,22 +906,100 @@ impl Drive {
             theta_e: theta,
             omega_m,
             omega_m_ref: st.speed_ref_rpm * RAD_S_PER_RPM,
-            torque_ff_nm: match self.primary {
-                Primary::SlidingTorque if speed_loop => st.sliding.load_nm,
-                _ => 0.0,
-            },
+            torque_ff_nm: self.torque_ff_nm(st),
         };
-        let out = if speed_loop {
-            self.foc.step_at(&mut st.foc, &foc_in, sc, sc_out)
-        } else {
-            let mut current: CurrentLoopState = st.foc.current;
-            let out = self
-                .foc
-                .current_step_at(&mut current, &foc_in, sc, sc_out, i_ref);
-            st.foc.current = current;
-            out
-        };
+        let out = self
+            .foc
+            .current_step_at(&mut st.foc.current, &foc_in, sc, sc_out, i_ref);
         st.v_ab_last = out.v_ab;
         (Some(out.duties), reason)
+    }
+
+    /// The open-loop hand-over check, once per slot cycle (1 kHz): above the hand-over speed,
+    /// sensorless once the configured observer has followed `θ_ol` (and the monitor agreed
+    /// with it within half the sensorless health limits) for `handover_checks` checks in a
+    /// row; a stall when that has not happened within `handover_timeout_checks`.
+    fn hand_over(&self, st: &mut DriveState) -> Option<Reason> {
+        let views = self.views(st);
+        let fast_enough = st.speed_ol_rpm.abs() >= self.handover_rpm;
+        let agrees = wrap_pi(views.theta_primary - st.theta_ol).abs() < self.handover_tol
+            && views.disagreement() < 0.5 * self.max_disagreement
+            && views.speed_disagreement_rpm() < 0.5 * self.max_speed_disagreement_rpm;
+        st.agree_checks = if fast_enough && agrees {
+            st.agree_checks + 1
+        } else {
+            0
+        };
+        st.waiting_checks = if fast_enough {
+            st.waiting_checks.saturating_add(1)
+        } else {
+            0
+        };
+        if st.agree_checks >= self.handover_checks {
+            cold_path();
+            // Start the speed loop from the torque the open-loop current makes in the
+            // observer's frame, and the reference from the observed speed.
+            let i_ol = self.open_loop_current_a;
+            st.foc.speed.integral = i_ol * SinCos::of(st.theta_ol - views.theta_primary).sin;
+            st.foc.i_q_ref = st.foc.speed.integral;
+            st.speed_ref_rpm = views.omega_primary * RPM_PER_RAD_S;
+            st.mode = Mode::Sensorless;
+            st.disagree_checks = 0;
+            st.collapse_checks = 0;
+            return Some(Reason::HandOver);
+        }
+        if st.waiting_checks >= self.handover_timeout_checks {
+            return Some(self.enter_fault(st, Fault::Stall));
+        }
+        None
+    }
+
+    /// The sensorless health checks and the hand-back, once per slot cycle (1 kHz): observer
+    /// loss after `loss_checks` consecutive disagreements (the angle one taken at the
+    /// [`Slot::MonitorAngle`] step), a stall after `stall_checks` at the current limit below
+    /// half the reference; back to open loop when speed and reference are both low.
+    fn supervise(&self, st: &mut DriveState) -> Option<Reason> {
+        let views = self.views(st);
+        let speed = views.omega_primary * RPM_PER_RAD_S;
+        let disagree = st.angle_disagreement > self.max_disagreement
+            || views.speed_disagreement_rpm() > self.max_speed_disagreement_rpm;
+        st.disagree_checks = if disagree {
+            st.disagree_checks.saturating_add(1)
+        } else {
+            0
+        };
+        if st.disagree_checks >= self.loss_checks {
+            return Some(self.enter_fault(st, Fault::ObserverLoss));
+        }
+        // Stall: the speed loop is at its current limit and the speed has fallen below
+        // half the reference (the load is more than the motor can carry).
+        let at_limit = st.foc.i_q_ref.abs() >= 0.99 * self.limits.i_max_a;
+        // Measured along the reference's direction: turning the wrong way counts too.
+        let along = if st.speed_ref_rpm < 0.0 {
+            -speed
+        } else {
+            speed
+        };
+        let collapsed = at_limit && along < 0.5 * st.speed_ref_rpm.abs();
+        st.collapse_checks = if collapsed {
+            st.collapse_checks.saturating_add(1)
+        } else {
+            0
+        };
+        if st.collapse_checks >= self.stall_checks {
+            return Some(self.enter_fault(st, Fault::Stall));
+        }
+        if st.speed_ref_rpm.abs() < self.handback_rpm && speed.abs() < self.handback_rpm {
+            cold_path();
+            // Open loop takes over at the primary's angle of this sample.
+            st.flux.update_angle();
+            st.mode = Mode::OpenLoop;
+            st.theta_ol = self.views(st).theta_primary;
+            st.speed_ol_rpm = speed;
+            st.agree_checks = 0;
+            st.waiting_checks = 0;
+            return Some(Reason::HandBack);
+        }
+        None
     }
 }

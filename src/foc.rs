@@ -236,14 +236,14 @@ impl Foc {
     /// One current-loop period; every `speed_divider`-th call also runs the speed loop first.
     pub fn step(&self, state: &mut FocState, input: &FocInput) -> FocOutput {
         let sc = SinCos::of(input.theta_e);
-        let sc_out = self.output_angle(sc, input.theta_e, input.omega_m);
+        let sc_out = self.output_angle(sc, input.omega_m);
         self.step_at(state, input, sc, sc_out)
     }
 
     /// sin/cos of the angle the voltage of this period is applied at, `θ_e + advance·ω_e·Ts`
     /// (see [`FocConfig::angle_advance_periods`]), from `sc` = sin/cos of `θ_e`.
-    pub fn output_angle(&self, sc: SinCos, theta_e: f32, omega_m: f32) -> SinCos {
-        sc.advanced(theta_e, self.pole_pairs * omega_m * self.advance_s)
+    pub fn output_angle(&self, sc: SinCos, omega_m: f32) -> SinCos {
+        sc.advanced(self.pole_pairs * omega_m * self.advance_s)
     }
 
     /// [`Foc::step`] with the sin/cos of `input.theta_e` (`sc`, for the Park transform of the
@@ -260,10 +260,7 @@ impl Foc {
         sc_out: SinCos,
     ) -> FocOutput {
         if state.tick == 0 {
-            let ff_a = input.torque_ff_nm * self.inv_kt;
-            state.i_q_ref =
-                self.speed
-                    .update(&mut state.speed, input.omega_m_ref - input.omega_m, ff_a);
+            self.speed_step(state, input.omega_m_ref, input.omega_m, input.torque_ff_nm);
         }
         state.tick = state.tick.saturating_add(1);
         if state.tick >= self.speed_divider {
@@ -271,6 +268,23 @@ impl Foc {
         }
         let i_dq_ref = Dq::new(0.0, state.i_q_ref);
         self.current_step_at(&mut state.current, input, sc, sc_out, i_dq_ref)
+    }
+
+    /// One speed-loop update (at `current_rate_hz / speed_divider`): the `i_q` command from the
+    /// speed error [rad/s, mechanical] with the load-torque feed-forward `torque_ff_nm` [N·m].
+    // Inlined: the 4 kHz step compiles to one function (see `drive`).
+    #[inline(always)]
+    pub fn speed_step(
+        &self,
+        state: &mut FocState,
+        omega_m_ref: f32,
+        omega_m: f32,
+        torque_ff_nm: f32,
+    ) {
+        let ff_a = torque_ff_nm * self.inv_kt;
+        state.i_q_ref = self
+            .speed
+            .update(&mut state.speed, omega_m_ref - omega_m, ff_a);
     }
 
     /// One current-loop period with an explicit current command (no speed loop).
@@ -281,7 +295,7 @@ impl Foc {
         i_dq_ref: Dq,
     ) -> FocOutput {
         let sc = SinCos::of(input.theta_e);
-        let sc_out = self.output_angle(sc, input.theta_e, input.omega_m);
+        let sc_out = self.output_angle(sc, input.omega_m);
         self.current_step_at(state, input, sc, sc_out, i_dq_ref)
     }
 

@@ -53,11 +53,11 @@ impl SinCos {
         Self { sin, cos }
     }
 
-    /// `sin`/`cos` of `theta + delta` from these, the `sin`/`cos` of `theta` (rad): a rotation
-    /// for a small `delta` (see [`crate::math::advance`]).
+    /// `sin`/`cos` of `θ + delta` from these, the `sin`/`cos` of some θ (rad): the rotation by
+    /// `delta` (see [`crate::math::advance`]).
     #[inline]
-    pub fn advanced(self, theta: f32, delta: f32) -> Self {
-        let (sin, cos) = crate::math::advance((self.sin, self.cos), theta, delta);
+    pub fn advanced(self, delta: f32) -> Self {
+        let (sin, cos) = crate::math::advance((self.sin, self.cos), delta);
         Self { sin, cos }
     }
 }

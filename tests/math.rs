@@ -244,16 +244,21 @@ fn wrap_in_range_for_every_finite_input() {
     }
 }
 
-/// `advance` (rotation by a small angle) against f64 `sin_cos(θ + δ)`.
+/// `advance` (rotation by δ: a polynomial for |δ| ≤ 0.3, `sin_cos(δ)` beyond) against f64
+/// `sin_cos(θ + δ)`.
 #[test]
-fn advance_matches_f64_for_small_angles() {
+fn advance_matches_f64() {
     let mut worst = 0.0f64;
     for i in 0..2000 {
         let theta = -std::f64::consts::PI + std::f64::consts::TAU * i as f64 / 2000.0;
-        for j in 0..=60 {
-            let delta = -0.3 + 0.6 * j as f64 / 60.0;
+        for j in 0..=120 {
+            let delta = if j <= 60 {
+                -0.3 + 0.6 * j as f64 / 60.0
+            } else {
+                (-3.0 + 6.0 * (j - 61) as f64 / 59.0).clamp(-3.0, 3.0)
+            };
             let sc = pmsm_sensorless::math::sin_cos(theta as f32);
-            let (s, c) = pmsm_sensorless::math::advance(sc, theta as f32, delta as f32);
+            let (s, c) = pmsm_sensorless::math::advance(sc, delta as f32);
             let (s64, c64) = (theta as f32 as f64 + delta as f32 as f64).sin_cos();
             worst = worst
                 .max((s as f64 - s64).abs())

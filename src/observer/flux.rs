@@ -122,13 +122,22 @@ pub struct FluxState {
     pub i_last: AlphaBeta,
     /// Rotor-flux estimate `x̂ − L i` at the last sample [Wb] (its angle is θ̂_e).
     pub rotor_flux: AlphaBeta,
-    /// Electrical angle estimate [rad], in (−π, π].
+    /// Electrical angle estimate [rad], in (−π, π]: the angle of `rotor_flux` as of the last
+    /// [`FluxObserver::update`] or [`FluxState::update_angle`].
     pub theta_e: f32,
     /// False until the first sample.
     pub started: bool,
 }
 
 impl FluxState {
+    /// θ̂_e = arctan((x̂₂ − L i_β)/(x̂₁ − L i_α)) (Ortega Sec V), four-quadrant, from the rotor
+    /// flux of the last sample.
+    // Inlined: the 4 kHz step compiles to one function (see `drive`).
+    #[inline(always)]
+    pub fn update_angle(&mut self) {
+        self.theta_e = atan2(self.rotor_flux.beta, self.rotor_flux.alpha);
+    }
+
     /// sin/cos of θ̂_e without trigonometry: the rotor-flux estimate `x̂ − L i` normalised
     /// (its angle is θ̂_e, Ortega Sec V), or of `theta_e` when that vector is too small to
     /// normalise (before the first sample).
@@ -152,10 +161,25 @@ impl FluxState {
 
 impl FluxObserver {
     /// One sample: `i_ab` measured now [A], `v_ab` the voltage applied over the period that just
-    /// ended [V]. Returns false, leaving the state untouched, on non-finite input or output.
+    /// ended [V]: [`FluxObserver::integrate`], then θ̂_e by the arctangent of Sec V.
+    /// Returns false, leaving the state untouched, on non-finite input or output.
     // Inlined: the 4 kHz step compiles to one function (see `drive`).
     #[inline(always)]
     pub fn update(&self, st: &mut FluxState, i_ab: AlphaBeta, v_ab: AlphaBeta) -> bool {
+        let ok = self.integrate(st, i_ab, v_ab);
+        if ok {
+            st.update_angle();
+        }
+        ok
+    }
+
+    /// The observer's state equations for one sample, eqs (7), (9): `x̂` and the rotor flux
+    /// `x̂ − L i`, whose angle is θ̂_e; `theta_e` is left as it was (the drive takes the
+    /// arctangent at 1 kHz, [`FluxState::update_angle`]). Returns false, leaving the state
+    /// untouched, on non-finite input or output.
+    // Inlined: the 4 kHz step compiles to one function (see `drive`).
+    #[inline(always)]
+    pub fn integrate(&self, st: &mut FluxState, i_ab: AlphaBeta, v_ab: AlphaBeta) -> bool {
         if !all_finite([i_ab.alpha, i_ab.beta, v_ab.alpha, v_ab.beta]) {
             cold_path();
             return false;
@@ -184,8 +208,8 @@ impl FluxObserver {
             x_hat: x,
             i_last: i_ab,
             rotor_flux: eta,
-            theta_e: atan2(eta.beta, eta.alpha),
             started: true,
+            ..*st
         };
         true
     }

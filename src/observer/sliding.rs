@@ -306,7 +306,7 @@ impl SlidingObserver {
             theta_e,
             omega_m,
             sc,
-            sc_mid: self.emf_angle(sc, theta_e, omega_m),
+            sc_mid: self.emf_angle(sc, omega_m),
             started: true,
             ..SlidingState::default()
         };
@@ -390,13 +390,13 @@ impl SlidingObserver {
         // the next period's EMF angle by a small rotation of it.
         let (sin, cos) = sin_cos_inlined(st.theta_e);
         st.sc = SinCos { sin, cos };
-        st.sc_mid = self.emf_angle(st.sc, st.theta_e, st.omega_m);
+        st.sc_mid = self.emf_angle(st.sc, st.omega_m);
     }
 
     /// sin/cos of `θ̂_e + a N ω̂ T` from `sc` = sin/cos of `θ̂_e` (see [`SlidingState::sc_mid`]).
     // Inlined: the 4 kHz step compiles to one function (see `drive`).
     #[inline(always)]
-    fn emf_angle(&self, sc: SinCos, theta_e: f32, omega_m: f32) -> SinCos {
-        sc.advanced(theta_e, self.emf_advance_s * omega_m)
+    fn emf_angle(&self, sc: SinCos, omega_m: f32) -> SinCos {
+        sc.advanced(self.emf_advance_s * omega_m)
     }
 }
