@@ -23,16 +23,25 @@ use std::process::Command;
 /// The answer of `pmsm-sim cycles`.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct CyclesReport {
-    /// Instructions of the drive's step with both observers and the speed loop (the
-    /// costliest step, one in four).
+    /// Instructions of the drive's costliest sensorless step (both observers live, sliding
+    /// observer primary, voltage in the linear range): the worst of the four slots below.
     pub step_instructions: u64,
     /// Cycle estimate of that step.
     pub step_cycles_est: u64,
-    /// Cycle estimate of a step without the speed loop.
-    pub step_no_speed_loop_cycles_est: u64,
-    /// Cycle estimate of the step with the speed loop when the flux observer feeds the
-    /// controller (`Primary::Flux`; the figures above are for the sliding observer's).
+    /// The step whose 1 kHz part is the flux angle and the angle comparison.
+    pub step_monitor_angle_cycles_est: u64,
+    /// The step whose 1 kHz part is the supervision.
+    pub step_supervision_cycles_est: u64,
+    /// The step whose 1 kHz part is the PLL.
+    pub step_pll_cycles_est: u64,
+    /// The step whose 1 kHz part is the speed loop.
+    pub step_speed_loop_cycles_est: u64,
+    /// Worst of the four steps when the flux observer feeds the controller (`Primary::Flux`).
     pub step_flux_primary_cycles_est: u64,
+    /// Worst of the four steps in open loop (start-up; both observers running).
+    pub step_open_loop_cycles_est: u64,
+    /// Worst of the four steps with the voltage at its limit (sliding observer primary).
+    pub step_saturated_cycles_est: u64,
     /// Cycle estimate of one sliding torque observer update.
     pub sliding_cycles_est: u64,
     /// Cycle estimate of one flux observer update plus its PLL.
@@ -381,7 +390,13 @@ pub fn measure(root: &Path) -> anyhow::Result<CyclesReport> {
             .with_context(|| format!("section {name} not found in the trace"))?;
         Ok(v.iter().fold((0, 0), |a, &(n, c)| (a.0.max(n), a.1.max(c))))
     };
-    let (step_n, step_c) = worst("step_speed_loop")?;
+    let slots = [
+        worst("step_monitor_angle")?,
+        worst("step_supervision")?,
+        worst("step_pll")?,
+        worst("step_speed_loop")?,
+    ];
+    let (step_n, step_c) = slots.iter().copied().max_by_key(|s| s.1).unwrap_or((0, 0));
     let (flash_bytes, ram_bytes, ramfunc_bytes) = sizes(&llvm_tool(root, "llvm-size")?, &board)?;
     let nm = llvm_tool(root, "llvm-nm")?;
     let mut f64_soft_float_symbols = soft_float_symbols(&nm, &board)?;
@@ -391,8 +406,13 @@ pub fn measure(root: &Path) -> anyhow::Result<CyclesReport> {
     Ok(CyclesReport {
         step_instructions: step_n,
         step_cycles_est: step_c,
-        step_no_speed_loop_cycles_est: worst("step")?.1,
+        step_monitor_angle_cycles_est: slots[0].1,
+        step_supervision_cycles_est: slots[1].1,
+        step_pll_cycles_est: slots[2].1,
+        step_speed_loop_cycles_est: slots[3].1,
         step_flux_primary_cycles_est: worst("step_flux_primary")?.1,
+        step_open_loop_cycles_est: worst("step_open_loop")?.1,
+        step_saturated_cycles_est: worst("step_saturated")?.1,
         sliding_cycles_est: worst("sliding")?.1,
         flux_cycles_est: worst("flux_pll")?.1,
         foc_svpwm_cycles_est: worst("foc_svpwm")?.1,

@@ -63,19 +63,32 @@ fn cycles(args: CyclesArgs) -> anyhow::Result<String> {
         outln!(out, "Cortex-M4F (QEMU mps2-an386, one trace line per instruction), cycles at zero wait states:");
         outln!(
             out,
-            "  step, both observers + speed loop: {} instructions, ~{} cycles",
+            "  step, worst of the four (both observers, sliding primary): {} instructions, ~{} cycles",
             r.step_instructions,
             r.step_cycles_est
         );
         outln!(
             out,
-            "  step without the speed loop:       ~{} cycles",
-            r.step_no_speed_loop_cycles_est
+            "    by its 1 kHz part: flux angle ~{}, supervision ~{}, PLL ~{}, speed loop ~{}",
+            r.step_monitor_angle_cycles_est,
+            r.step_supervision_cycles_est,
+            r.step_pll_cycles_est,
+            r.step_speed_loop_cycles_est
         );
         outln!(
             out,
-            "  same step, flux observer primary:  ~{} cycles",
+            "  step, worst of four, flux observer primary: ~{} cycles",
             r.step_flux_primary_cycles_est
+        );
+        outln!(
+            out,
+            "  step, worst of four, open loop (start-up):  ~{} cycles",
+            r.step_open_loop_cycles_est
+        );
+        outln!(
+            out,
+            "  step, worst of four, voltage at its limit:  ~{} cycles",
+            r.step_saturated_cycles_est
         );
         outln!(
             out,

@@ -5,7 +5,9 @@
 //!
 //! The drive is put straight into a sensorless state at 1000 rpm on the Sinano motor (the
 //! state's fields are public), so the measured `step` takes the sensorless branch with both
-//! observers live; it is measured on a step with the speed loop (every 4th) and without.
+//! observers live; it is measured in each of the four slots of the 1 kHz work (`Slot`), with
+//! the flux observer primary, in open loop (start-up), and with the voltage at its limit (bus
+//! at its under-voltage trip, 37 V).
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
 #[cfg(not(target_os = "none"))]
@@ -20,7 +22,9 @@ mod firmware {
     use cortex_m_semihosting::debug::{self, EXIT_SUCCESS};
     use defmt_semihosting as _;
     use panic_probe as _;
-    use pmsm_sensorless::drive::{Command, DriveConfig, DriveInput, DriveState, Mode, Primary};
+    use pmsm_sensorless::drive::{
+        Command, Drive, DriveConfig, DriveInput, DriveState, Mode, Primary, Slot,
+    };
     use pmsm_sensorless::foc::{CurrentLoopState, FocConfig, FocInput};
     use pmsm_sensorless::frames::{AlphaBeta, Dq};
     use pmsm_sensorless::motor::HORNG_SINANO;
@@ -48,7 +52,11 @@ mod firmware {
 
     markers! {
         bench_begin_step_speed_loop, bench_end_step_speed_loop, 1u32;
-        bench_begin_step, bench_end_step, 2u32;
+        bench_begin_step_monitor_angle, bench_end_step_monitor_angle, 2u32;
+        bench_begin_step_supervision, bench_end_step_supervision, 7u32;
+        bench_begin_step_pll, bench_end_step_pll, 8u32;
+        bench_begin_step_open_loop, bench_end_step_open_loop, 9u32;
+        bench_begin_step_saturated, bench_end_step_saturated, 10u32;
         bench_begin_sliding, bench_end_sliding, 3u32;
         bench_begin_flux_pll, bench_end_flux_pll, 4u32;
         bench_begin_foc_svpwm, bench_end_foc_svpwm, 5u32;
@@ -106,53 +114,68 @@ mod firmware {
             v_bus: 48.0,
             overrun: false,
         };
-        let mut st = sensorless();
         let cmd = Command {
             enable: true,
             speed_rpm: 1000.0,
             clear_fault: false,
         };
-        for k in 1..6u32 {
-            let input = input(k);
-            let with_speed_loop = st.foc.tick == 0;
-            if with_speed_loop {
-                bench_begin_step_speed_loop();
-            } else {
-                bench_begin_step();
+        // Eight steps from `st` (each slot twice), each between the markers `slot` names.
+        let run = |name: &str,
+                   drive: &Drive,
+                   mut st: DriveState,
+                   v_bus: f32,
+                   markers: &dyn Fn(Slot) -> (extern "C" fn(), extern "C" fn())| {
+            for k in 1..9u32 {
+                let input = DriveInput { v_bus, ..input(k) };
+                let (begin, end) = markers(st.slot);
+                begin();
+                // The output is written in place (returned through a pointer); `black_box` of
+                // a reference keeps it without the copy a `black_box` by value would add.
+                let out = drive.step(&mut st, black_box(&input), black_box(&cmd));
+                black_box(&out);
+                end();
+                defmt::info!(
+                    "{} step {}: mode {}, duties {}",
+                    name,
+                    k,
+                    st.mode,
+                    out.duties.map(|d| [d.a, d.b, d.c])
+                );
             }
-            // The output is written in place (returned through a pointer); `black_box` of a
-            // reference keeps it without the copy a `black_box` by value would add.
-            let out = drive.step(&mut st, black_box(&input), black_box(&cmd));
-            black_box(&out);
-            if with_speed_loop {
-                bench_end_step_speed_loop();
-            } else {
-                bench_end_step();
+        };
+        let per_slot = |slot: Slot| -> (extern "C" fn(), extern "C" fn()) {
+            match slot {
+                Slot::MonitorAngle => {
+                    (bench_begin_step_monitor_angle, bench_end_step_monitor_angle)
+                }
+                Slot::Supervision => (bench_begin_step_supervision, bench_end_step_supervision),
+                Slot::Pll => (bench_begin_step_pll, bench_end_step_pll),
+                Slot::SpeedLoop => (bench_begin_step_speed_loop, bench_end_step_speed_loop),
             }
-            defmt::info!(
-                "step {}: mode {}, duties {}",
-                k,
-                st.mode,
-                out.duties.is_some()
-            );
-        }
-        // The same with the flux observer feeding the controller (its angle's sin/cos and the
-        // output angle computed in the step, the sliding observer as the monitor): the step
-        // with the speed loop.
-        let mut st = sensorless();
-        for k in 1..6u32 {
-            let input = input(k);
-            let with_speed_loop = st.foc.tick == 0;
-            if with_speed_loop {
-                bench_begin_step_flux_primary();
-            }
-            let out = drive_flux.step(&mut st, black_box(&input), black_box(&cmd));
-            black_box(&out);
-            if with_speed_loop {
-                bench_end_step_flux_primary();
-            }
-            defmt::info!("flux primary step {}: mode {}", k, st.mode);
-        }
+        };
+        run("sliding primary", &drive, sensorless(), 48.0, &per_slot);
+        // The flux observer feeding the controller (the sliding observer as the monitor).
+        run("flux primary", &drive_flux, sensorless(), 48.0, &|_| {
+            (bench_begin_step_flux_primary, bench_end_step_flux_primary)
+        });
+        // Start-up: open loop at half the hand-over speed, both observers running.
+        let open_loop = DriveState {
+            mode: Mode::OpenLoop,
+            speed_ol_rpm: 60.0,
+            theta_ol: theta0,
+            ..sensorless()
+        };
+        run("open loop", &drive, open_loop, 48.0, &|_| {
+            (bench_begin_step_open_loop, bench_end_step_open_loop)
+        });
+        // The voltage at its limit: at 1000 rpm the back-EMF alone is ~24 V and the bus gives
+        // 37/√3 = 21.4 V; with 1.5 A of i_q command the current loop asks for more still.
+        let mut saturated = sensorless();
+        saturated.foc.speed.integral = 1.5;
+        saturated.foc.i_q_ref = 1.5;
+        run("saturated", &drive, saturated, 37.0, &|_| {
+            (bench_begin_step_saturated, bench_end_step_saturated)
+        });
         let mut s_state = SlidingState::default();
         sliding.reset(&mut s_state, i0, theta0, omega_m);
         let mut f_state = FluxState::default();
