@@ -865,10 +865,8 @@ impl Drive {
                 }
                 // The flux angle is the one of the last `MonitorAngle` step (the current loop
                 // uses the sin/cos of this sample's rotor flux).
-                let (theta, omega_m) = match self.primary {
-                    Primary::SlidingTorque => (st.sliding.theta_e, st.sliding.omega_m),
-                    Primary::Flux => (st.flux.theta_e, st.pll.omega * self.inv_n),
-                };
+                let views = self.views(st);
+                let (theta, omega_m) = (views.theta_primary, views.omega_primary);
                 match st.slot {
                     Slot::SpeedLoop => {
                         st.speed_ref_rpm =
@@ -877,14 +875,11 @@ impl Drive {
                         let ff = self.torque_ff_nm(st);
                         self.foc.speed_step(&mut st.foc, omega_m_ref, omega_m, ff);
                     }
-                    Slot::Supervision => {
-                        if let Some(r) = self.supervise(st) {
-                            match r {
-                                Reason::Fault(_) => return (None, Some(r)),
-                                _ => reason = Some(r),
-                            }
-                        }
-                    }
+                    Slot::Supervision => match self.supervise(st) {
+                        Some(r @ Reason::Fault(_)) => return (None, Some(r)),
+                        r @ Some(_) => reason = r,
+                        None => {}
+                    },
                     Slot::MonitorAngle | Slot::Pll => {}
                 }
                 // The sliding observer keeps the sin/cos of its angle and of the output angle;
