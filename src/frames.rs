@@ -60,6 +60,31 @@ impl SinCos {
         let (sin, cos) = crate::math::advance((self.sin, self.cos), delta);
         Self { sin, cos }
     }
+
+    /// `sin`/`cos` of a small angle `delta` (rad), see [`crate::math::sin_cos_small`].
+    #[inline]
+    pub fn of_small(delta: f32) -> Self {
+        let (sin, cos) = crate::math::sin_cos_small(delta);
+        Self { sin, cos }
+    }
+
+    /// These scaled back to unit length by one Newton step of `1/√(sin² + cos²)` from 1: a
+    /// length `1 + ε` becomes `1 + O(ε²)` (for pairs turned by a few rotations, |ε| ~ 1e-7).
+    #[inline(always)]
+    pub fn renormalized(self) -> Self {
+        let k = 1.5 - 0.5 * (self.sin * self.sin + self.cos * self.cos);
+        Self {
+            sin: self.sin * k,
+            cos: self.cos * k,
+        }
+    }
+
+    /// `sin`/`cos` of `θ + δ` from these (of θ) and `by` (of δ): the rotation by δ.
+    #[inline(always)]
+    pub fn rotated(self, by: SinCos) -> Self {
+        let (sin, cos) = crate::math::rotate((self.sin, self.cos), (by.sin, by.cos));
+        Self { sin, cos }
+    }
 }
 
 const INV_SQRT3: f32 = 0.577_350_26;

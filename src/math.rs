@@ -124,12 +124,34 @@ pub fn atan2(y: f32, x: f32) -> f32 {
 /// Accuracy: max absolute error 5e-7 rad (measured 2.9e-7) for |theta| <= 1e4, against
 /// `theta − 2πk` in f64; inputs already in (−π, π] are returned unchanged. Measured 1.3e-6
 /// up to 1e5 rad, 3e-2 up to 1e6 rad. The result is in range for every finite input. NaN/±inf yield NaN. Floor-based, no loop.
+// Inlined: the in-range test and the one-turn case are a few instructions; angles further out
+// (and NaN) call `wrap_pi_far`.
+#[inline(always)]
 pub fn wrap_pi(theta: f32) -> f32 {
+    let a = libm::fabsf(theta);
     // One compare on the usual path (±π themselves take the other; false for NaN).
-    if libm::fabsf(theta) < PI {
+    if a < PI {
         return theta;
     }
+    // One turn out, an angle advanced past ±π (once per electrical turn on the step's paths):
+    // ∓2π carried to ~48 bits, no floor. `PI` itself stays (it is in range).
+    if a < ONE_TURN_OUT {
+        if theta == PI {
+            return PI;
+        }
+        let r = sub_quarter_turns(theta, if theta > 0.0 { 4.0 } else { -4.0 });
+        return clamp(r, -PI_BELOW, PI);
+    }
     cold_path();
+    wrap_pi_far(theta)
+}
+
+/// Below this |θ| [rad] (< 3π) one turn brings θ into (−π, π].
+const ONE_TURN_OUT: f32 = 9.0;
+
+/// [`wrap_pi`] of an angle more than a turn out of range, or not finite.
+#[inline(never)]
+fn wrap_pi_far(theta: f32) -> f32 {
     // k = ceil(theta/2π − 1/2), so that theta = π gives k = 0.
     let turns = -libm::floorf(0.5 - theta * (0.5 * core::f32::consts::FRAC_1_PI));
     let mut r = sub_quarter_turns(theta, 4.0 * turns);
@@ -261,23 +283,33 @@ pub fn min(a: f32, b: f32) -> f32 {
     }
 }
 
-/// `(sin(θ + δ), cos(θ + δ))` from `(sin θ, cos θ)`: the rotation by `δ` [rad], with
-/// `sin δ ≈ δ − δ³/6 + δ⁵/120`, `cos δ ≈ 1 − δ²/2 + δ⁴/24 − δ⁶/720` for a small advance
-/// (truncation below 5e-8 for |δ| ≤ 0.3 rad; the result is within 3e-7 of f64, measured in
-/// `tests/math.rs`) and [`sin_cos`] of `δ` for a larger one.
+/// `(sin δ, cos δ)` for an angle known to be small: `sin δ ≈ δ − δ³/6 + δ⁵/120`,
+/// `cos δ ≈ 1 − δ²/2 + δ⁴/24 − δ⁶/720` for |δ| ≤ 0.3 rad (truncation below 5e-8), [`sin_cos`]
+/// for a larger one (and NaN).
 #[inline]
-pub fn advance(sin_cos_theta: (f32, f32), delta: f32) -> (f32, f32) {
-    let (sd, cd) = if libm::fabsf(delta) <= 0.3 {
+pub fn sin_cos_small(delta: f32) -> (f32, f32) {
+    if libm::fabsf(delta) <= 0.3 {
         let d2 = delta * delta;
         (
             delta * (1.0 - d2 * (1.0 / 6.0) * (1.0 - d2 * (1.0 / 20.0))),
             1.0 - 0.5 * d2 * (1.0 - d2 * (1.0 / 12.0) * (1.0 - d2 * (1.0 / 30.0))),
         )
     } else {
-        // Also NaN.
         cold_path();
         sin_cos(delta)
-    };
-    let (s, c) = sin_cos_theta;
+    }
+}
+
+/// `(sin(θ + δ), cos(θ + δ))` from `(sin θ, cos θ)` and `(sin δ, cos δ)`: the rotation by δ.
+#[inline(always)]
+pub fn rotate(sin_cos_theta: (f32, f32), sin_cos_delta: (f32, f32)) -> (f32, f32) {
+    let ((s, c), (sd, cd)) = (sin_cos_theta, sin_cos_delta);
     (s * cd + c * sd, c * cd - s * sd)
+}
+
+/// `(sin(θ + δ), cos(θ + δ))` from `(sin θ, cos θ)`: the rotation by `δ` [rad] with
+/// [`sin_cos_small`] of δ (the result is within 3e-7 of f64, measured in `tests/math.rs`).
+#[inline]
+pub fn advance(sin_cos_theta: (f32, f32), delta: f32) -> (f32, f32) {
+    rotate(sin_cos_theta, sin_cos_small(delta))
 }
