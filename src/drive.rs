@@ -8,15 +8,17 @@
 //! feeding the controller and the other watching it, and the FOC with its 1 kHz speed loop.
 //!
 //! The 1 kHz work is spread over the four steps of each millisecond ([`Slot`]), one part per
-//! step, so that no step carries all of it: the flux observer's angle (an arctangent) with the
-//! angle comparisons (the observers' disagreement; in open loop the hand-over check), the
-//! sensorless supervision, the PLL, the speed loop. The observers' state equations, the
-//! current loop and the PWM run every step.
+//! step, so that no step carries all of it: the flux observer's angle (an arctangent), kept
+//! with the other angles of that sample; the comparisons of those angles (sensorless
+//! supervision, or the open-loop hand-over check); the PLL; the speed loop (or the open-loop
+//! ramp). The observers' state equations, the current loop and the PWM run every step.
 //!
 //! Open-loop start (I/f): a current of fixed magnitude is driven along the d axis of a frame at
 //! angle `θ_ol` whose frequency ramps; the rotor follows it, lagging by `asin(τ/(Nψ I_ol))`.
-//! Hand-over when the speed is above the observable range and the configured observer agrees
-//! with `θ_ol`; the speed loop then starts from the torque the open-loop current was making.
+//! The frame is kept as sin/cos of `θ_ol`, turned by `N ω_ol T` each step (no trigonometry
+//! on the step's path). Hand-over when the speed is above the observable range and the
+//! configured observer agrees with `θ_ol`; the speed loop then starts from the torque the
+//! open-loop current was making.
 //!
 //! Cost: the blocks' per-sample functions (observers, PLL, FOC, PI, SVPWM) are
 //! `#[inline(always)]`, so the step compiles to one function: no per-block register save and
@@ -24,9 +26,9 @@
 //! M4F, `pmsm-sim cycles`). The log record is not built here: [`Drive::telemetry`] reads it
 //! from the state at the log's rate.
 
-use crate::foc::{Foc, FocConfig, FocInput, FocState};
+use crate::foc::{CurrentSample, Foc, FocConfig, FocState};
 use crate::frames::{Abc, AlphaBeta, Dq, SinCos};
-use crate::math::{all_finite, clamp, max, wrap_pi};
+use crate::math::{all_finite, atan2, clamp, max, wrap_pi};
 use crate::motor::{positive, Motor, MotorParams, ParamError};
 use crate::observer::flux::{FluxConfig, FluxObserver, FluxState};
 use crate::observer::pll::{Pll, PllConfig, PllState};
@@ -267,10 +269,9 @@ impl DriveConfig {
             align_current_a: s.align_current_a,
             align_steps: steps(s.align_time_s).max(1),
             open_loop_current_a: s.open_loop_current_a,
-            accel_per_step: s.accel_rpm_per_s * ts,
             accel_per_slot_cycle: s.accel_rpm_per_s * ts * SLOTS as f32,
             handover_rpm: s.handover_rpm,
-            handover_tol: s.handover_tol_deg * RAD_PER_DEG,
+            handover_cos: SinCos::of(s.handover_tol_deg * RAD_PER_DEG).cos,
             handover_checks: slot_cycles(s.handover_hold_s).max(1),
             handback_rpm: s.handback_rpm,
             handover_timeout_checks: slot_cycles(s.handover_timeout_s).max(1),
@@ -306,15 +307,16 @@ pub const SLOTS: u32 = 4;
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Slot {
-    /// The flux observer's θ̂ (Ortega Sec V arctangent), the two observers' angle
-    /// disagreement at this sample and, in open loop, the hand-over check.
+    /// The flux observer's θ̂ (Ortega Sec V arctangent), kept with the sliding observer's θ̂
+    /// and θ_ol of the same sample ([`AngleSample`]) for the comparisons of the next slot.
     #[default]
     MonitorAngle,
-    /// Sensorless health (observer loss, stall) and the hand-back.
+    /// Sensorless health (observer loss, stall) and the hand-back; in open loop the hand-over
+    /// check.
     Supervision,
     /// The PLL speed estimate on the flux observer's θ̂.
     Pll,
-    /// Speed-reference slew and the speed PI.
+    /// Speed-reference slew and the speed PI; in open loop the I/f frequency ramp.
     SpeedLoop,
 }
 
@@ -470,12 +472,11 @@ pub struct Drive {
     align_current_a: f32,
     align_steps: u32,
     open_loop_current_a: f32,
-    /// Speed slew per step [rpm].
-    accel_per_step: f32,
     /// Speed slew per slot cycle (the speed loop's period) [rpm].
     accel_per_slot_cycle: f32,
     handover_rpm: f32,
-    handover_tol: f32,
+    /// cos of the hand-over angle tolerance.
+    handover_cos: f32,
     /// Hand-over checks (1 kHz) in agreement before sensorless.
     handover_checks: u32,
     handback_rpm: f32,
@@ -506,8 +507,11 @@ pub struct DriveState {
     pub flux: FluxState,
     /// PLL on the flux observer's angle.
     pub pll: PllState,
-    /// Open-loop angle [rad, electrical].
-    pub theta_ol: f32,
+    /// sin/cos of the open-loop angle θ_ol [rad, electrical], the open loop's state: turned by
+    /// `ol_rot` every step (θ_ol itself is never needed on the step's path).
+    pub sc_ol: SinCos,
+    /// sin/cos of θ_ol's advance per step, `N ω_ol T`, kept while the ramp holds (1 kHz).
+    pub ol_rot: SinCos,
     /// Open-loop speed [rpm, mechanical].
     pub speed_ol_rpm: f32,
     /// Slewed speed reference [rpm].
@@ -524,8 +528,12 @@ pub struct DriveState {
     pub collapse_checks: u32,
     /// This step's part of the 1 kHz work.
     pub slot: Slot,
-    /// |θ̂_primary − θ̂_monitor| at the last [`Slot::MonitorAngle`] step [rad, electrical].
-    pub angle_disagreement: f32,
+    /// The angles of the last [`Slot::MonitorAngle`] step's sample.
+    pub sample: AngleSample,
+    /// sin/cos of the output angle's lead over the control angle at the controller's speed
+    /// ([`Foc::output_rotation`]), kept while that speed holds: in open loop (the ramp moves at
+    /// 1 kHz) and with the flux observer primary (the PLL's speed moves at 1 kHz).
+    pub out_rot: SinCos,
     /// False after a fault is cleared until the enable command has been seen low.
     pub armed: bool,
 }
@@ -540,7 +548,8 @@ impl Default for DriveState {
             sliding: SlidingState::default(),
             flux: FluxState::default(),
             pll: PllState::default(),
-            theta_ol: 0.0,
+            sc_ol: SinCos::ZERO,
+            ol_rot: SinCos::ZERO,
             speed_ol_rpm: 0.0,
             speed_ref_rpm: 0.0,
             v_ab_last: AlphaBeta::default(),
@@ -549,10 +558,23 @@ impl Default for DriveState {
             disagree_checks: 0,
             collapse_checks: 0,
             slot: Slot::MonitorAngle,
-            angle_disagreement: 0.0,
+            sample: AngleSample::default(),
+            out_rot: SinCos::ZERO,
             armed: true,
         }
     }
+}
+
+/// The angles the 1 kHz comparisons take, all of one sample (the [`Slot::MonitorAngle`]
+/// step's, where the flux observer's arctangent is taken) [rad, electrical].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct AngleSample {
+    /// The sliding observer's θ̂_e.
+    pub theta_sliding: f32,
+    /// The flux observer's θ̂_e.
+    pub theta_flux: f32,
+    /// cos(θ̂_primary − θ_ol) (in open loop).
+    pub ol_cos: f32,
 }
 
 /// Both observers' estimates of the rotor: the primary's and the monitor's.
@@ -678,13 +700,16 @@ impl Drive {
             ..Telemetry::default()
         };
         // The flux angle of this very sample (the step takes it at 1 kHz).
-        let mut fresh = *st;
-        fresh.flux.update_angle();
-        let v = self.views(&fresh);
+        let mut flux = st.flux;
+        flux.update_angle();
+        let v = self.views(st, st.sliding.theta_e, flux.theta_e);
         let (theta, omega_m) = match st.mode {
             Mode::Idle | Mode::Fault => return off,
             Mode::Align => (0.0, 0.0),
-            Mode::OpenLoop => (st.theta_ol, st.speed_ol_rpm * RAD_S_PER_RPM),
+            Mode::OpenLoop => (
+                atan2(st.sc_ol.sin, st.sc_ol.cos),
+                st.speed_ol_rpm * RAD_S_PER_RPM,
+            ),
             Mode::Sensorless => (v.theta_primary, v.omega_primary),
         };
         let i_dq = st.flux.i_last.to_dq(SinCos::of(theta));
@@ -753,20 +778,26 @@ impl Drive {
         match st.slot {
             Slot::MonitorAngle => {
                 st.flux.update_angle();
-                st.angle_disagreement = self.views(st).disagreement();
+                st.sample.theta_sliding = st.sliding.theta_e;
+                st.sample.theta_flux = st.flux.theta_e;
             }
             Slot::Pll => {
                 self.pll.update(&mut st.pll, st.flux.theta_e);
+                // The controller's speed when the flux observer feeds it.
+                if self.primary == Primary::Flux && st.mode == Mode::Sensorless {
+                    st.out_rot = self.foc.output_rotation(st.pll.omega * self.inv_n);
+                }
             }
             Slot::Supervision | Slot::SpeedLoop => {}
         }
         ok_sliding && ok_flux
     }
 
-    /// The observers' current estimates, primary and monitor.
-    fn views(&self, st: &DriveState) -> Views {
-        let sl = (st.sliding.theta_e, st.sliding.omega_m);
-        let fl = (st.flux.theta_e, st.pll.omega * self.inv_n);
+    /// The observers' estimates, primary and monitor: the angles given (`theta_sliding`,
+    /// `theta_flux`, of one sample) and the speeds now.
+    fn views(&self, st: &DriveState, theta_sliding: f32, theta_flux: f32) -> Views {
+        let sl = (theta_sliding, st.sliding.omega_m);
+        let fl = (theta_flux, st.pll.omega * self.inv_n);
         let (p, m) = match self.primary {
             Primary::SlidingTorque => (sl, fl),
             Primary::Flux => (fl, sl),
@@ -779,6 +810,11 @@ impl Drive {
         }
     }
 
+    /// [`Drive::views`] with the angles of the last [`Slot::MonitorAngle`] sample.
+    fn sample_views(&self, st: &DriveState) -> Views {
+        self.views(st, st.sample.theta_sliding, st.sample.theta_flux)
+    }
+
     /// The speed loop's load-torque feed-forward: the sliding torque observer's τ̂_L when it is
     /// the primary [N·m].
     fn torque_ff_nm(&self, st: &DriveState) -> f32 {
@@ -788,8 +824,33 @@ impl Drive {
         }
     }
 
-    /// Restarts both observers at a known rotor state.
-    fn reset_observers(&self, st: &mut DriveState, i_ab: AlphaBeta, theta_e: f32, omega_m: f32) {
+    /// sin/cos of the primary observer's angle at this sample: the one the sliding observer
+    /// keeps, or the flux observer's rotor-flux vector normalised.
+    #[inline(always)]
+    fn primary_sin_cos(&self, st: &DriveState) -> SinCos {
+        match self.primary {
+            Primary::SlidingTorque => st.sliding.sc,
+            Primary::Flux => st.flux.sin_cos(),
+        }
+    }
+
+    /// The open loop's rotations for the speed `speed_ol_rpm` just set: θ_ol's advance per step
+    /// and the output angle's lead; the sin/cos of θ_ol renormalised (the rotations since the
+    /// last time moved its length by a few 1e-7).
+    #[inline(always)]
+    fn set_open_loop_speed(&self, st: &mut DriveState) {
+        let omega_m = st.speed_ol_rpm * RAD_S_PER_RPM;
+        st.ol_rot = SinCos::of_small(self.n * omega_m * self.ts);
+        st.out_rot = self.foc.output_rotation(omega_m);
+        st.sc_ol = st.sc_ol.renormalized();
+    }
+
+    /// Restarts both observers at a known rotor state (`sc`: sin/cos of θ_e, `omega_m`).
+    // Out of line, like the other mode changes: rare, and the interrupt's code must fit the
+    // B-G431B-ESC1's 10 KiB of CCM SRAM.
+    #[inline(never)]
+    fn reset_observers(&self, st: &mut DriveState, i_ab: AlphaBeta, sc: SinCos, omega_m: f32) {
+        let theta_e = atan2(sc.sin, sc.cos);
         self.sliding.reset(&mut st.sliding, i_ab, theta_e, omega_m);
         self.flux.reset(&mut st.flux, i_ab, theta_e);
         self.pll.reset(&mut st.pll, theta_e, omega_m * self.n);
@@ -807,53 +868,65 @@ impl Drive {
         // Finite: `check_input` passed this step (control runs only then).
         let cmd_rpm = cmd.speed_rpm;
         let mut reason = None;
-        // (angle, sin/cos of it and of the output angle, speed [rad/s], current command) for
+        // (sin/cos of the angle and of the output angle, speed [rad/s], current command) for
         // the current loop this step.
-        let (theta, (sc, sc_out), omega_m, i_ref) = match st.mode {
+        let ((sc, sc_out), omega_m, i_ref) = match st.mode {
             Mode::Align => {
                 if st.mode_steps >= self.align_steps.saturating_sub(1) {
                     // Rotor at θ_e = 0, at rest: start the observers there.
-                    self.reset_observers(st, i_ab, 0.0, 0.0);
+                    self.reset_observers(st, i_ab, SinCos::ZERO, 0.0);
                     st.mode = Mode::OpenLoop;
-                    st.theta_ol = 0.0;
+                    st.sc_ol = SinCos::ZERO;
+                    st.ol_rot = SinCos::ZERO;
+                    st.out_rot = SinCos::ZERO;
                     st.speed_ol_rpm = 0.0;
                     reason = Some(Reason::Aligned);
                 }
                 (
-                    0.0,
                     (SinCos::ZERO, SinCos::ZERO),
                     0.0,
                     Dq::new(self.align_current_a, 0.0),
                 )
             }
             Mode::OpenLoop => {
+                // The I/f frequency ramp moves at the speed loop's rate (1 kHz); θ_ol advances
+                // by N ω_ol T every step, as the rotation `ol_rot` of its sin/cos.
                 let before = st.speed_ol_rpm;
-                st.speed_ol_rpm = slew(st.speed_ol_rpm, cmd_rpm, self.accel_per_step);
-                st.speed_ref_rpm = st.speed_ol_rpm;
+                if st.slot == Slot::SpeedLoop {
+                    st.speed_ol_rpm = slew(before, cmd_rpm, self.accel_per_slot_cycle);
+                    st.speed_ref_rpm = st.speed_ol_rpm;
+                    self.set_open_loop_speed(st);
+                }
                 let omega = st.speed_ol_rpm * RAD_S_PER_RPM;
-                st.theta_ol = wrap_pi(st.theta_ol + self.n * omega * self.ts);
-                let half = 0.5 * self.handover_rpm;
-                if before.abs() < half && st.speed_ol_rpm.abs() >= half {
-                    // Half-way to the hand-over speed the rotor turns with θ_ol (behind it by
-                    // the load angle): restart the observers there, where they can see it.
-                    self.reset_observers(st, i_ab, st.theta_ol, st.speed_ol_rpm * RAD_S_PER_RPM);
-                }
-                if cmd_rpm == 0.0 && st.speed_ol_rpm == 0.0 {
-                    *st = DriveState::default();
-                    return (None, Some(Reason::Stopped));
-                }
-                // The angles are compared at the sample the flux angle is taken at.
-                if st.slot == Slot::MonitorAngle {
-                    match self.hand_over(st) {
+                st.sc_ol = st.sc_ol.rotated(st.ol_rot);
+                match st.slot {
+                    Slot::SpeedLoop => {
+                        let half = 0.5 * self.handover_rpm;
+                        if before.abs() < half && st.speed_ol_rpm.abs() >= half {
+                            // Half-way to the hand-over speed the rotor turns with θ_ol (behind
+                            // it by the load angle): restart the observers there, where they
+                            // can see it.
+                            self.reset_observers(st, i_ab, st.sc_ol, omega);
+                        }
+                        if cmd_rpm == 0.0 && st.speed_ol_rpm == 0.0 {
+                            *st = DriveState::default();
+                            return (None, Some(Reason::Stopped));
+                        }
+                    }
+                    // The primary's angle against θ_ol, at the sample the angles are kept at.
+                    Slot::MonitorAngle => {
+                        let p = self.primary_sin_cos(st);
+                        st.sample.ol_cos = p.cos * st.sc_ol.cos + p.sin * st.sc_ol.sin;
+                    }
+                    Slot::Supervision => match self.hand_over(st) {
                         Some(r @ Reason::Fault(_)) => return (None, Some(r)),
                         r @ Some(_) => reason = r,
                         None => {}
-                    }
+                    },
+                    Slot::Pll => {}
                 }
-                let sc = SinCos::of(st.theta_ol);
                 (
-                    st.theta_ol,
-                    (sc, self.foc.output_angle(sc, omega)),
+                    (st.sc_ol, st.sc_ol.rotated(st.out_rot)),
                     omega,
                     Dq::new(self.open_loop_current_a, 0.0),
                 )
@@ -863,10 +936,8 @@ impl Drive {
                 if !observers_ok {
                     return (None, Some(self.enter_fault(st, Fault::ObserverLoss)));
                 }
-                // The flux angle is the one of the last `MonitorAngle` step (the current loop
-                // uses the sin/cos of this sample's rotor flux).
-                let views = self.views(st);
-                let (theta, omega_m) = (views.theta_primary, views.omega_primary);
+                // The primary's speed (the PLL's moves at 1 kHz).
+                let omega_m = self.sample_views(st).omega_primary;
                 match st.slot {
                     Slot::SpeedLoop => {
                         st.speed_ref_rpm =
@@ -882,30 +953,26 @@ impl Drive {
                     },
                     Slot::MonitorAngle | Slot::Pll => {}
                 }
-                // The sliding observer keeps the sin/cos of its angle and of the output angle;
-                // the flux observer's is its rotor-flux vector normalised.
+                // The sliding observer keeps the sin/cos of its angle and of the output angle.
                 let angles = match self.primary {
                     Primary::SlidingTorque => (st.sliding.sc, st.sliding.sc_mid),
                     Primary::Flux => {
-                        let sc = st.flux.sin_cos();
-                        (sc, self.foc.output_angle(sc, omega_m))
+                        let sc = self.primary_sin_cos(st);
+                        (sc, sc.rotated(st.out_rot))
                     }
                 };
-                (theta, angles, omega_m, Dq::new(0.0, st.foc.i_q_ref))
+                (angles, omega_m, Dq::new(0.0, st.foc.i_q_ref))
             }
             Mode::Idle | Mode::Fault => return (None, reason),
         };
-        let foc_in = FocInput {
-            i_abc: input.i_abc,
+        let sample = CurrentSample {
+            i_ab,
             v_bus: input.v_bus,
-            theta_e: theta,
             omega_m,
-            omega_m_ref: st.speed_ref_rpm * RAD_S_PER_RPM,
-            torque_ff_nm: self.torque_ff_nm(st),
         };
         let out = self
             .foc
-            .current_step_at(&mut st.foc.current, &foc_in, sc, sc_out, i_ref);
+            .current_step_at(&mut st.foc.current, &sample, sc, sc_out, i_ref);
         st.v_ab_last = out.v_ab;
         (Some(out.duties), reason)
     }
@@ -913,11 +980,12 @@ impl Drive {
     /// The open-loop hand-over check, once per slot cycle (1 kHz): above the hand-over speed,
     /// sensorless once the configured observer has followed `θ_ol` (and the monitor agreed
     /// with it within half the sensorless health limits) for `handover_checks` checks in a
-    /// row; a stall when that has not happened within `handover_timeout_checks`.
+    /// row; a stall when that has not happened within `handover_timeout_checks`. The angles
+    /// are those of the last [`Slot::MonitorAngle`] sample.
     fn hand_over(&self, st: &mut DriveState) -> Option<Reason> {
-        let views = self.views(st);
+        let views = self.sample_views(st);
         let fast_enough = st.speed_ol_rpm.abs() >= self.handover_rpm;
-        let agrees = wrap_pi(views.theta_primary - st.theta_ol).abs() < self.handover_tol
+        let agrees = st.sample.ol_cos > self.handover_cos
             && views.disagreement() < 0.5 * self.max_disagreement
             && views.speed_disagreement_rpm() < 0.5 * self.max_speed_disagreement_rpm;
         st.agree_checks = if fast_enough && agrees {
@@ -932,16 +1000,7 @@ impl Drive {
         };
         if st.agree_checks >= self.handover_checks {
             cold_path();
-            // Start the speed loop from the torque the open-loop current makes in the
-            // observer's frame, and the reference from the observed speed.
-            let i_ol = self.open_loop_current_a;
-            st.foc.speed.integral = i_ol * SinCos::of(st.theta_ol - views.theta_primary).sin;
-            st.foc.i_q_ref = st.foc.speed.integral;
-            st.speed_ref_rpm = views.omega_primary * RPM_PER_RAD_S;
-            st.mode = Mode::Sensorless;
-            st.disagree_checks = 0;
-            st.collapse_checks = 0;
-            return Some(Reason::HandOver);
+            return Some(self.enter_sensorless(st, views));
         }
         if st.waiting_checks >= self.handover_timeout_checks {
             return Some(self.enter_fault(st, Fault::Stall));
@@ -949,14 +1008,32 @@ impl Drive {
         None
     }
 
+    /// The hand-over: the speed loop starts from the torque the open-loop current makes in the
+    /// observer's frame, the reference from the observed speed.
+    // Out of line: see `reset_observers`.
+    #[inline(never)]
+    fn enter_sensorless(&self, st: &mut DriveState, views: Views) -> Reason {
+        // sin(θ_ol − θ̂) of this sample.
+        let (ol, p) = (st.sc_ol, self.primary_sin_cos(st));
+        let sin_load_angle = ol.sin * p.cos - ol.cos * p.sin;
+        st.foc.speed.integral = self.open_loop_current_a * sin_load_angle;
+        st.foc.i_q_ref = st.foc.speed.integral;
+        st.speed_ref_rpm = views.omega_primary * RPM_PER_RAD_S;
+        st.out_rot = self.foc.output_rotation(views.omega_primary);
+        st.mode = Mode::Sensorless;
+        st.disagree_checks = 0;
+        st.collapse_checks = 0;
+        Reason::HandOver
+    }
+
     /// The sensorless health checks and the hand-back, once per slot cycle (1 kHz): observer
-    /// loss after `loss_checks` consecutive disagreements (the angle one taken at the
-    /// [`Slot::MonitorAngle`] step), a stall after `stall_checks` at the current limit below
+    /// loss after `loss_checks` consecutive disagreements (the angles those of the last
+    /// [`Slot::MonitorAngle`] sample), a stall after `stall_checks` at the current limit below
     /// half the reference; back to open loop when speed and reference are both low.
     fn supervise(&self, st: &mut DriveState) -> Option<Reason> {
-        let views = self.views(st);
+        let views = self.sample_views(st);
         let speed = views.omega_primary * RPM_PER_RAD_S;
-        let disagree = st.angle_disagreement > self.max_disagreement
+        let disagree = views.disagreement() > self.max_disagreement
             || views.speed_disagreement_rpm() > self.max_speed_disagreement_rpm;
         st.disagree_checks = if disagree {
             st.disagree_checks.saturating_add(1)
@@ -986,15 +1063,22 @@ impl Drive {
         }
         if st.speed_ref_rpm.abs() < self.handback_rpm && speed.abs() < self.handback_rpm {
             cold_path();
-            // Open loop takes over at the primary's angle of this sample.
-            st.flux.update_angle();
-            st.mode = Mode::OpenLoop;
-            st.theta_ol = self.views(st).theta_primary;
-            st.speed_ol_rpm = speed;
-            st.agree_checks = 0;
-            st.waiting_checks = 0;
-            return Some(Reason::HandBack);
+            return Some(self.enter_open_loop(st, views.omega_primary));
         }
         None
+    }
+
+    /// The hand-back: open loop takes over at the primary's angle of this sample and its speed
+    /// `omega_m` [rad/s].
+    // Out of line: see `reset_observers`.
+    #[inline(never)]
+    fn enter_open_loop(&self, st: &mut DriveState, omega_m: f32) -> Reason {
+        st.mode = Mode::OpenLoop;
+        st.sc_ol = self.primary_sin_cos(st);
+        st.speed_ol_rpm = omega_m * RPM_PER_RAD_S;
+        self.set_open_loop_speed(st);
+        st.agree_checks = 0;
+        st.waiting_checks = 0;
+        Reason::HandBack
     }
 }

@@ -21,6 +21,9 @@ use core::hint::cold_path;
 
 const INV_SQRT3: f32 = 0.577_350_26;
 
+/// The current loop cuts its voltage to this fraction of `v_max`, 1 − 2⁻¹⁷.
+const CUT_INSIDE: f32 = 1.0 - 1.0 / 131_072.0;
+
 /// FOC settings in SI units.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FocConfig {
@@ -121,9 +124,10 @@ pub struct CurrentLoopState {
 /// Output of one current-loop update.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CurrentLoopOutput {
-    /// Voltage command in the rotor frame [V], `|v_dq| ≤ v_max`.
+    /// Voltage command in the rotor frame [V], `|v_dq| ≤ v_max` (a cut vector is 1 − 2⁻¹⁷ of
+    /// `v_max` long, to rounding).
     pub v_dq: Dq,
-    /// The command was cut to `v_max`; the integrators were held.
+    /// The command was cut to (just inside) `v_max`; the integrators were held.
     pub saturated: bool,
 }
 
@@ -166,7 +170,10 @@ impl CurrentLoop {
                 saturated: false,
             };
         }
-        let scale = v_max * crate::math::rsqrt(mag2);
+        // Cut a little inside the circle (1 − 2⁻¹⁷, 0.16 mV at 21 V): |v|² after the rotation to
+        // αβ carries a few 1e-7 of rounding, and a vector found just outside the circle would make
+        // SVPWM cut it a second time (a division and a square root more).
+        let scale = (v_max * CUT_INSIDE) * crate::math::rsqrt(mag2);
         CurrentLoopOutput {
             v_dq: Dq::new(v_d * scale, v_q * scale),
             saturated: true,
@@ -215,6 +222,29 @@ pub struct FocInput {
     pub torque_ff_nm: f32,
 }
 
+/// What one current-loop period needs of the sample, the currents already in the stationary
+/// frame (see [`Foc::current_step_at`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CurrentSample {
+    /// Measured currents in the stationary frame [A].
+    pub i_ab: AlphaBeta,
+    /// DC bus voltage [V].
+    pub v_bus: f32,
+    /// Rotor mechanical speed used by the decoupling [rad/s].
+    pub omega_m: f32,
+}
+
+impl CurrentSample {
+    /// The current-loop part of `input`: its phase currents through the Clarke transform.
+    pub fn of(input: &FocInput) -> Self {
+        Self {
+            i_ab: input.i_abc.to_alpha_beta(),
+            v_bus: input.v_bus,
+            omega_m: input.omega_m,
+        }
+    }
+}
+
 /// Outputs of one FOC step.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FocOutput {
@@ -243,7 +273,16 @@ impl Foc {
     /// sin/cos of the angle the voltage of this period is applied at, `θ_e + advance·ω_e·Ts`
     /// (see [`FocConfig::angle_advance_periods`]), from `sc` = sin/cos of `θ_e`.
     pub fn output_angle(&self, sc: SinCos, omega_m: f32) -> SinCos {
-        sc.advanced(self.pole_pairs * omega_m * self.advance_s)
+        sc.rotated(self.output_rotation(omega_m))
+    }
+
+    /// sin/cos of the output angle's lead over `θ_e`, `advance·ω_e·Ts`, at speed `omega_m`
+    /// [rad/s, mechanical]: [`Foc::output_angle`] is `sc` rotated by it, so a caller whose speed
+    /// changes less often than every period can keep it.
+    #[inline]
+    pub fn output_rotation(&self, omega_m: f32) -> SinCos {
+        let (sin, cos) = crate::math::sin_cos_small(self.pole_pairs * omega_m * self.advance_s);
+        SinCos { sin, cos }
     }
 
     /// [`Foc::step`] with the sin/cos of `input.theta_e` (`sc`, for the Park transform of the
@@ -267,7 +306,13 @@ impl Foc {
             state.tick = 0;
         }
         let i_dq_ref = Dq::new(0.0, state.i_q_ref);
-        self.current_step_at(&mut state.current, input, sc, sc_out, i_dq_ref)
+        self.current_step_at(
+            &mut state.current,
+            &CurrentSample::of(input),
+            sc,
+            sc_out,
+            i_dq_ref,
+        )
     }
 
     /// One speed-loop update (at `current_rate_hz / speed_divider`): the `i_q` command from the
@@ -296,21 +341,23 @@ impl Foc {
     ) -> FocOutput {
         let sc = SinCos::of(input.theta_e);
         let sc_out = self.output_angle(sc, input.omega_m);
-        self.current_step_at(state, input, sc, sc_out, i_dq_ref)
+        self.current_step_at(state, &CurrentSample::of(input), sc, sc_out, i_dq_ref)
     }
 
-    /// [`Foc::current_step`] with the angles of [`Foc::step_at`] already known.
+    /// [`Foc::current_step`] with the angles of [`Foc::step_at`] already known and the
+    /// currents already in the stationary frame (a caller that has them saves the Clarke
+    /// transform).
     // Inlined: the 4 kHz step compiles to one function (see `drive`).
     #[inline(always)]
     pub fn current_step_at(
         &self,
         state: &mut CurrentLoopState,
-        input: &FocInput,
+        input: &CurrentSample,
         sc: SinCos,
         sc_out: SinCos,
         i_dq_ref: Dq,
     ) -> FocOutput {
-        let i_ab = input.i_abc.to_alpha_beta();
+        let i_ab = input.i_ab;
         let i_dq = i_ab.to_dq(sc);
         let omega_e = self.pole_pairs * input.omega_m;
         let v_max = input.v_bus * INV_SQRT3;

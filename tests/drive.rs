@@ -415,3 +415,54 @@ fn telemetry_reads_the_state_the_step_left() {
     assert_eq!((tel.theta_e_primary, tel.load_nm), (0.5, 0.1));
     assert_eq!(tel.theta_e_monitor, st.flux.theta_e);
 }
+
+/// The open-loop frame is kept as the sin/cos of θ_ol, turned by `N ω_ol T` every step: over a
+/// long open-loop run (50 s below the hand-over speed, so the drive stays in open loop) its
+/// length stays 1 and its angle follows the f64 integral of `N ω_ol T`.
+#[test]
+fn open_loop_frame_turns_at_the_ramp_speed_and_stays_unit_length() {
+    let cfg = DriveConfig::new(&HORNG_SINANO, Primary::SlidingTorque);
+    let drive = cfg.build().unwrap();
+    let n = f64::from(HORNG_SINANO.params.n());
+    let ts = 1.0 / f64::from(cfg.rate_hz);
+    let mut st = DriveState::default();
+    let input = DriveInput {
+        i_abc: Abc::new(0.0, 0.0, 0.0),
+        v_bus: 48.0,
+        overrun: false,
+    };
+    let cmd = Command {
+        enable: true,
+        speed_rpm: 0.5 * cfg.start.handover_rpm,
+        clear_fault: false,
+    };
+    let (mut theta_ref, mut worst_angle, mut worst_len) = (0.0f64, 0.0f64, 0.0f64);
+    let steps = 50 * 4000;
+    for _ in 0..steps {
+        let was_open_loop = st.mode == Mode::OpenLoop;
+        drive.step(&mut st, &input, &cmd);
+        if st.mode != Mode::OpenLoop {
+            assert!(!was_open_loop, "left open loop: {:?}", st.mode);
+            continue;
+        }
+        if was_open_loop {
+            theta_ref += n * f64::from(st.speed_ol_rpm) * std::f64::consts::PI / 30.0 * ts;
+        }
+        let theta = f64::from(drive.telemetry(&st).theta_e_control);
+        let err = (theta - theta_ref + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+            - std::f64::consts::PI;
+        worst_angle = worst_angle.max(err.abs());
+        let (s, c) = (f64::from(st.sc_ol.sin), f64::from(st.sc_ol.cos));
+        worst_len = worst_len.max((s.hypot(c) - 1.0).abs());
+    }
+    println!(
+        "open loop at {} rpm for 50 s ({theta_ref:.1} rad): worst angle error {worst_angle:.2e} rad, \
+         worst |length − 1| {worst_len:.2e}",
+        cmd.speed_rpm
+    );
+    assert_eq!(st.mode, Mode::OpenLoop);
+    // 1e-4 rad over 1042 rad: a frequency error of 1e-7 relative would reach it; the f32
+    // rounding of one rotation (a few 1e-8 rad) does not accumulate to that.
+    assert!(worst_angle < 1e-4, "{worst_angle}");
+    assert!(worst_len < 1e-6, "{worst_len}");
+}

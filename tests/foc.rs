@@ -89,3 +89,42 @@ proptest! {
         }
     }
 }
+
+/// A voltage the current loop cuts lands just inside the inverter's circle (1 − 2⁻¹⁷ of
+/// `v_bus/√3`), so that after the rotation to αβ SVPWM finds it in its linear range and applies
+/// it as it is: the applied vector, fed to SVPWM again, is never found saturated.
+#[test]
+fn a_cut_voltage_stays_inside_the_linear_range() {
+    use pmsm_sensorless::foc::CurrentLoopState;
+    use pmsm_sensorless::frames::{AlphaBeta, Dq};
+    use pmsm_sensorless::svpwm::svpwm;
+    let foc = config().build().unwrap();
+    let (mut worst_low, mut found_outside) = (0.0f64, 0usize);
+    for k in 0..20_000u32 {
+        let theta = 0.000_314_2 * k as f32 - std::f32::consts::PI;
+        let v_bus = 20.0 + (k % 97) as f32 * 0.5;
+        let omega_m = (k % 13) as f32 * 40.0 - 240.0;
+        let i = AlphaBeta::new(0.3 * (k % 7) as f32 - 1.0, 0.2 * (k % 5) as f32 - 0.4);
+        let input = FocInput {
+            i_abc: i.to_abc(),
+            v_bus,
+            theta_e: theta,
+            omega_m,
+            omega_m_ref: 0.0,
+            torque_ff_nm: 0.0,
+        };
+        let mut st = CurrentLoopState::default();
+        let out = foc.current_step(&mut st, &input, Dq::new(-40.0, 60.0));
+        assert!(out.saturated);
+        let v_max = f64::from(v_bus) / 3f64.sqrt();
+        let mag = f64::from(out.v_ab.alpha).hypot(f64::from(out.v_ab.beta));
+        assert!(mag <= v_max, "{mag} > {v_max}");
+        worst_low = worst_low.max(1.0 - mag / v_max);
+        if svpwm(out.v_ab, v_bus).saturated {
+            found_outside += 1;
+        }
+    }
+    println!("cut voltages: at most {worst_low:.2e} below v_bus/√3; {found_outside} re-cut");
+    assert!(worst_low < 1e-5, "{worst_low}");
+    assert_eq!(found_outside, 0);
+}

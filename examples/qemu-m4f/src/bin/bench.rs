@@ -26,7 +26,7 @@ mod firmware {
         Command, Drive, DriveConfig, DriveInput, DriveState, Mode, Primary, Slot,
     };
     use pmsm_sensorless::foc::{CurrentLoopState, FocConfig, FocInput};
-    use pmsm_sensorless::frames::{AlphaBeta, Dq};
+    use pmsm_sensorless::frames::{AlphaBeta, Dq, SinCos};
     use pmsm_sensorless::motor::HORNG_SINANO;
     use pmsm_sensorless::observer::flux::{FluxConfig, FluxState};
     use pmsm_sensorless::observer::pll::{PllConfig, PllState};
@@ -162,7 +162,7 @@ mod firmware {
         let open_loop = DriveState {
             mode: Mode::OpenLoop,
             speed_ol_rpm: 60.0,
-            theta_ol: theta0,
+            sc_ol: SinCos::of(theta0),
             ..sensorless()
         };
         run("open loop", &drive, open_loop, 48.0, &|_| {
