@@ -48,16 +48,15 @@ pub struct Svpwm {
 ///
 /// Linear (exact to f32 rounding) for `|v_ab| <= v_bus/√3`. Above it the vector is scaled
 /// down to that magnitude, keeping its angle, and `saturated` is set. If `v_bus` is not a
-/// finite number > 0 with a finite reciprocal (not subnormal), or `v_ab` is not finite, the
-/// result is 0.5 on all phases (zero volts),
-/// `saturated = true` and `v_ab_applied = 0`. Duties are always within [0, 1], never NaN.
+/// number in [1e-30, 1e30] V, or `v_ab` is not finite, the result is 0.5 on all phases (zero
+/// volts), `saturated = true` and `v_ab_applied = 0`. Duties are always within [0, 1], never NaN.
 // Inlined: the 4 kHz step compiles to one function (see `drive`).
 #[inline(always)]
 pub fn svpwm(v_ab: AlphaBeta, v_bus: f32) -> Svpwm {
-    // One division for the three duties; a bus so small that 1/v_bus overflows is invalid.
+    // One division for the three duties. The bus range keeps 1/v_bus a normal number and
+    // makes the rounding of subnormal voltages negligible against the bus (see below).
     let inv_bus = 1.0 / v_bus;
-    let valid = v_bus > 0.0 && all_finite([v_bus, inv_bus, v_ab.alpha, v_ab.beta]);
-    if !valid {
+    if !((BUS_MIN_V..=BUS_MAX_V).contains(&v_bus) && all_finite([v_ab.alpha, v_ab.beta])) {
         cold_path();
         return Svpwm {
             duties: Duties::NEUTRAL,
@@ -79,18 +78,43 @@ pub fn svpwm(v_ab: AlphaBeta, v_bus: f32) -> Svpwm {
         v_ab
     };
     let v = v_ab_applied.to_abc();
-    let v0 = -0.5 * (max(max(v.a, v.b), v.c) + min(min(v.a, v.b), v.c));
-    let duty = |x: f32| clamp(0.5 + (x + v0) * inv_bus, 0.0, 1.0);
+    let (hi, lo) = (max(max(v.a, v.b), v.c), min(min(v.a, v.b), v.c));
+    let v0 = -0.5 * (hi + lo);
+    let duty = |x: f32| 0.5 + (x + v0) * inv_bus;
+    let duties = Duties {
+        a: duty(v.a),
+        b: duty(v.b),
+        c: duty(v.c),
+    };
+    // Each |x + v0| is at most (hi − lo)/2 but for a few roundings (relative 2⁻²⁴ each), so
+    // with (hi − lo)/v_bus at most 1 − 2⁻²⁰ every duty is inside [0, 1] without a clamp. Only
+    // a vector on the circle at the hexagon's corners (30° + k·60°) comes closer.
+    if (hi - lo) * inv_bus <= SPAN_UNCLAMPED {
+        return Svpwm {
+            duties,
+            saturated,
+            v_ab_applied,
+        };
+    }
+    cold_path();
+    let limit = |d: f32| clamp(d, 0.0, 1.0);
     Svpwm {
         duties: Duties {
-            a: duty(v.a),
-            b: duty(v.b),
-            c: duty(v.c),
+            a: limit(duties.a),
+            b: limit(duties.b),
+            c: limit(duties.c),
         },
         saturated,
         v_ab_applied,
     }
 }
+
+/// Bus range [V] `svpwm` accepts.
+const BUS_MIN_V: f32 = 1e-30;
+const BUS_MAX_V: f32 = 1e30;
+
+/// Largest phase-voltage span per volt of bus whose duties need no clamp, 1 − 2⁻²⁰.
+const SPAN_UNCLAMPED: f32 = 1.0 - 1.0 / 1_048_576.0;
 
 /// Average phase-to-neutral voltages (V) produced by duties `d` on a bus of `v_bus` (V):
 /// pole voltages `d·v_bus` minus their mean (the floating star point removes the common mode).

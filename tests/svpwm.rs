@@ -205,3 +205,34 @@ fn overmodulated_command_is_scaled_to_the_circle() {
     let extreme = AlphaBeta::new(f32::MAX, -f32::MAX);
     check_saturated(extreme, v_bus, svpwm(extreme, v_bus));
 }
+
+/// The duties are computed without a clamp when the phase-voltage span is at most
+/// 1 − 2⁻²⁰ of the bus; the vectors that come closest to that bound are those on the circle at
+/// the hexagon's corners (30° + k·60°). Swept there, across the span bound and the bus range,
+/// every duty stays in [0, 1] and reproduces the applied vector.
+#[test]
+fn corner_vectors_keep_duties_in_unit_interval() {
+    let mut checked = 0;
+    for v_bus in [1e-30f32, 1e-3, 0.1, 1.0, 24.0, 48.0, 1000.0, 1e30] {
+        for corner in 0..6 {
+            for i in -40..=40 {
+                let phi = PI / 6.0 + f64::from(corner) * PI / 3.0 + f64::from(i) * 2e-5;
+                for j in 0..40 {
+                    let m = 1.0 - f64::from(j) * 2f64.powi(-23);
+                    let v_ab = command(m, phi, v_bus);
+                    let out = svpwm(v_ab, v_bus);
+                    assert_duties_valid(out.duties);
+                    let (a, b) = reconstructed(&out, v_bus);
+                    let tol = 1e-4 * f64::from(v_bus);
+                    let (x, y) = (out.v_ab_applied.alpha, out.v_ab_applied.beta);
+                    assert!(
+                        (a - f64::from(x)).abs() <= tol && (b - f64::from(y)).abs() <= tol,
+                        "{v_ab:?} on {v_bus}: {out:?}"
+                    );
+                    checked += 1;
+                }
+            }
+        }
+    }
+    println!("{checked} corner vectors");
+}
