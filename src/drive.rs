@@ -497,8 +497,8 @@ pub struct DriveState {
     pub mode: Mode,
     /// Latched fault.
     pub fault: Option<Fault>,
-    /// Steps spent in the current mode.
-    pub mode_steps: u32,
+    /// Align steps taken before this one (counted in [`Mode::Align`] only).
+    pub align_steps_done: u32,
     /// FOC integrators.
     pub foc: FocState,
     /// Sliding observer.
@@ -543,7 +543,7 @@ impl Default for DriveState {
         Self {
             mode: Mode::Idle,
             fault: None,
-            mode_steps: 0,
+            align_steps_done: 0,
             foc: FocState::default(),
             sliding: SlidingState::default(),
             flux: FluxState::default(),
@@ -672,11 +672,6 @@ impl Drive {
                 duties
             }
         };
-        if reason.is_some() && st.mode != from {
-            st.mode_steps = 0;
-        } else {
-            st.mode_steps = st.mode_steps.saturating_add(1);
-        }
         st.slot = st.slot.next();
         DriveOutput {
             duties: if st.mode == Mode::Fault { None } else { duties },
@@ -872,7 +867,8 @@ impl Drive {
         // the current loop this step.
         let ((sc, sc_out), omega_m, i_ref) = match st.mode {
             Mode::Align => {
-                if st.mode_steps >= self.align_steps.saturating_sub(1) {
+                // `align_steps` done (the enabling step is the first).
+                if st.align_steps_done >= self.align_steps {
                     // Rotor at θ_e = 0, at rest: start the observers there.
                     self.reset_observers(st, i_ab, SinCos::ZERO, 0.0);
                     st.mode = Mode::OpenLoop;
@@ -882,6 +878,7 @@ impl Drive {
                     st.speed_ol_rpm = 0.0;
                     reason = Some(Reason::Aligned);
                 }
+                st.align_steps_done = st.align_steps_done.saturating_add(1);
                 (
                     (SinCos::ZERO, SinCos::ZERO),
                     0.0,
