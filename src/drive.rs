@@ -306,6 +306,7 @@ pub const SLOTS: u32 = 4;
 /// The part of the 1 kHz work a step does besides the every-step work (see the module doc).
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[repr(u8)]
 pub enum Slot {
     /// The flux observer's θ̂ (Ortega Sec V arctangent), kept with the sliding observer's θ̂
     /// and θ_ol of the same sample ([`AngleSample`]) for the comparisons of the next slot.
@@ -321,13 +322,13 @@ pub enum Slot {
 }
 
 impl Slot {
-    /// The slot of the next step.
+    /// The slot of the next step: the discriminant plus one, modulo four (an add and a mask).
     fn next(self) -> Self {
-        match self {
-            Slot::MonitorAngle => Slot::Supervision,
-            Slot::Supervision => Slot::Pll,
-            Slot::Pll => Slot::SpeedLoop,
-            Slot::SpeedLoop => Slot::MonitorAngle,
+        match (self as u8 + 1) % SLOTS as u8 {
+            0 => Slot::MonitorAngle,
+            1 => Slot::Supervision,
+            2 => Slot::Pll,
+            _ => Slot::SpeedLoop,
         }
     }
 }
@@ -830,14 +831,12 @@ impl Drive {
     }
 
     /// The open loop's rotations for the speed `speed_ol_rpm` just set: θ_ol's advance per step
-    /// and the output angle's lead; the sin/cos of θ_ol renormalised (the rotations since the
-    /// last time moved its length by a few 1e-7).
+    /// and the output angle's lead.
     #[inline(always)]
     fn set_open_loop_speed(&self, st: &mut DriveState) {
         let omega_m = st.speed_ol_rpm * RAD_S_PER_RPM;
         st.ol_rot = SinCos::of_small(self.n * omega_m * self.ts);
         st.out_rot = self.foc.output_rotation(omega_m);
-        st.sc_ol = st.sc_ol.renormalized();
     }
 
     /// Restarts both observers at a known rotor state (`sc`: sin/cos of θ_e, `omega_m`).
@@ -920,7 +919,8 @@ impl Drive {
                         r @ Some(_) => reason = r,
                         None => {}
                     },
-                    Slot::Pll => {}
+                    // The four rotations since the last time moved its length by a few 1e-7.
+                    Slot::Pll => st.sc_ol = st.sc_ol.renormalized(),
                 }
                 (
                     (st.sc_ol, st.sc_ol.rotated(st.out_rot)),

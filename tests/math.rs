@@ -39,6 +39,35 @@ fn sin_cos_max_err(thetas: impl Iterator<Item = f32>) -> f64 {
     worst
 }
 
+/// `sin_cos_wrapped` against f64: every f32 in [−4, 4] from 1e-3 up (both signs), a dense sweep
+/// through zero, the tabulated angles and the midpoints between them; beyond 4 rad it is
+/// `sin_cos`.
+#[test]
+fn sin_cos_wrapped_matches_f64() {
+    let err = |ts: &mut dyn Iterator<Item = f32>| {
+        ts.map(|t| {
+            let (s, c) = math::sin_cos_wrapped(t);
+            let (s64, c64) = f64::from(t).sin_cos();
+            (f64::from(s) - s64).abs().max((f64::from(c) - c64).abs())
+        })
+        .fold(0.0f64, f64::max)
+    };
+    let every = (1e-3f32.to_bits()..=4.0f32.to_bits())
+        .step_by(3)
+        .flat_map(|b| [f32::from_bits(b), -f32::from_bits(b)]);
+    let table = (-82..=82).map(|h| (f64::from(h) * PI64 / 64.0) as f32);
+    let worst = err(&mut every.chain(sweep(-1e-3, 1e-3, 100_001)).chain(table));
+    println!("sin_cos_wrapped max abs error, |x| <= 4: {worst:.3e}");
+    assert!(worst <= SIN_COS_MAX_ERR, "{worst:e}");
+    for t in [4.5f32, -100.0, 1e4, f32::NAN, f32::INFINITY] {
+        let (a, b) = (math::sin_cos_wrapped(t), sin_cos(t));
+        assert!(
+            a == b || (a.0.is_nan() && b.0.is_nan()),
+            "{t}: {a:?} vs {b:?}"
+        );
+    }
+}
+
 #[test]
 fn sin_cos_dense_sweep_pm1000() {
     let err = sin_cos_max_err(sweep(-1000.0, 1000.0, 2_000_001));

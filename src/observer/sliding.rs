@@ -23,7 +23,7 @@
 //! (`½ N ω T` = 3.0° electrical at 1000 rpm and 4 kHz on the Sinano motor).
 
 use crate::frames::{AlphaBeta, SinCos};
-use crate::math::{all_finite, clamp, sin_cos_inlined, wrap_pi};
+use crate::math::{all_finite, clamp, sin_cos_wrapped, wrap_pi};
 use crate::motor::{non_negative, positive, MotorParams, ParamError};
 use core::f32::consts::TAU;
 use core::hint::cold_path;
@@ -388,7 +388,7 @@ impl SlidingObserver {
 
         // sin/cos fresh each period (rotating the stored pair would accumulate rounding);
         // the next period's EMF angle by a small rotation of it.
-        let (sin, cos) = sin_cos_inlined(st.theta_e);
+        let (sin, cos) = sin_cos_wrapped(st.theta_e);
         st.sc = SinCos { sin, cos };
         st.sc_mid = self.emf_angle(st.sc, st.omega_m);
     }
