@@ -180,7 +180,9 @@ pub fn atan2(y: f32, x: f32) -> f32 {
         a = PI - a;
     }
     if y < 0.0 {
-        -a.min(PI_BELOW)
+        // −π is out of range (a = π for y = −0, x < 0); a compare and select (`f32::min` is a
+        // library call on thumbv7em), NaN passes.
+        -(if a > PI_BELOW { PI_BELOW } else { a })
     } else {
         a
     }

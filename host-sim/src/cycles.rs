@@ -24,7 +24,8 @@ use std::process::Command;
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct CyclesReport {
     /// Instructions of the drive's costliest sensorless step (both observers live, sliding
-    /// observer primary, voltage in the linear range): the worst of the four slots below.
+    /// observer primary, voltage in the linear range): the worst of the four slots below and
+    /// of the steps at the ±π seam.
     pub step_instructions: u64,
     /// Cycle estimate of that step.
     pub step_cycles_est: u64,
@@ -42,6 +43,9 @@ pub struct CyclesReport {
     pub step_open_loop_cycles_est: u64,
     /// Worst of the four steps with the voltage at its limit (sliding observer primary).
     pub step_saturated_cycles_est: u64,
+    /// Worst of eight sensorless steps (sliding observer primary) with the angles crossing ±π
+    /// (the wraps of eq (22), the PLL and the angle comparisons take their other branch).
+    pub step_seam_cycles_est: u64,
     /// Cycle estimate of one sliding torque observer update.
     pub sliding_cycles_est: u64,
     /// Cycle estimate of one flux observer update plus its PLL.
@@ -396,7 +400,13 @@ pub fn measure(root: &Path) -> anyhow::Result<CyclesReport> {
         worst("step_pll")?,
         worst("step_speed_loop")?,
     ];
-    let (step_n, step_c) = slots.iter().copied().max_by_key(|s| s.1).unwrap_or((0, 0));
+    let seam = worst("step_seam")?;
+    let (step_n, step_c) = slots
+        .iter()
+        .chain([&seam])
+        .copied()
+        .max_by_key(|s| s.1)
+        .unwrap_or((0, 0));
     let (flash_bytes, ram_bytes, ramfunc_bytes) = sizes(&llvm_tool(root, "llvm-size")?, &board)?;
     let nm = llvm_tool(root, "llvm-nm")?;
     let mut f64_soft_float_symbols = soft_float_symbols(&nm, &board)?;
@@ -413,6 +423,7 @@ pub fn measure(root: &Path) -> anyhow::Result<CyclesReport> {
         step_flux_primary_cycles_est: worst("step_flux_primary")?.1,
         step_open_loop_cycles_est: worst("step_open_loop")?.1,
         step_saturated_cycles_est: worst("step_saturated")?.1,
+        step_seam_cycles_est: seam.1,
         sliding_cycles_est: worst("sliding")?.1,
         flux_cycles_est: worst("flux_pll")?.1,
         foc_svpwm_cycles_est: worst("foc_svpwm")?.1,

@@ -92,6 +92,11 @@ fn cycles(args: CyclesArgs) -> anyhow::Result<String> {
         );
         outln!(
             out,
+            "  step, worst of eight, angles crossing ±π:   ~{} cycles",
+            r.step_seam_cycles_est
+        );
+        outln!(
+            out,
             "  sliding torque observer update:    ~{} cycles",
             r.sliding_cycles_est
         );

@@ -57,17 +57,26 @@ mod firmware {
         bench_begin_step_pll, bench_end_step_pll, 8u32;
         bench_begin_step_open_loop, bench_end_step_open_loop, 9u32;
         bench_begin_step_saturated, bench_end_step_saturated, 10u32;
+        bench_begin_step_seam, bench_end_step_seam, 11u32;
         bench_begin_sliding, bench_end_sliding, 3u32;
         bench_begin_flux_pll, bench_end_flux_pll, 4u32;
         bench_begin_foc_svpwm, bench_end_foc_svpwm, 5u32;
         bench_begin_step_flux_primary, bench_end_step_flux_primary, 6u32;
     }
 
-    /// Plausible samples at 1000 rpm (θ_e advancing 0.1047 rad per step), small load.
-    fn sample(k: u32) -> (f32, AlphaBeta) {
-        let theta = 0.3 + 0.10472 * k as f32;
+    /// Steps measured per case.
+    const STEPS: u32 = 64;
+
+    /// Plausible samples at 1000 rpm (θ_e advancing 0.1047 rad per step from `theta0`), small
+    /// load.
+    fn sample_from(theta0: f32, k: u32) -> (f32, AlphaBeta) {
+        let theta = pmsm_sensorless::math::wrap_pi(theta0 + 0.10472 * k as f32);
         let (s, c) = pmsm_sensorless::math::sin_cos(theta);
         (theta, AlphaBeta::new(-0.5 * s, 0.5 * c))
+    }
+
+    fn sample(k: u32) -> (f32, AlphaBeta) {
+        sample_from(0.3, k)
     }
 
     #[entry]
@@ -97,8 +106,9 @@ mod firmware {
         };
         let omega_m = 104.72;
         let (theta0, i0) = sample(0);
-        // A drive already sensorless at 1000 rpm, and its input at step k.
-        let sensorless = || {
+        // A drive already sensorless at 1000 rpm at angle `start`, and its input at step k.
+        let sensorless_at = |start: f32| {
+            let (theta0, i0) = sample_from(start, 0);
             let mut st = DriveState {
                 mode: Mode::Sensorless,
                 speed_ref_rpm: 1000.0,
@@ -109,8 +119,9 @@ mod firmware {
             pll.reset(&mut st.pll, theta0, 4.0 * omega_m);
             st
         };
-        let input = |k| DriveInput {
-            i_abc: sample(k).1.to_abc(),
+        let sensorless = || sensorless_at(theta0);
+        let input = |start, k| DriveInput {
+            i_abc: sample_from(start, k).1.to_abc(),
             v_bus: 48.0,
             overrun: false,
         };
@@ -119,14 +130,20 @@ mod firmware {
             speed_rpm: 1000.0,
             clear_fault: false,
         };
-        // Eight steps from `st` (each slot twice), each between the markers `slot` names.
+        // One electrical turn and more (64 steps of 0.105 rad, each slot 16 times, every
+        // quadrant of the angles) from `st` on the samples from angle `start`, each step
+        // between the markers `slot` names.
         let run = |name: &str,
                    drive: &Drive,
                    mut st: DriveState,
+                   start: f32,
                    v_bus: f32,
                    markers: &dyn Fn(Slot) -> (extern "C" fn(), extern "C" fn())| {
-            for k in 1..9u32 {
-                let input = DriveInput { v_bus, ..input(k) };
+            for k in 1..=STEPS {
+                let input = DriveInput {
+                    v_bus,
+                    ..input(start, k)
+                };
                 let (begin, end) = markers(st.slot);
                 begin();
                 // The output is written in place (returned through a pointer); `black_box` of
@@ -153,11 +170,23 @@ mod firmware {
                 Slot::SpeedLoop => (bench_begin_step_speed_loop, bench_end_step_speed_loop),
             }
         };
-        run("sliding primary", &drive, sensorless(), 48.0, &per_slot);
+        run(
+            "sliding primary",
+            &drive,
+            sensorless(),
+            theta0,
+            48.0,
+            &per_slot,
+        );
         // The flux observer feeding the controller (the sliding observer as the monitor).
-        run("flux primary", &drive_flux, sensorless(), 48.0, &|_| {
-            (bench_begin_step_flux_primary, bench_end_step_flux_primary)
-        });
+        run(
+            "flux primary",
+            &drive_flux,
+            sensorless(),
+            theta0,
+            48.0,
+            &|_| (bench_begin_step_flux_primary, bench_end_step_flux_primary),
+        );
         // Start-up: open loop at half the hand-over speed, both observers running.
         let open_loop = DriveState {
             mode: Mode::OpenLoop,
@@ -165,7 +194,7 @@ mod firmware {
             sc_ol: SinCos::of(theta0),
             ..sensorless()
         };
-        run("open loop", &drive, open_loop, 48.0, &|_| {
+        run("open loop", &drive, open_loop, theta0, 48.0, &|_| {
             (bench_begin_step_open_loop, bench_end_step_open_loop)
         });
         // The voltage at its limit: at 1000 rpm the back-EMF alone is ~24 V and the bus gives
@@ -173,9 +202,17 @@ mod firmware {
         let mut saturated = sensorless();
         saturated.foc.speed.integral = 1.5;
         saturated.foc.i_q_ref = 1.5;
-        run("saturated", &drive, saturated, 37.0, &|_| {
+        run("saturated", &drive, saturated, theta0, 37.0, &|_| {
             (bench_begin_step_saturated, bench_end_step_saturated)
         });
+        // The angles crossing ±π: the sliding observer's θ̂ (eq (22)) wraps in each slot in
+        // turn, the PLL's angle in its slot.
+        for j in 0..4u8 {
+            let start = core::f32::consts::PI - 0.05 - 0.10472 * f32::from(j);
+            run("seam", &drive, sensorless_at(start), start, 48.0, &|_| {
+                (bench_begin_step_seam, bench_end_step_seam)
+            });
+        }
         let mut s_state = SlidingState::default();
         sliding.reset(&mut s_state, i0, theta0, omega_m);
         let mut f_state = FluxState::default();
