@@ -263,10 +263,10 @@ mod firmware {
         ///
         /// Runs from CCM SRAM (`.ramfunc`, memory.x), with `Drive::step` and everything it
         /// inlines (observers, FOC, SVPWM) inlined into it: flash needs 4 wait states at
-        /// 170 MHz and the ART's 1 KiB instruction cache cannot hold the ~9 KiB step. Only
-        /// `math::sin_cos` (out of line; called in the step only with the flux observer
-        /// primary) and cold paths stay in flash. An overrun is
-        /// reported to the drive (it faults with `Overrun`).
+        /// 170 MHz and the ART's 1 KiB instruction cache cannot hold the ~9 KiB step. The
+        /// sliding observer's sin/cos table sits beside it; `math::sin_cos` and the other cold
+        /// paths (mode changes, far angle wraps) stay in flash. An overrun is reported to the
+        /// drive (it faults with `Overrun`).
         // Not `unsafe`, but `#[link_section]` trips the `unsafe_code` lint: the section is one
         // memory.x defines and `load_ramfunc` fills before the interrupt is enabled.
         #[link_section = ".ramfunc.control_step"]

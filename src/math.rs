@@ -36,18 +36,10 @@ fn sub_quarter_turns(theta: f32, n: f32) -> f32 {
 /// For any finite input the results stay finite and within [-1, 1].
 /// Non-finite input (NaN, ±inf) yields `(NaN, NaN)`: callers must check.
 /// Cost: no division, no loop.
-// Out of line: one copy for the many callers off the hot path (the 4 kHz step's one
-// evaluation inlines `sin_cos_inlined`, and the B-G431B-ESC1's step must fit its 10 KiB of
-// CCM SRAM).
+// Out of line: one copy for the callers off the hot path (the 4 kHz step's evaluation is
+// `sin_cos_wrapped`, and the B-G431B-ESC1's step must fit its 10 KiB of CCM SRAM).
 #[inline(never)]
 pub fn sin_cos(theta: f32) -> (f32, f32) {
-    sin_cos_inlined(theta)
-}
-
-/// [`sin_cos`] inlined into its caller, for the one evaluation of the 4 kHz step (the sliding
-/// observer's angle).
-#[inline(always)]
-pub(crate) fn sin_cos_inlined(theta: f32) -> (f32, f32) {
     // One compare on the usual path; NaN, ±inf and angles beyond the exact reduction take
     // the other branch (large ones are wrapped into (−π, π] first).
     let theta = if libm::fabsf(theta) <= REDUCE_MAX {
