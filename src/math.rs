@@ -105,29 +105,48 @@ const PIO32_LO: f32 = -2.784_034_3e-7;
 /// Tabulated angles per turn (a power of two: the index is `k mod 64`).
 const TABLE_STEPS: usize = 64;
 
-/// `[sin, cos]` of `k·2π/64`, k = 0..63: f64 Taylor series at compile time, rounded to f32.
+/// `[sin, cos]` of `k·2π/64`, k = 0..63, built at compile time from the first quarter turn by
+/// the quadrant symmetries (exact: swaps and negations).
 /// (A firmware that runs its step from RAM will want it there too: the B-G431B-ESC1's linker
 /// script puts it beside the step in CCM SRAM.)
 static SIN_COS_TABLE: [[f32; 2]; TABLE_STEPS] = sin_cos_table();
+
+/// sin(j·π/32), j = 0..=16: the f32 values nearest to them (`tests/math.rs` checks
+/// `sin_cos_wrapped` at every tabulated angle against f64).
+#[allow(clippy::excessive_precision)]
+const SIN_QUARTER_TURN: [f32; 17] = [
+    0.0,
+    0.098_017_141_2,
+    0.195_090_324,
+    0.290_284_663,
+    0.382_683_426,
+    0.471_396_744,
+    0.555_570_245,
+    0.634_393_275,
+    0.707_106_769,
+    0.773_010_433,
+    0.831_469_595,
+    0.881_921_291,
+    0.923_879_504,
+    0.956_940_353,
+    0.980_785_251,
+    0.995_184_72,
+    1.0,
+];
 
 const fn sin_cos_table() -> [[f32; 2]; TABLE_STEPS] {
     let mut table = [[0.0f32; 2]; TABLE_STEPS];
     let mut k = 0;
     while k < TABLE_STEPS {
-        let x = k as f64 * (core::f64::consts::TAU / TABLE_STEPS as f64);
-        // Terms x^(2m+1)/(2m+1)! and x^(2m)/(2m)!, alternating; x < 2π: 30 terms reach 1e-20
-        // (the largest term, ~700, leaves a rounding below 1e-13).
-        let (mut sin, mut cos, mut term_s, mut term_c) = (0.0f64, 0.0f64, x, 1.0f64);
-        let mut m = 0;
-        while m < 30 {
-            sin += term_s;
-            cos += term_c;
-            let n = 2.0 * m as f64;
-            term_s *= -x * x / ((n + 2.0) * (n + 3.0));
-            term_c *= -x * x / ((n + 1.0) * (n + 2.0));
-            m += 1;
-        }
-        table[k] = [sin as f32, cos as f32];
+        // k·π/32 = q·π/2 + j·π/32: sin and cos of j·π/32, then turned by q quarter turns.
+        let (q, j) = (k / 16, k % 16);
+        let (s, c) = (SIN_QUARTER_TURN[j], SIN_QUARTER_TURN[16 - j]);
+        table[k] = match q {
+            0 => [s, c],
+            1 => [c, -s],
+            2 => [-s, -c],
+            _ => [-c, s],
+        };
         k += 1;
     }
     table

@@ -17,6 +17,24 @@ fn summary(sc: Scenario, kind: ObserverKind, noise_a: f64) -> Summary {
     Summary::of(&run(cfg).unwrap())
 }
 
+/// A sample with no current on a 48 V bus.
+fn no_current_48v() -> DriveInput {
+    DriveInput {
+        i_abc: Abc::default(),
+        v_bus: 48.0,
+        overrun: false,
+    }
+}
+
+/// Enabled, at `speed_rpm`, no fault to clear.
+fn running_at(speed_rpm: f32) -> Command {
+    Command {
+        enable: true,
+        speed_rpm,
+        clear_fault: false,
+    }
+}
+
 #[test]
 fn start_stop_reverse_and_test_motor_with_both_observers() {
     for sc in [scenario::start_stop_reverse(), scenario::start_test_motor()] {
@@ -182,16 +200,8 @@ fn a_fault_latches_until_cleared() {
         .build()
         .unwrap();
     let mut st = DriveState::default();
-    let ok = DriveInput {
-        i_abc: Abc::default(),
-        v_bus: 48.0,
-        overrun: false,
-    };
-    let run = Command {
-        enable: true,
-        speed_rpm: 500.0,
-        clear_fault: false,
-    };
+    let ok = no_current_48v();
+    let run = running_at(500.0);
     assert!(drive.step(&mut st, &ok, &run).duties.is_some());
     let out = drive.step(
         &mut st,
@@ -240,11 +250,7 @@ fn a_fault_found_in_the_step_that_asks_to_clear_stays_latched() {
         .build()
         .unwrap();
     let mut st = DriveState::default();
-    let ok = DriveInput {
-        i_abc: Abc::default(),
-        v_bus: 48.0,
-        overrun: false,
-    };
+    let ok = no_current_48v();
     let run = Command {
         enable: true,
         speed_rpm: 500.0,
@@ -267,16 +273,8 @@ fn starting_on_a_low_bus_or_with_a_bad_command_is_a_fault() {
     let drive = DriveConfig::new(&HORNG_SINANO, Primary::Flux)
         .build()
         .unwrap();
-    let ok = DriveInput {
-        i_abc: Abc::default(),
-        v_bus: 48.0,
-        overrun: false,
-    };
-    let run = Command {
-        enable: true,
-        speed_rpm: 500.0,
-        clear_fault: false,
-    };
+    let ok = no_current_48v();
+    let run = running_at(500.0);
     let mut st = DriveState::default();
     let out = drive.step(&mut st, &DriveInput { v_bus: 0.0, ..ok }, &run);
     assert!(out.duties.is_none());
@@ -396,16 +394,8 @@ fn telemetry_reads_the_state_the_step_left() {
     let mut st = DriveState::default();
     // PWM off: only the mode.
     assert_eq!(drive.telemetry(&st), Telemetry::default());
-    let input = DriveInput {
-        i_abc: Abc::new(0.0, 0.0, 0.0),
-        v_bus: 48.0,
-        overrun: false,
-    };
-    let cmd = Command {
-        enable: true,
-        speed_rpm: 500.0,
-        clear_fault: false,
-    };
+    let input = no_current_48v();
+    let cmd = running_at(500.0);
     drive.step(&mut st, &input, &cmd);
     st.sliding.theta_e = 0.5;
     st.sliding.load_nm = 0.1;
@@ -426,16 +416,8 @@ fn open_loop_frame_turns_at_the_ramp_speed_and_stays_unit_length() {
     let n = f64::from(HORNG_SINANO.params.n());
     let ts = 1.0 / f64::from(cfg.rate_hz);
     let mut st = DriveState::default();
-    let input = DriveInput {
-        i_abc: Abc::new(0.0, 0.0, 0.0),
-        v_bus: 48.0,
-        overrun: false,
-    };
-    let cmd = Command {
-        enable: true,
-        speed_rpm: 0.5 * cfg.start.handover_rpm,
-        clear_fault: false,
-    };
+    let input = no_current_48v();
+    let cmd = running_at(0.5 * cfg.start.handover_rpm);
     let (mut theta_ref, mut worst_angle, mut worst_len) = (0.0f64, 0.0f64, 0.0f64);
     let steps = 50 * 4000;
     for _ in 0..steps {
