@@ -567,13 +567,12 @@ impl Default for DriveState {
 }
 
 /// The angles the 1 kHz comparisons take, all of one sample (the [`Slot::MonitorAngle`]
-/// step's, where the flux observer's arctangent is taken) [rad, electrical].
+/// step's) [rad, electrical]. The flux observer's is [`FluxState::theta_e`] itself: its
+/// arctangent is taken only at that step.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct AngleSample {
     /// The sliding observer's θ̂_e.
     pub theta_sliding: f32,
-    /// The flux observer's θ̂_e.
-    pub theta_flux: f32,
     /// cos(θ̂_primary − θ_ol) (in open loop).
     pub ol_cos: f32,
 }
@@ -775,7 +774,6 @@ impl Drive {
             Slot::MonitorAngle => {
                 st.flux.update_angle();
                 st.sample.theta_sliding = st.sliding.theta_e;
-                st.sample.theta_flux = st.flux.theta_e;
             }
             Slot::Pll => {
                 self.pll.update(&mut st.pll, st.flux.theta_e);
@@ -808,7 +806,7 @@ impl Drive {
 
     /// [`Drive::views`] with the angles of the last [`Slot::MonitorAngle`] sample.
     fn sample_views(&self, st: &DriveState) -> Views {
-        self.views(st, st.sample.theta_sliding, st.sample.theta_flux)
+        self.views(st, st.sample.theta_sliding, st.flux.theta_e)
     }
 
     /// The speed loop's load-torque feed-forward: the sliding torque observer's τ̂_L when it is
