@@ -23,14 +23,14 @@ mod firmware {
     use defmt_semihosting as _;
     use panic_probe as _;
     use pmsm_sensorless::drive::{
-        Command, Drive, DriveConfig, DriveInput, DriveState, Mode, Primary, Slot,
+        Command, Drive, DriveConfig, DriveInput, DriveOutput, DriveState, Mode, Primary, Slot,
     };
-    use pmsm_sensorless::foc::{CurrentLoopState, FocConfig, FocInput};
+    use pmsm_sensorless::foc::{CurrentLoopState, Foc, FocConfig, FocInput, FocOutput};
     use pmsm_sensorless::frames::{AlphaBeta, Dq, SinCos};
     use pmsm_sensorless::motor::HORNG_SINANO;
-    use pmsm_sensorless::observer::flux::{FluxConfig, FluxState};
-    use pmsm_sensorless::observer::pll::{PllConfig, PllState};
-    use pmsm_sensorless::observer::sliding::{SlidingConfig, SlidingState};
+    use pmsm_sensorless::observer::flux::{FluxConfig, FluxObserver, FluxState};
+    use pmsm_sensorless::observer::pll::{Pll, PllConfig, PllState};
+    use pmsm_sensorless::observer::sliding::{SlidingConfig, SlidingObserver, SlidingState};
 
     /// Defines the begin/end markers of one measured section; the trace is cut at the first
     /// instruction of each (their symbol names are what `pmsm-sim cycles` looks for).
@@ -66,6 +66,47 @@ mod firmware {
 
     /// Steps measured per case.
     const STEPS: u32 = 64;
+
+    /// One control step as the board firmware's interrupt runs it (`Control::step` in
+    /// `examples/b_g431b_esc1.rs`): `Drive::step` inlined into a function of its own, so the
+    /// count includes that function's register saves and returns, and none of the bench
+    /// loop's own register pressure.
+    #[inline(never)]
+    fn control_step(
+        drive: &Drive,
+        st: &mut DriveState,
+        input: &DriveInput,
+        cmd: &Command,
+    ) -> DriveOutput {
+        drive.step(st, input, cmd)
+    }
+
+    /// The blocks alone, each in a function of its own like [`control_step`].
+    #[inline(never)]
+    fn sliding_update(
+        obs: &SlidingObserver,
+        st: &mut SlidingState,
+        i_ab: AlphaBeta,
+        v_ab: AlphaBeta,
+    ) -> bool {
+        obs.update(st, i_ab, v_ab)
+    }
+
+    #[inline(never)]
+    fn flux_pll_update(
+        (flux, pll): (&FluxObserver, &Pll),
+        (f_state, p_state): (&mut FluxState, &mut PllState),
+        i_ab: AlphaBeta,
+        v_ab: AlphaBeta,
+    ) -> (bool, f32) {
+        let ok = flux.update(f_state, i_ab, v_ab);
+        (ok, pll.update(p_state, f_state.theta_e))
+    }
+
+    #[inline(never)]
+    fn foc_step(foc: &Foc, st: &mut CurrentLoopState, input: &FocInput, i_dq_ref: Dq) -> FocOutput {
+        foc.current_step(st, input, i_dq_ref)
+    }
 
     /// Plausible samples at 1000 rpm (θ_e advancing 0.1047 rad per step from `theta0`), small
     /// load.
@@ -146,9 +187,7 @@ mod firmware {
                 };
                 let (begin, end) = markers(st.slot);
                 begin();
-                // The output is written in place (returned through a pointer); `black_box` of
-                // a reference keeps it without the copy a `black_box` by value would add.
-                let out = drive.step(&mut st, black_box(&input), black_box(&cmd));
+                let out = control_step(drive, &mut st, &input, &cmd);
                 black_box(&out);
                 end();
                 defmt::info!(
@@ -224,11 +263,15 @@ mod firmware {
         for k in 1..4u32 {
             let (theta, i) = sample(k);
             bench_begin_sliding();
-            black_box(sliding.update(&mut s_state, black_box(i), black_box(v)));
+            black_box(sliding_update(&sliding, &mut s_state, i, v));
             bench_end_sliding();
             bench_begin_flux_pll();
-            black_box(flux.update(&mut f_state, black_box(i), black_box(v)));
-            black_box(pll.update(&mut p_state, f_state.theta_e));
+            black_box(flux_pll_update(
+                (&flux, &pll),
+                (&mut f_state, &mut p_state),
+                i,
+                v,
+            ));
             bench_end_flux_pll();
             let input = FocInput {
                 i_abc: i.to_abc(),
@@ -239,11 +282,8 @@ mod firmware {
                 torque_ff_nm: 0.0,
             };
             bench_begin_foc_svpwm();
-            black_box(foc.current_step(
-                &mut c_state,
-                black_box(&input),
-                black_box(Dq::new(0.0, 0.5)),
-            ));
+            let out = foc_step(&foc, &mut c_state, &input, Dq::new(0.0, 0.5));
+            black_box(&out);
             bench_end_foc_svpwm();
         }
         debug::exit(EXIT_SUCCESS);
