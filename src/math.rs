@@ -215,13 +215,19 @@ pub fn wrap_pi(theta: f32) -> f32 {
         return theta;
     }
     // One turn out, an angle advanced past ±π (once per electrical turn on the step's paths):
-    // ∓2π carried to ~48 bits, no floor. `PI` itself stays (it is in range).
+    // θ ∓ 2π as (θ ∓ TAU) ± (TAU − 2π). The first difference is exact (Sterbenz: |θ| is
+    // within [TAU/2, 2·TAU]), so the result is θ ∓ 2π with one rounding, and it lies in
+    // (−π, π] without a clamp (θ just above `PI` gives −3.1415923, `-PI` gives `PI_BELOW`).
+    // `PI` itself stays (it is in range).
     if a < ONE_TURN_OUT {
         if theta == PI {
             return PI;
         }
-        let r = sub_quarter_turns(theta, if theta > 0.0 { 4.0 } else { -4.0 });
-        return clamp(r, -PI_BELOW, PI);
+        return if theta > 0.0 {
+            (theta - TAU) + TAU_EXCESS
+        } else {
+            (theta + TAU) - TAU_EXCESS
+        };
     }
     cold_path();
     wrap_pi_far(theta)
@@ -229,6 +235,9 @@ pub fn wrap_pi(theta: f32) -> f32 {
 
 /// Below this |θ| [rad] (< 3π) one turn brings θ into (−π, π].
 const ONE_TURN_OUT: f32 = 9.0;
+
+/// The f32 `TAU` less 2π [rad] (1.748 455 6e-7; `TAU` rounds 2π up).
+const TAU_EXCESS: f32 = 1.748_455_6e-7;
 
 /// [`wrap_pi`] of an angle more than a turn out of range, or not finite.
 #[inline(never)]

@@ -250,6 +250,26 @@ fn wrap_boundaries() {
     assert!((f64::from(wrap_2pi(-1000.0)) - (-1000.0 + 160.0 * TAU64)).abs() <= WRAP_2PI_MAX_ERR);
 }
 
+/// An angle one turn out (an observer's angle advanced past ±π, the step's usual wrap) comes
+/// back correctly rounded: every f32 with π < |θ| < 9 gives the f32 nearest θ ∓ 2π.
+#[test]
+fn wrap_pi_one_turn_is_correctly_rounded() {
+    let mut checked = 0u32;
+    for sign in [1.0f32, -1.0] {
+        let mut t = PI;
+        while t < 9.0 {
+            t = f32::from_bits(t.to_bits() + 1);
+            let x = sign * t;
+            let exact = (f64::from(x) - f64::from(sign) * TAU64) as f32;
+            let w = wrap_pi(x);
+            assert_eq!(w, exact, "wrap_pi({x:e})");
+            assert!(w > -PI && w <= PI, "wrap_pi({x:e}) = {w}");
+            checked += 1;
+        }
+    }
+    assert!(checked > 20_000_000);
+}
+
 #[test]
 fn wrap_in_range_for_every_finite_input() {
     let specials = [
