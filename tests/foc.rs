@@ -90,7 +90,7 @@ proptest! {
     }
 }
 
-/// A voltage the current loop cuts lands just inside the inverter's circle (1 − 2⁻¹⁷ of
+/// A voltage the current loop cuts lands just inside the inverter's circle (within 1e-5 of
 /// `v_bus/√3`), so that after the rotation to αβ SVPWM finds it in its linear range and applies
 /// it as it is: the applied vector, fed to SVPWM again, is never found saturated.
 #[test]

@@ -345,6 +345,24 @@ fn all_finite_flags_every_non_finite_value() {
 
 /// Relative error of `rsqrt` and `sqrt` against f64 over every 97th f32 bit pattern of the
 /// normal positive range (8.7e7 values), and the special inputs.
+/// Two Newton steps (`rsqrt_normal(x, 2)`, the current loop's voltage cut): at most 5e-6
+/// relative below 1/√x and never above it by more than f32 rounding, over every 97th normal f32.
+#[test]
+fn rsqrt_with_two_newton_steps_stays_just_below() {
+    let (mut below, mut above) = (0.0f64, 0.0f64);
+    let mut bits = f32::MIN_POSITIVE.to_bits();
+    while bits <= f32::MAX.to_bits() {
+        let x = f32::from_bits(bits);
+        let r = math::rsqrt_normal(x, 2) as f64 * (x as f64).sqrt() - 1.0;
+        below = below.max(-r);
+        above = above.max(r);
+        bits += 97;
+    }
+    println!("rsqrt_normal(x, 2): {below:.2e} below, {above:.2e} above");
+    assert!(below < 5e-6, "{below:e}");
+    assert!(above < 2.5e-7, "{above:e}");
+}
+
 #[test]
 fn rsqrt_and_sqrt_match_f64() {
     let (mut worst_r, mut worst_s) = (0.0f64, 0.0f64);
