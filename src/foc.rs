@@ -15,7 +15,7 @@ use crate::frames::{Abc, AlphaBeta, Dq, SinCos};
 use crate::math::all_finite;
 use crate::motor::{positive, MotorParams, ParamError};
 use crate::pi::{Pi, PiConfig, PiState};
-use crate::svpwm::{svpwm, Duties};
+use crate::svpwm::{svpwm_limited, Duties, Svpwm};
 use core::f32::consts::TAU;
 use core::hint::cold_path;
 
@@ -129,6 +129,9 @@ pub struct CurrentLoopOutput {
     pub v_dq: Dq,
     /// The command was cut to (just inside) `v_max`; the integrators were held.
     pub saturated: bool,
+    /// The inputs were usable (finite, `v_max` in range), so `v_dq` is the loop's command;
+    /// false: zero volts.
+    pub valid: bool,
 }
 
 impl CurrentLoop {
@@ -162,6 +165,7 @@ impl CurrentLoop {
             return CurrentLoopOutput {
                 v_dq: Dq::default(),
                 saturated: true,
+                valid: false,
             };
         }
         // Squares compared: the square root only when the vector must be cut.
@@ -171,6 +175,7 @@ impl CurrentLoop {
             return CurrentLoopOutput {
                 v_dq: Dq::new(v_d, v_q),
                 saturated: false,
+                valid: true,
             };
         }
         // Cut a little inside the circle (1 − 2⁻¹⁸, 0.08 mV at 21 V): |v|² after the rotation to
@@ -182,6 +187,7 @@ impl CurrentLoop {
         CurrentLoopOutput {
             v_dq: Dq::new(v_d * scale, v_q * scale),
             saturated: true,
+            valid: true,
         }
     }
 }
@@ -368,7 +374,14 @@ impl Foc {
         let v_max = input.v_bus * INV_SQRT3;
         let out = self.current.update(state, i_dq, i_dq_ref, omega_e, v_max);
         let v_ab_cmd = out.v_dq.to_alpha_beta(sc_out);
-        let pwm = svpwm(v_ab_cmd, input.v_bus);
+        // The loop has limited the vector to the circle and found the bus usable: SVPWM need
+        // not check either again (`svpwm_limited`).
+        let pwm = if out.valid {
+            svpwm_limited(v_ab_cmd, input.v_bus)
+        } else {
+            cold_path();
+            Svpwm::OFF
+        };
         FocOutput {
             duties: pwm.duties,
             v_ab: pwm.v_ab_applied,

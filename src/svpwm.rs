@@ -44,6 +44,15 @@ pub struct Svpwm {
     pub v_ab_applied: AlphaBeta,
 }
 
+impl Svpwm {
+    /// All switches at 50 %: zero volts, reported as saturated (the answer to an invalid input).
+    pub const OFF: Self = Self {
+        duties: Duties::NEUTRAL,
+        saturated: true,
+        v_ab_applied: AlphaBeta::new(0.0, 0.0),
+    };
+}
+
 /// Duty cycles for the αβ voltage command `v_ab` (V) on a DC bus of `v_bus` (V, > 0).
 ///
 /// Linear (exact to f32 rounding) for `|v_ab| <= v_bus/√3`. Above it the vector is scaled
@@ -58,11 +67,7 @@ pub fn svpwm(v_ab: AlphaBeta, v_bus: f32) -> Svpwm {
     let inv_bus = 1.0 / v_bus;
     if !((BUS_MIN_V..=BUS_MAX_V).contains(&v_bus) && all_finite([v_ab.alpha, v_ab.beta])) {
         cold_path();
-        return Svpwm {
-            duties: Duties::NEUTRAL,
-            saturated: true,
-            v_ab_applied: AlphaBeta::new(0.0, 0.0),
-        };
+        return Svpwm::OFF;
     }
     let v_max = v_bus * INV_SQRT3;
     // Squares compared (no square root in the linear range); never NaN here (finite
@@ -77,35 +82,83 @@ pub fn svpwm(v_ab: AlphaBeta, v_bus: f32) -> Svpwm {
     } else {
         v_ab
     };
-    let v = v_ab_applied.to_abc();
-    let (hi, lo) = (max(max(v.a, v.b), v.c), min(min(v.a, v.b), v.c));
-    let v0 = -0.5 * (hi + lo);
-    let duty = |x: f32| 0.5 + (x + v0) * inv_bus;
-    let duties = Duties {
-        a: duty(v.a),
-        b: duty(v.b),
-        c: duty(v.c),
-    };
-    // Each |x + v0| is at most (hi − lo)/2 but for a few roundings (relative 2⁻²⁴ each), so
-    // with (hi − lo)/v_bus at most 1 − 2⁻²⁰ every duty is inside [0, 1] without a clamp. Only
-    // a vector on the circle at the hexagon's corners (30° + k·60°) comes closer.
-    if (hi - lo) * inv_bus <= SPAN_UNCLAMPED {
+    if let Some(duties) = unclamped_duties(v_ab_applied, inv_bus) {
         return Svpwm {
             duties,
             saturated,
             v_ab_applied,
         };
     }
+    // Only a vector on the circle at the hexagon's corners (30° + k·60°) comes this close to
+    // the bus: its duties are 0 or 1 but for rounding.
     cold_path();
-    let limit = |d: f32| clamp(d, 0.0, 1.0);
+    let limit = |d: f32| clamp(0.5 + d, 0.0, 1.0);
+    let d = min_max_injection(v_ab_applied, inv_bus).0;
     Svpwm {
         duties: Duties {
-            a: limit(duties.a),
-            b: limit(duties.b),
-            c: limit(duties.c),
+            a: limit(d.a),
+            b: limit(d.b),
+            c: limit(d.c),
         },
         saturated,
         v_ab_applied,
+    }
+}
+
+/// [`svpwm`] of a vector its caller has already limited to the circle `v_bus/√3` on a bus it
+/// has already checked (the current loop's output, `foc`): `v_bus` in [1e-30, 1e30] V. Checks
+/// only that `v_ab` is finite (else zero volts). A vector the PWM can make (inside the
+/// hexagon, as the limited vector is but for rounding) is applied as it is; one beyond it
+/// (a caller's rotation that is not a unit vector) takes [`svpwm`], which cuts it to the
+/// circle. Duties are always within [0, 1], never NaN.
+#[inline(always)]
+pub(crate) fn svpwm_limited(v_ab: AlphaBeta, v_bus: f32) -> Svpwm {
+    let inv_bus = 1.0 / v_bus;
+    if !all_finite([v_ab.alpha, v_ab.beta]) {
+        cold_path();
+        return Svpwm::OFF;
+    }
+    match unclamped_duties(v_ab, inv_bus) {
+        Some(duties) => Svpwm {
+            duties,
+            saturated: false,
+            v_ab_applied: v_ab,
+        },
+        None => {
+            cold_path();
+            svpwm(v_ab, v_bus)
+        }
+    }
+}
+
+/// Min–max injection: each phase's voltage plus the common mode `−(max + min)/2`, per volt of
+/// bus (`inv_bus` = 1/v_bus), centred on 0; and the phase-voltage span (max − min) per volt.
+#[inline(always)]
+fn min_max_injection(v_ab: AlphaBeta, inv_bus: f32) -> (Abc, f32) {
+    let v = v_ab.to_abc();
+    let (hi, lo) = (max(max(v.a, v.b), v.c), min(min(v.a, v.b), v.c));
+    let v0 = -0.5 * (hi + lo);
+    let centred = |x: f32| (x + v0) * inv_bus;
+    (
+        Abc::new(centred(v.a), centred(v.b), centred(v.c)),
+        (hi - lo) * inv_bus,
+    )
+}
+
+/// The duties of `v_ab` when no clamp is needed: each |x + v0| is at most (hi − lo)/2 but for
+/// a few roundings (relative 2⁻²⁴ each), so with (hi − lo)/v_bus at most 1 − 2⁻²⁰ every duty
+/// is inside [0, 1]. `None` above that span (and for a NaN).
+#[inline(always)]
+fn unclamped_duties(v_ab: AlphaBeta, inv_bus: f32) -> Option<Duties> {
+    let (d, span) = min_max_injection(v_ab, inv_bus);
+    if span <= SPAN_UNCLAMPED {
+        Some(Duties {
+            a: 0.5 + d.a,
+            b: 0.5 + d.b,
+            c: 0.5 + d.c,
+        })
+    } else {
+        None
     }
 }
 

@@ -128,3 +128,51 @@ fn a_cut_voltage_stays_inside_the_linear_range() {
     assert!(worst_low < 1e-5, "{worst_low}");
     assert_eq!(found_outside, 0);
 }
+
+proptest! {
+    #![proptest_config(Config {
+        cases: 3000,
+        rng_seed: RngSeed::Fixed(0x5eed),
+        failure_persistence: None,
+        ..Config::default()
+    })]
+
+    /// The voltage the FOC reports as applied is the one its duties make, also when the
+    /// caller's output rotation is not a unit vector (the voltage then leaves the circle the
+    /// current loop limited it to, up to or beyond the PWM's hexagon).
+    #[test]
+    fn applied_voltage_is_what_the_duties_make(
+        theta in -3.2f32..3.2,
+        out_scale in 0.0f32..4.0,
+        out_angle in -3.2f32..3.2,
+        i in proptest::array::uniform3(-5.0f32..5.0),
+        v_bus in 10.0f32..100.0,
+        omega_m in -400.0f32..400.0,
+        omega_m_ref in -400.0f32..400.0,
+    ) {
+        use pmsm_sensorless::frames::SinCos;
+        use pmsm_sensorless::svpwm::duties_to_phase_voltages;
+        let foc = config().build().unwrap();
+        let mut st = FocState::default();
+        let input = FocInput {
+            i_abc: Abc::new(i[0], i[1], i[2]),
+            v_bus,
+            theta_e: theta,
+            omega_m,
+            omega_m_ref,
+            torque_ff_nm: 0.0,
+        };
+        let sc = SinCos::of(theta);
+        let rot = SinCos::of(out_angle);
+        let sc_out = SinCos { sin: out_scale * rot.sin, cos: out_scale * rot.cos };
+        for _ in 0..3 {
+            let out = foc.step_at(&mut st, &input, sc, sc_out);
+            for d in [out.duties.a, out.duties.b, out.duties.c] {
+                prop_assert!((0.0..=1.0).contains(&d), "duty {d}");
+            }
+            let made = duties_to_phase_voltages(out.duties, v_bus).to_alpha_beta();
+            let err = (made.alpha - out.v_ab.alpha).hypot(made.beta - out.v_ab.beta);
+            prop_assert!(err <= 1e-5 * v_bus, "made {made:?}, reported {:?}", out.v_ab);
+        }
+    }
+}
