@@ -324,10 +324,12 @@ pub fn sqrt(x: f32) -> f32 {
     }
 }
 
-/// `f32::MIN_POSITIVE ≤ x ≤ f32::MAX` (false for NaN): two compares, no core-register move.
+/// `f32::MIN_POSITIVE ≤ x ≤ f32::MAX` (false for NaN): one unsigned compare of the bits
+/// (the positive normal numbers are the bit patterns 0x0080_0000..0x7F80_0000), which
+/// [`rsqrt_normal`]'s guess moves to a core register anyway.
 #[inline(always)]
 pub fn is_normal_positive(x: f32) -> bool {
-    (f32::MIN_POSITIVE..=f32::MAX).contains(&x)
+    x.to_bits().wrapping_sub(0x0080_0000) < 0x7F00_0000
 }
 
 /// True when every value is finite (no NaN, no ±∞).

@@ -345,6 +345,32 @@ fn all_finite_flags_every_non_finite_value() {
 
 /// Relative error of `rsqrt` and `sqrt` against f64 over every 97th f32 bit pattern of the
 /// normal positive range (8.7e7 values), and the special inputs.
+/// The one-compare bit test agrees with `is_normal() && x > 0` on every 7th bit pattern and
+/// at the edges.
+#[test]
+fn is_normal_positive_matches_std() {
+    let edges = [
+        0.0f32,
+        -0.0,
+        f32::MIN_POSITIVE,
+        f32::from_bits(f32::MIN_POSITIVE.to_bits() - 1),
+        f32::MAX,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::NAN,
+        -f32::MIN_POSITIVE,
+        -1.0,
+        1.0,
+    ];
+    for x in (0..=u32::MAX).step_by(7).map(f32::from_bits).chain(edges) {
+        assert_eq!(
+            math::is_normal_positive(x),
+            x.is_normal() && x > 0.0,
+            "{x:e}"
+        );
+    }
+}
+
 /// Two Newton steps (`rsqrt_normal(x, 2)`, the current loop's voltage cut): at most 5e-6
 /// relative below 1/√x and never above it by more than f32 rounding, over every 97th normal f32.
 #[test]
