@@ -741,11 +741,13 @@ impl Drive {
             return found(Fault::InvalidInput);
         }
         let i_peak = max(max(i.a.abs(), i.b.abs()), i.c.abs());
-        if i_peak > l.i_sense_max_a {
-            return found(Fault::InvalidInput);
-        }
+        // One compare on the usual path: `i_sense_max_a` > `i_trip_a` (`DriveConfig::build`).
         if i_peak > l.i_trip_a {
-            return found(Fault::Overcurrent);
+            return found(if i_peak > l.i_sense_max_a {
+                Fault::InvalidInput
+            } else {
+                Fault::Overcurrent
+            });
         }
         if input.v_bus > l.bus_max_v {
             return found(Fault::BusOvervoltage);
