@@ -2,7 +2,8 @@
 //! Cortex-M4F, Cortex-M4 cycle estimates, and the board firmware's flash and static RAM.
 //!
 //! Method: the bench binary (`examples/qemu-m4f/src/bin/bench.rs`) calls each measured
-//! function between two marker functions. QEMU (`mps2-an386`) runs it with
+//! function between two marker functions; each is a function of its own (`Drive::step` inlined
+//! into one, as in the board firmware's interrupt), so its register saves are counted. QEMU (`mps2-an386`) runs it with
 //! `-singlestep -d exec,nochain`, which logs one line per executed instruction with its PC
 //! and symbol; the instructions between a begin and an end marker are the call's (the
 //! marker call's own `bl` included). Each is weighted with the Cortex-M4 timing table
@@ -24,8 +25,9 @@ use std::process::Command;
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct CyclesReport {
     /// Instructions of the drive's costliest sensorless step (both observers live, sliding
-    /// observer primary, voltage in the linear range): the worst of the four slots below and
-    /// of the steps at the ±π seam.
+    /// observer primary, 48 V bus): the worst over an electrical turn (each slot below 16
+    /// times) and of the steps at the ±π seam. The bench's currents do not follow the
+    /// voltage, so in the later steps the current loop cuts its vector to the limit.
     pub step_instructions: u64,
     /// Cycle estimate of that step.
     pub step_cycles_est: u64,
@@ -37,13 +39,13 @@ pub struct CyclesReport {
     pub step_pll_cycles_est: u64,
     /// The step whose 1 kHz part is the speed loop.
     pub step_speed_loop_cycles_est: u64,
-    /// Worst of the four steps when the flux observer feeds the controller (`Primary::Flux`).
+    /// Worst step over a turn when the flux observer feeds the controller (`Primary::Flux`).
     pub step_flux_primary_cycles_est: u64,
-    /// Worst of the four steps in open loop (start-up; both observers running).
+    /// Worst step over a turn in open loop (start-up; both observers running).
     pub step_open_loop_cycles_est: u64,
-    /// Worst of the four steps with the voltage at its limit (sliding observer primary).
+    /// Worst step over a turn with the voltage at its limit (sliding observer primary).
     pub step_saturated_cycles_est: u64,
-    /// Worst of eight sensorless steps (sliding observer primary) with the angles crossing ±π
+    /// Worst sensorless step (sliding observer primary) of four runs whose angles cross ±π
     /// (the wraps of eq (22), the PLL and the angle comparisons take their other branch).
     pub step_seam_cycles_est: u64,
     /// Cycle estimate of one sliding torque observer update.

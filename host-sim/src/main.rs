@@ -63,7 +63,7 @@ fn cycles(args: CyclesArgs) -> anyhow::Result<String> {
         outln!(out, "Cortex-M4F (QEMU mps2-an386, one trace line per instruction), cycles at zero wait states:");
         outln!(
             out,
-            "  step, worst of the four (both observers, sliding primary): {} instructions, ~{} cycles",
+            "  step, worst over a turn (both observers, sliding primary): {} instructions, ~{} cycles",
             r.step_instructions,
             r.step_cycles_est
         );
@@ -77,22 +77,22 @@ fn cycles(args: CyclesArgs) -> anyhow::Result<String> {
         );
         outln!(
             out,
-            "  step, worst of four, flux observer primary: ~{} cycles",
+            "  step, worst over a turn, flux observer primary: ~{} cycles",
             r.step_flux_primary_cycles_est
         );
         outln!(
             out,
-            "  step, worst of four, open loop (start-up):  ~{} cycles",
+            "  step, worst over a turn, open loop (start-up):  ~{} cycles",
             r.step_open_loop_cycles_est
         );
         outln!(
             out,
-            "  step, worst of four, voltage at its limit:  ~{} cycles",
+            "  step, worst over a turn, voltage at its limit:  ~{} cycles",
             r.step_saturated_cycles_est
         );
         outln!(
             out,
-            "  step, worst of eight, angles crossing ±π:   ~{} cycles",
+            "  step, worst of four runs across ±π:             ~{} cycles",
             r.step_seam_cycles_est
         );
         outln!(

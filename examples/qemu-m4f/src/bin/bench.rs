@@ -6,8 +6,10 @@
 //! The drive is put straight into a sensorless state at 1000 rpm on the Sinano motor (the
 //! state's fields are public), so the measured `step` takes the sensorless branch with both
 //! observers live; it is measured in each of the four slots of the 1 kHz work (`Slot`), with
-//! the flux observer primary, in open loop (start-up), and with the voltage at its limit (bus
-//! at its under-voltage trip, 37 V).
+//! the flux observer primary, in open loop (start-up), with the voltage at its limit (bus at
+//! its under-voltage trip, 37 V), and with the angles crossing ±π. Every case runs a full
+//! electrical turn (64 steps); each measured call is a function of its own, as the firmware's
+//! interrupt is.
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
 #[cfg(not(target_os = "none"))]
