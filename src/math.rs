@@ -298,7 +298,7 @@ pub fn rsqrt(x: f32) -> f32 {
 }
 
 /// [`rsqrt`] of an `x` the caller knows to be normal and positive (no check; any other `x`
-/// gives a wrong but finite-or-NaN value, never a panic), with `newton` Newton steps from the
+/// gives a wrong value, possibly infinite or NaN, never a panic), with `newton` Newton steps from the
 /// bit-level guess (relative error 3.4e-2): 2 steps leave at most 5e-6, 3 steps f32 rounding
 /// (4e-7). Each step lands at or below `1/√x` (to rounding): `y(1.5 − x y²/2) √x = 1 − 3e²/2 −
 /// e³/2` for a guess `(1 + e)/√x`.

@@ -82,7 +82,7 @@ pub fn svpwm(v_ab: AlphaBeta, v_bus: f32) -> Svpwm {
     } else {
         v_ab
     };
-    if let Some(duties) = unclamped_duties(v_ab_applied, inv_bus) {
+    if let Some(duties) = unclamped_duties(v_ab_applied, v_bus, inv_bus) {
         return Svpwm {
             duties,
             saturated,
@@ -105,9 +105,10 @@ pub fn svpwm(v_ab: AlphaBeta, v_bus: f32) -> Svpwm {
     }
 }
 
-/// [`svpwm`] of a vector its caller has already limited to the circle `v_bus/√3` on a bus it
-/// has already checked (the current loop's output, `foc`): `v_bus` in [1e-30, 1e30] V. Checks
-/// only that `v_ab` is finite (else zero volts). A vector the PWM can make (inside the
+/// [`svpwm`] of a vector its caller has already limited to the circle `|v_bus|/√3` on a bus
+/// it has already checked (the current loop's output, `foc`): |v_bus| in [1e-30, 1e30] V.
+/// Checks only that `v_ab` is finite (else zero volts); a negative bus takes [`svpwm`]
+/// (zero volts). A vector the PWM can make (inside the
 /// hexagon, as the limited vector is but for rounding) is applied as it is; one beyond it
 /// (a caller's rotation that is not a unit vector) takes [`svpwm`], which cuts it to the
 /// circle. Duties are always within [0, 1], never NaN.
@@ -118,7 +119,7 @@ pub(crate) fn svpwm_limited(v_ab: AlphaBeta, v_bus: f32) -> Svpwm {
         cold_path();
         return Svpwm::OFF;
     }
-    match unclamped_duties(v_ab, inv_bus) {
+    match unclamped_duties(v_ab, v_bus, inv_bus) {
         Some(duties) => Svpwm {
             duties,
             saturated: false,
@@ -132,26 +133,24 @@ pub(crate) fn svpwm_limited(v_ab: AlphaBeta, v_bus: f32) -> Svpwm {
 }
 
 /// Min–max injection: each phase's voltage plus the common mode `−(max + min)/2`, per volt of
-/// bus (`inv_bus` = 1/v_bus), centred on 0; and the phase-voltage span (max − min) per volt.
+/// bus (`inv_bus` = 1/v_bus), centred on 0; and the phase-voltage span (max − min) [V].
 #[inline(always)]
 fn min_max_injection(v_ab: AlphaBeta, inv_bus: f32) -> (Abc, f32) {
     let v = v_ab.to_abc();
     let (hi, lo) = (max(max(v.a, v.b), v.c), min(min(v.a, v.b), v.c));
     let v0 = -0.5 * (hi + lo);
     let centred = |x: f32| (x + v0) * inv_bus;
-    (
-        Abc::new(centred(v.a), centred(v.b), centred(v.c)),
-        (hi - lo) * inv_bus,
-    )
+    (Abc::new(centred(v.a), centred(v.b), centred(v.c)), hi - lo)
 }
 
-/// The duties of `v_ab` when no clamp is needed: each |x + v0| is at most (hi − lo)/2 but for
-/// a few roundings (relative 2⁻²⁴ each), so with (hi − lo)/v_bus at most 1 − 2⁻²⁰ every duty
-/// is inside [0, 1]. `None` above that span (and for a NaN).
+/// The duties of `v_ab` on a bus of `v_bus` (`inv_bus` its inverse) when no clamp is needed:
+/// each |x + v0| is at most (hi − lo)/2 but for a few roundings (relative 2⁻²⁴ each), so with
+/// hi − lo at most (1 − 2⁻²⁰)·v_bus every duty is inside [0, 1]. `None` above that span, for a
+/// NaN, and for any vector on a bus that is not positive (the span is never negative).
 #[inline(always)]
-fn unclamped_duties(v_ab: AlphaBeta, inv_bus: f32) -> Option<Duties> {
+fn unclamped_duties(v_ab: AlphaBeta, v_bus: f32, inv_bus: f32) -> Option<Duties> {
     let (d, span) = min_max_injection(v_ab, inv_bus);
-    if span <= SPAN_UNCLAMPED {
+    if span <= SPAN_UNCLAMPED * v_bus {
         Some(Duties {
             a: 0.5 + d.a,
             b: 0.5 + d.b,

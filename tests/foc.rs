@@ -137,16 +137,17 @@ proptest! {
         ..Config::default()
     })]
 
-    /// The voltage the FOC reports as applied is the one its duties make, also when the
-    /// caller's output rotation is not a unit vector (the voltage then leaves the circle the
-    /// current loop limited it to, up to or beyond the PWM's hexagon).
+    /// The voltage the FOC reports as applied is the one its duties make, and the duties stay
+    /// in [0, 1], also when the caller's output rotation is not a unit vector (the voltage then
+    /// leaves the circle the current loop limited it to, up to or beyond the PWM's hexagon)
+    /// and on a negative bus reading.
     #[test]
     fn applied_voltage_is_what_the_duties_make(
         theta in -3.2f32..3.2,
         out_scale in 0.0f32..4.0,
         out_angle in -3.2f32..3.2,
         i in proptest::array::uniform3(-5.0f32..5.0),
-        v_bus in 10.0f32..100.0,
+        v_bus in prop_oneof![10.0f32..100.0, -100.0f32..-1e-3],
         omega_m in -400.0f32..400.0,
         omega_m_ref in -400.0f32..400.0,
     ) {
@@ -172,7 +173,7 @@ proptest! {
             }
             let made = duties_to_phase_voltages(out.duties, v_bus).to_alpha_beta();
             let err = (made.alpha - out.v_ab.alpha).hypot(made.beta - out.v_ab.beta);
-            prop_assert!(err <= 1e-5 * v_bus, "made {made:?}, reported {:?}", out.v_ab);
+            prop_assert!(err <= 1e-5 * v_bus.abs(), "made {made:?}, reported {:?}", out.v_ab);
         }
     }
 }
