@@ -125,7 +125,7 @@ pub struct CurrentLoopState {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CurrentLoopOutput {
     /// Voltage command in the rotor frame [V], `|v_dq| ≤ v_max` (a cut vector is between
-    /// 1 − 1e-5 and 1 − 2⁻¹⁸ of `v_max` long).
+    /// 1 − 1e-5 and 1 − 2⁻¹⁸ of `v_max` long, to f32 rounding).
     pub v_dq: Dq,
     /// The command was cut to (just inside) `v_max`; the integrators were held.
     pub saturated: bool,
@@ -137,8 +137,8 @@ pub struct CurrentLoopOutput {
 impl CurrentLoop {
     /// One update at the current-loop rate.
     /// `i_dq`, `i_dq_ref` [A]; `omega_e` electrical speed [rad/s]; `v_max` the largest
-    /// voltage magnitude the inverter can apply [V], in 1.1e-19..1.8e19 (its square a normal
-    /// f32). Anti-windup: when the vector is cut to `v_max`, neither integrator moves.
+    /// voltage magnitude the inverter can apply [V], positive, 1.1e-19..1.8e19 (its square a
+    /// normal f32). Anti-windup: when the vector is cut to `v_max`, neither integrator moves.
     /// Non-finite inputs, or a `v_max` outside that range, give zero volts (`saturated`).
     // Inlined: the 4 kHz step compiles to one function (see `drive`).
     #[inline(always)]
@@ -159,8 +159,9 @@ impl CurrentLoop {
         let v_q = self.kp * e_q + int_q + omega_e * (self.l_h * i_dq.d + self.flux_wb);
         let mag2 = v_d * v_d + v_q * v_q;
         let v_max2 = v_max * v_max;
-        // `v_max²` normal (v_max in 1.1e-19..1.8e19 V): then a vector to cut has a normal |v|².
-        if !(v_max2 >= f32::MIN_POSITIVE && all_finite([mag2, v_max2])) {
+        // `v_max` positive and its square normal (1.1e-19..1.8e19 V): then a vector to cut has
+        // a normal |v|².
+        if !(v_max > 0.0 && v_max2 >= f32::MIN_POSITIVE && all_finite([mag2, v_max2])) {
             cold_path();
             return CurrentLoopOutput {
                 v_dq: Dq::default(),
@@ -181,8 +182,8 @@ impl CurrentLoop {
         // Cut a little inside the circle (1 − 2⁻¹⁸, 0.08 mV at 21 V): |v|² after the rotation to
         // αβ carries a few 1e-7 of rounding, and a vector found just outside the circle would make
         // SVPWM cut it a second time (a division and a square root more). Two Newton steps of
-        // 1/|v| land at most 5e-6 below it, never above (`math::rsqrt_normal`), so the cut
-        // vector is 1e-5 inside at the most.
+        // 1/|v| land at most 5e-6 below it and above it only by rounding (`math::rsqrt_normal`),
+        // so the cut vector is 1e-5 inside at the most.
         let scale = (v_max * CUT_INSIDE) * crate::math::rsqrt_normal(mag2, 2);
         CurrentLoopOutput {
             v_dq: Dq::new(v_d * scale, v_q * scale),

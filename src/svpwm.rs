@@ -57,13 +57,15 @@ impl Svpwm {
 ///
 /// Linear (exact to f32 rounding) for `|v_ab| <= v_bus/√3`. Above it the vector is scaled
 /// down to that magnitude, keeping its angle, and `saturated` is set. If `v_bus` is not a
-/// number in [1e-30, 1e30] V, or `v_ab` is not finite, the result is 0.5 on all phases (zero
+/// number in [1e-18, 1e19] V (where `v_bus²/3` is a normal f32), or `v_ab` is not finite, the result is 0.5 on all phases (zero
 /// volts), `saturated = true` and `v_ab_applied = 0`. Duties are always within [0, 1], never NaN.
 // Inlined: the 4 kHz step compiles to one function (see `drive`).
 #[inline(always)]
 pub fn svpwm(v_ab: AlphaBeta, v_bus: f32) -> Svpwm {
-    // One division for the three duties. The bus range keeps 1/v_bus a normal number and
-    // makes the rounding of subnormal voltages negligible against the bus (see below).
+    // One division for the three duties. The bus range keeps 1/v_bus and (v_bus/√3)² normal
+    // numbers, so the squares below compare what they mean (a wider range let v_max² overflow
+    // and a huge command through uncut: NaN duties), and makes the rounding of subnormal
+    // voltages negligible against the bus.
     let inv_bus = 1.0 / v_bus;
     if !((BUS_MIN_V..=BUS_MAX_V).contains(&v_bus) && all_finite([v_ab.alpha, v_ab.beta])) {
         cold_path();
@@ -105,13 +107,14 @@ pub fn svpwm(v_ab: AlphaBeta, v_bus: f32) -> Svpwm {
     }
 }
 
-/// [`svpwm`] of a vector its caller has already limited to the circle `|v_bus|/√3` on a bus
-/// it has already checked (the current loop's output, `foc`): |v_bus| in [1e-30, 1e30] V.
-/// Checks only that `v_ab` is finite (else zero volts); a negative bus takes [`svpwm`]
-/// (zero volts). A vector the PWM can make (inside the
-/// hexagon, as the limited vector is but for rounding) is applied as it is; one beyond it
-/// (a caller's rotation that is not a unit vector) takes [`svpwm`], which cuts it to the
-/// circle. Duties are always within [0, 1], never NaN.
+/// [`svpwm`] of a vector its caller has already limited to the circle `v_bus/√3` on a bus it
+/// has already checked (the current loop's output, `foc`: `v_bus²/3` a normal f32, so 1/v_bus
+/// is finite). Checks only that `v_ab` is finite (else zero volts). A vector the PWM can make
+/// (inside the hexagon, as the limited vector is but for rounding) is applied as it is, not
+/// flagged `saturated`: a longer one (a caller's output rotation longer than 1) only up to the
+/// hexagon, 2/√3 of the circle. A vector beyond the hexagon, or any vector on a bus that is not
+/// positive, takes [`svpwm`] (cut to the circle, or zero volts). Duties are always within
+/// [0, 1], never NaN.
 #[inline(always)]
 pub(crate) fn svpwm_limited(v_ab: AlphaBeta, v_bus: f32) -> Svpwm {
     let inv_bus = 1.0 / v_bus;
@@ -162,8 +165,8 @@ fn unclamped_duties(v_ab: AlphaBeta, v_bus: f32, inv_bus: f32) -> Option<Duties>
 }
 
 /// Bus range [V] `svpwm` accepts.
-const BUS_MIN_V: f32 = 1e-30;
-const BUS_MAX_V: f32 = 1e30;
+const BUS_MIN_V: f32 = 1e-18;
+const BUS_MAX_V: f32 = 1e19;
 
 /// Largest phase-voltage span per volt of bus whose duties need no clamp, 1 − 2⁻²⁰.
 const SPAN_UNCLAMPED: f32 = 1.0 - 1.0 / 1_048_576.0;

@@ -177,3 +177,32 @@ proptest! {
         }
     }
 }
+
+/// A negative bus reading gives zero volts and leaves the current loop's integrators where
+/// they were: the next step on a good bus is the step a fresh loop would take.
+#[test]
+fn a_negative_bus_gives_zero_volts_and_holds_the_integrators() {
+    use pmsm_sensorless::foc::CurrentLoopState;
+    use pmsm_sensorless::frames::Dq;
+    use pmsm_sensorless::svpwm::Duties;
+    let foc = config().build().unwrap();
+    let input = |v_bus| FocInput {
+        i_abc: Abc::new(0.0, 0.0, 0.0),
+        v_bus,
+        theta_e: 0.3,
+        omega_m: 50.0,
+        omega_m_ref: 0.0,
+        torque_ff_nm: 0.0,
+    };
+    let i_ref = Dq::new(0.0, 0.1);
+    let mut st = CurrentLoopState::default();
+    for _ in 0..400 {
+        let out = foc.current_step(&mut st, &input(-24.0), i_ref);
+        assert_eq!(out.duties, Duties::NEUTRAL);
+        assert_eq!((out.v_ab.alpha, out.v_ab.beta), (0.0, 0.0));
+    }
+    assert_eq!(st, CurrentLoopState::default());
+    let after = foc.current_step(&mut st, &input(24.0), i_ref);
+    let fresh = foc.current_step(&mut CurrentLoopState::default(), &input(24.0), i_ref);
+    assert_eq!(after, fresh);
+}

@@ -213,7 +213,7 @@ fn overmodulated_command_is_scaled_to_the_circle() {
 #[test]
 fn corner_vectors_keep_duties_in_unit_interval() {
     let mut checked = 0;
-    for v_bus in [1e-30f32, 1e-3, 0.1, 1.0, 24.0, 48.0, 1000.0, 1e30] {
+    for v_bus in [1e-18f32, 1e-3, 0.1, 1.0, 24.0, 48.0, 1000.0, 1e19] {
         for corner in 0..6 {
             for i in -40..=40 {
                 let phi = PI / 6.0 + f64::from(corner) * PI / 3.0 + f64::from(i) * 2e-5;
@@ -235,4 +235,38 @@ fn corner_vectors_keep_duties_in_unit_interval() {
         }
     }
     println!("{checked} corner vectors");
+}
+
+/// Huge commands on buses up to and beyond the accepted range ([1e-18, 1e19] V, where
+/// `(v_bus/√3)²` is a normal f32): valid duties that make the reported voltage, zero volts
+/// outside the range. With the range at 1e30 V, `(v_bus/√3)²` overflowed above ~3.2e19 V and
+/// the first two commands came through uncut (NaN duties at 9.6e25 V, and a reported voltage
+/// the duties did not make at 3.14e24 V).
+#[test]
+fn huge_commands_on_any_bus_give_duties_that_make_the_reported_voltage() {
+    let commands = [
+        AlphaBeta::new(-3.4e38, 3.4e38),
+        AlphaBeta::new(-5e-4, 3.19e37),
+        AlphaBeta::new(f32::MAX, -f32::MAX),
+        AlphaBeta::new(1e20, 0.0),
+        AlphaBeta::new(-1e-30, 1e-30),
+    ];
+    for v_bus in [
+        1e-18f32, 1e-3, 1.0, 48.0, 1e10, 1e19, 3.2e19, 3.14e24, 9.6e25, 1e30,
+    ] {
+        for v_ab in commands {
+            let out = svpwm(v_ab, v_bus);
+            assert_duties_valid(out.duties);
+            let (a, b) = reconstructed(&out, v_bus);
+            let (x, y) = (out.v_ab_applied.alpha, out.v_ab_applied.beta);
+            let tol = 1e-4 * f64::from(v_bus);
+            assert!(
+                (a - f64::from(x)).abs() <= tol && (b - f64::from(y)).abs() <= tol,
+                "{v_ab:?} on {v_bus}: {out:?}"
+            );
+            if v_bus > 1e19 {
+                assert!(neutral(out), "{v_ab:?} on {v_bus}: {out:?}");
+            }
+        }
+    }
 }
