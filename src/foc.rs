@@ -293,8 +293,7 @@ impl Foc {
     /// changes less often than every period can keep it.
     #[inline]
     pub fn output_rotation(&self, omega_m: f32) -> SinCos {
-        let (sin, cos) = crate::math::sin_cos_small(self.pole_pairs * omega_m * self.advance_s);
-        SinCos { sin, cos }
+        SinCos::of_small(self.pole_pairs * omega_m * self.advance_s)
     }
 
     /// [`Foc::step`] with the sin/cos of `input.theta_e` (`sc`, for the Park transform of the

@@ -57,7 +57,13 @@ pub fn sin_cos(theta: f32) -> (f32, f32) {
     let z = r * r;
     let s = r + r * z * ((-1.951_529_6e-4 * z + 8.332_161e-3) * z - 1.666_665_5e-1);
     let c = ((2.443_315_7e-5 * z - 1.388_731_6e-3) * z + 4.166_664_6e-2) * z * z - 0.5 * z + 1.0;
-    // Quadrant q mod 4: odd swaps sin and cos (and negates the new cos), 2 and 3 negate both.
+    quarter_turns(q, s, c)
+}
+
+/// `(sin, cos)` of `θ + q·π/2` from `s`, `c` = sin θ, cos θ: quadrant q mod 4, odd swaps sin
+/// and cos (and negates the new cos), 2 and 3 negate both. Exact (swaps and signs).
+#[inline(always)]
+const fn quarter_turns(q: i32, s: f32, c: f32) -> (f32, f32) {
     let (s, c) = if q & 1 != 0 { (c, -s) } else { (s, c) };
     if q & 2 != 0 {
         (-s, -c)
@@ -139,14 +145,13 @@ const fn sin_cos_table() -> [[f32; 2]; TABLE_STEPS] {
     let mut k = 0;
     while k < TABLE_STEPS {
         // k·π/32 = q·π/2 + j·π/32: sin and cos of j·π/32, then turned by q quarter turns.
-        let (q, j) = (k / 16, k % 16);
-        let (s, c) = (SIN_QUARTER_TURN[j], SIN_QUARTER_TURN[16 - j]);
-        table[k] = match q {
-            0 => [s, c],
-            1 => [c, -s],
-            2 => [-s, -c],
-            _ => [-c, s],
-        };
+        let j = k % 16;
+        let (s, c) = quarter_turns(
+            (k / 16) as i32,
+            SIN_QUARTER_TURN[j],
+            SIN_QUARTER_TURN[16 - j],
+        );
+        table[k] = [s, c];
         k += 1;
     }
     table
@@ -318,7 +323,7 @@ pub fn rsqrt_normal(x: f32, newton: u32) -> f32 {
 #[inline(always)]
 pub fn sqrt(x: f32) -> f32 {
     if is_normal_positive(x) {
-        x * rsqrt(x)
+        x * rsqrt_normal(x, 3)
     } else {
         cold_path();
         libm::sqrtf(x)

@@ -19,7 +19,7 @@
 //! half-period lag.
 
 use crate::frames::{AlphaBeta, SinCos};
-use crate::math::{all_finite, atan2, is_normal_positive, rsqrt};
+use crate::math::{all_finite, atan2, is_normal_positive, rsqrt_normal};
 use crate::motor::{positive, MotorParams, ParamError};
 use core::hint::cold_path;
 
@@ -147,7 +147,7 @@ impl FluxState {
         let eta = self.rotor_flux;
         let mag2 = eta.alpha * eta.alpha + eta.beta * eta.beta;
         if is_normal_positive(mag2) {
-            let inv = rsqrt(mag2);
+            let inv = rsqrt_normal(mag2, 3);
             SinCos {
                 sin: eta.beta * inv,
                 cos: eta.alpha * inv,
