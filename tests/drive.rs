@@ -5,7 +5,7 @@ use pmsm_host_sim::profile::Pwl;
 use pmsm_host_sim::scenario::{self, Scenario};
 use pmsm_host_sim::sim::{run, SimConfig};
 use pmsm_host_sim::summary::Summary;
-use pmsm_sensorless::drive::{Command, DriveConfig, DriveInput, DriveState, Mode, Primary};
+use pmsm_sensorless::drive::{Command, Drive, DriveConfig, DriveInput, DriveState, Mode, Primary};
 use pmsm_sensorless::frames::Abc;
 use pmsm_sensorless::motor::{ParamError, HORNG_SINANO};
 use proptest::prelude::*;
@@ -15,6 +15,13 @@ fn summary(sc: Scenario, kind: ObserverKind, noise_a: f64) -> Summary {
     let mut cfg = SimConfig::new(sc, kind);
     cfg.noise_sigma_a = noise_a;
     Summary::of(&run(cfg).unwrap())
+}
+
+/// The drive on the Sinano motor with its defaults, sliding torque observer primary.
+fn sinano_drive() -> Drive {
+    DriveConfig::new(&HORNG_SINANO, Primary::SlidingTorque)
+        .build()
+        .unwrap()
 }
 
 /// A sample with no current on a 48 V bus.
@@ -196,9 +203,7 @@ fn impossible_settings_name_the_field() {
 
 #[test]
 fn a_fault_latches_until_cleared() {
-    let drive = DriveConfig::new(&HORNG_SINANO, Primary::SlidingTorque)
-        .build()
-        .unwrap();
+    let drive = sinano_drive();
     let mut st = DriveState::default();
     let ok = no_current_48v();
     let run = running_at(500.0);
@@ -388,9 +393,7 @@ fn telemetry_is_a_small_fixed_size_record() {
 #[test]
 fn telemetry_reads_the_state_the_step_left() {
     use pmsm_sensorless::drive::Telemetry;
-    let drive = DriveConfig::new(&HORNG_SINANO, Primary::SlidingTorque)
-        .build()
-        .unwrap();
+    let drive = sinano_drive();
     let mut st = DriveState::default();
     // PWM off: only the mode.
     assert_eq!(drive.telemetry(&st), Telemetry::default());
