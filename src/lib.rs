@@ -18,4 +18,5 @@ pub mod math;
 pub mod motor;
 pub mod observer;
 pub mod pi;
+pub mod power_stage;
 pub mod svpwm;
