@@ -12,14 +12,13 @@
 //! `v_d = PI_d − ω_e L i_q`, `v_q = PI_q + ω_e L i_d + ω_e ψ_f`.
 
 use crate::frames::{Abc, AlphaBeta, Dq, SinCos};
-use crate::math::all_finite;
+use crate::math::{all_finite, INV_SQRT3};
 use crate::motor::{positive, MotorParams, ParamError};
 use crate::pi::{Pi, PiConfig, PiState};
 use crate::svpwm::{svpwm_limited, Duties, Svpwm};
 use core::f32::consts::TAU;
 use core::hint::cold_path;
 
-const INV_SQRT3: f32 = 0.577_350_26;
 
 /// The current loop cuts its voltage to at most this fraction of `v_max`, 1 − 2⁻¹⁸.
 const CUT_INSIDE: f32 = 1.0 - 1.0 / 262_144.0;
@@ -157,40 +156,79 @@ impl CurrentLoop {
         // Ortega Sec V iv: decoupling and back-EMF feed-forward.
         let v_d = self.kp * e_d + int_d - omega_e * self.l_h * i_dq.q;
         let v_q = self.kp * e_q + int_q + omega_e * (self.l_h * i_dq.d + self.flux_wb);
-        let mag2 = v_d * v_d + v_q * v_q;
-        let v_max2 = v_max * v_max;
-        // `v_max` positive and its square normal (1.1e-19..1.8e19 V): then a vector to cut has
-        // a normal |v|².
-        if !(v_max > 0.0 && v_max2 >= f32::MIN_POSITIVE && all_finite([mag2, v_max2])) {
-            cold_path();
-            return CurrentLoopOutput {
-                v_dq: Dq::default(),
-                saturated: true,
-                valid: false,
-            };
-        }
-        // Squares compared: the square root only when the vector must be cut.
-        if mag2 <= v_max2 {
+        let out = limit(Dq::new(v_d, v_q), v_max);
+        // Anti-windup: the integrators move only while the vector is inside the circle.
+        if !out.saturated {
             state.integral_d = int_d;
             state.integral_q = int_q;
-            return CurrentLoopOutput {
-                v_dq: Dq::new(v_d, v_q),
-                saturated: false,
-                valid: true,
-            };
         }
-        // Cut a little inside the circle (1 − 2⁻¹⁸, 0.08 mV at 21 V): |v|² after the rotation to
-        // αβ carries a few 1e-7 of rounding, and a vector found just outside the circle would make
-        // SVPWM cut it a second time (a division and a square root more). Two Newton steps of
-        // 1/|v| land at most 5e-6 below it and above it only by rounding (`math::rsqrt_normal`),
-        // so the cut vector is 1e-5 inside at the most.
-        let scale = (v_max * CUT_INSIDE) * crate::math::rsqrt_normal(mag2, 2);
-        CurrentLoopOutput {
-            v_dq: Dq::new(v_d * scale, v_q * scale),
-            saturated: true,
-            valid: true,
-        }
+        out
     }
+}
+
+/// `v_dq` [V] limited to the circle of radius `v_max` [V] (positive, 1.1e-19..1.8e19 V, its
+/// square a normal f32); non-finite inputs or a `v_max` outside that range give zero volts,
+/// `valid` false.
+#[inline(always)]
+fn limit(v_dq: Dq, v_max: f32) -> CurrentLoopOutput {
+    let (v_d, v_q) = (v_dq.d, v_dq.q);
+    let mag2 = v_d * v_d + v_q * v_q;
+    let v_max2 = v_max * v_max;
+    // `v_max` positive and its square normal (1.1e-19..1.8e19 V): then a vector to cut has
+    // a normal |v|².
+    if !(v_max > 0.0 && v_max2 >= f32::MIN_POSITIVE && all_finite([mag2, v_max2])) {
+        cold_path();
+        return CurrentLoopOutput {
+            v_dq: Dq::default(),
+            saturated: true,
+            valid: false,
+        };
+    }
+    // Squares compared: the square root only when the vector must be cut.
+    if mag2 <= v_max2 {
+        return CurrentLoopOutput {
+            v_dq,
+            saturated: false,
+            valid: true,
+        };
+    }
+    // Cut a little inside the circle (1 − 2⁻¹⁸, 0.08 mV at 21 V): |v|² after the rotation to
+    // αβ carries a few 1e-7 of rounding, and a vector found just outside the circle would make
+    // SVPWM cut it a second time (a division and a square root more). Two Newton steps of
+    // 1/|v| land at most 5e-6 below it and above it only by rounding (`math::rsqrt_normal`),
+    // so the cut vector is 1e-5 inside at the most.
+    let scale = (v_max * CUT_INSIDE) * crate::math::rsqrt_normal(mag2, 2);
+    CurrentLoopOutput {
+        v_dq: Dq::new(v_d * scale, v_q * scale),
+        saturated: true,
+        valid: true,
+    }
+}
+
+/// What a drive mode asks of the FOC for one period: the frame, and a current or a voltage
+/// in it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Request {
+    /// sin/cos of the frame's angle at the sample [rad, electrical]: the Park transform of the
+    /// currents.
+    pub frame: SinCos,
+    /// sin/cos of the angle the voltage is applied at (the frame's angle advanced over the
+    /// coming period, see [`Foc::output_angle`]): the inverse Park transform.
+    pub frame_out: SinCos,
+    /// The frame's speed for the current loop's decoupling [rad/s, mechanical].
+    pub omega_m: f32,
+    /// What to apply in the frame.
+    pub reference: Reference,
+}
+
+/// The reference of a [`Request`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Reference {
+    /// Current command [A]: the current loop.
+    Current(Dq),
+    /// Voltage command [V], applied as it is (limited to the bus) with the current loop's
+    /// integrators held.
+    Voltage(Dq),
 }
 
 /// The FOC block: current loop every step, speed loop every `speed_divider` steps, SVPWM.
@@ -310,7 +348,12 @@ impl Foc {
         sc_out: SinCos,
     ) -> FocOutput {
         if state.tick == 0 {
-            self.speed_step(state, input.omega_m_ref, input.omega_m, input.torque_ff_nm);
+            state.i_q_ref = self.speed_step(
+                &mut state.speed,
+                input.omega_m_ref,
+                input.omega_m,
+                input.torque_ff_nm,
+            );
         }
         state.tick = state.tick.saturating_add(1);
         if state.tick >= self.speed_divider {
@@ -326,21 +369,54 @@ impl Foc {
         )
     }
 
-    /// One speed-loop update (at `current_rate_hz / speed_divider`): the `i_q` command from the
-    /// speed error [rad/s, mechanical] with the load-torque feed-forward `torque_ff_nm` [N·m].
+    /// One speed-loop update (at `current_rate_hz / speed_divider`): the `i_q` command [A]
+    /// from the speed error [rad/s, mechanical] with the load-torque feed-forward
+    /// `torque_ff_nm` [N·m].
     // Inlined: the 4 kHz step compiles to one function (see `drive`).
     #[inline(always)]
     pub fn speed_step(
         &self,
-        state: &mut FocState,
+        speed: &mut PiState,
         omega_m_ref: f32,
         omega_m: f32,
         torque_ff_nm: f32,
-    ) {
+    ) -> f32 {
         let ff_a = torque_ff_nm * self.inv_kt;
-        state.i_q_ref = self
-            .speed
-            .update(&mut state.speed, omega_m_ref - omega_m, ff_a);
+        self.speed.update(speed, omega_m_ref - omega_m, ff_a)
+    }
+
+    /// The q current that makes `torque_nm` [N·m] in the papers' model, `τ/(N ψ_f)` [A].
+    pub fn current_for_torque(&self, torque_nm: f32) -> f32 {
+        torque_nm * self.inv_kt
+    }
+
+    /// One period of a drive mode's [`Request`]: the current loop on a current reference, or
+    /// the voltage reference limited to the bus; then SVPWM. `i_ab` the measured currents [A],
+    /// `v_bus` [V].
+    // Inlined: the 4 kHz step compiles to one function (see `drive`).
+    #[inline(always)]
+    pub fn run(
+        &self,
+        state: &mut CurrentLoopState,
+        req: &Request,
+        i_ab: AlphaBeta,
+        v_bus: f32,
+    ) -> FocOutput {
+        let sample = CurrentSample {
+            i_ab,
+            v_bus,
+            omega_m: req.omega_m,
+        };
+        match req.reference {
+            Reference::Current(i_dq_ref) => {
+                self.current_step_at(state, &sample, req.frame, req.frame_out, i_dq_ref)
+            }
+            Reference::Voltage(v_dq) => {
+                cold_path();
+                let v_max = v_bus * INV_SQRT3;
+                self.modulate(limit(v_dq, v_max), &sample, req.frame_out, i_ab.to_dq(req.frame))
+            }
+        }
     }
 
     /// One current-loop period with an explicit current command (no speed loop).
@@ -368,11 +444,26 @@ impl Foc {
         sc_out: SinCos,
         i_dq_ref: Dq,
     ) -> FocOutput {
-        let i_ab = input.i_ab;
-        let i_dq = i_ab.to_dq(sc);
+        let i_dq = input.i_ab.to_dq(sc);
         let omega_e = self.pole_pairs * input.omega_m;
         let v_max = input.v_bus * INV_SQRT3;
         let out = self.current.update(state, i_dq, i_dq_ref, omega_e, v_max);
+        FocOutput {
+            i_dq_ref,
+            ..self.modulate(out, input, sc_out, i_dq)
+        }
+    }
+
+    /// SVPWM of the loop's output `out` at the output angle `sc_out`; `i_dq` the measured
+    /// currents in the control frame, reported.
+    #[inline(always)]
+    fn modulate(
+        &self,
+        out: CurrentLoopOutput,
+        input: &CurrentSample,
+        sc_out: SinCos,
+        i_dq: Dq,
+    ) -> FocOutput {
         let v_ab_cmd = out.v_dq.to_alpha_beta(sc_out);
         // The loop has limited the vector to the circle and found the bus usable: SVPWM need
         // not check either again (`svpwm_limited`).
@@ -385,9 +476,9 @@ impl Foc {
         FocOutput {
             duties: pwm.duties,
             v_ab: pwm.v_ab_applied,
-            i_ab,
+            i_ab: input.i_ab,
             i_dq,
-            i_dq_ref,
+            i_dq_ref: Dq::default(),
             saturated: out.saturated || pwm.saturated,
         }
     }

@@ -87,7 +87,6 @@ impl SinCos {
     }
 }
 
-const INV_SQRT3: f32 = 0.577_350_26;
 const SQRT3_OVER_2: f32 = 0.866_025_4;
 
 impl AlphaBeta {
@@ -148,7 +147,7 @@ impl Abc {
     pub fn to_alpha_beta(self) -> AlphaBeta {
         AlphaBeta {
             alpha: (2.0 * self.a - self.b - self.c) * (1.0 / 3.0),
-            beta: (self.b - self.c) * INV_SQRT3,
+            beta: (self.b - self.c) * crate::math::INV_SQRT3,
         }
     }
 

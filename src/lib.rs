@@ -20,3 +20,4 @@ pub mod observer;
 pub mod pi;
 pub mod power_stage;
 pub mod svpwm;
+pub mod units;

@@ -20,6 +20,10 @@ const PIO2_LO: f32 = 7.549_79e-8;
 /// Largest |θ| [rad] `sin_cos` reduces directly (quadrant count below 2^13).
 const REDUCE_MAX: f32 = 1.28e4;
 
+/// 1/√3: the largest phase voltage amplitude SVPWM makes is `v_bus/√3`; the Clarke transform's β
+/// row.
+pub const INV_SQRT3: f32 = 0.577_350_26;
+
 /// Largest f32 below `PI` (the f32 `PI` lies above π, `-PI` below −π).
 const PI_BELOW: f32 = 3.141_592_5;
 

@@ -6,11 +6,8 @@
 //! inverter's voltage hexagon; larger commands are scaled back onto that circle.
 
 use crate::frames::{Abc, AlphaBeta};
-use crate::math::{all_finite, clamp, max, min, rsqrt};
+use crate::math::{all_finite, clamp, max, min, rsqrt, INV_SQRT3};
 use core::hint::cold_path;
-
-/// 1/√3: the largest undistorted `|v_αβ|` per volt of DC bus.
-const INV_SQRT3: f32 = 0.577_350_26;
 
 /// Duty cycles of the three half bridges.
 #[derive(Clone, Copy, Debug, PartialEq)]

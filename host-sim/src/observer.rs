@@ -1,38 +1,18 @@
-//! The observer slot of the simulated drive: whatever gives the controller θ̂_e and ω̂_m.
+//! The observers the simulator runs, and the bare-observer loop of the papers' experiments:
+//! FOC on one core observer ([`pmsm_sensorless::observer::Observer`]), started at the
+//! encoder's state, no drive modes around it.
 
-use pmsm_sensorless::frames::{AlphaBeta, SinCos};
-use pmsm_sensorless::motor::MotorParams;
-use pmsm_sensorless::observer::flux::{FluxConfig, FluxObserver, FluxState};
-use pmsm_sensorless::observer::ii::{IiConfig, IiObserver, IiState};
-use pmsm_sensorless::observer::pll::{Pll, PllConfig, PllState};
-use pmsm_sensorless::observer::sliding::{SlidingConfig, SlidingObserver, SlidingState};
+use pmsm_sensorless::foc::{Foc, FocInput, FocState};
+use pmsm_sensorless::frames::{Abc, AlphaBeta, SinCos};
+use pmsm_sensorless::motor::{MotorParams, ParamError};
+use pmsm_sensorless::observer::flux::FluxConfig;
+use pmsm_sensorless::observer::flux_speed::{FluxIi, FluxPll};
+use pmsm_sensorless::observer::ii::IiConfig;
+use pmsm_sensorless::observer::pll::PllConfig;
+use pmsm_sensorless::observer::sliding::{SlidingConfig, SlidingObserver};
+use pmsm_sensorless::observer::{Observer, ReadOut, Rotor};
 
-/// What the slot sees each control period.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SlotInput {
-    /// Measured stator current [A].
-    pub i_ab: AlphaBeta,
-    /// Stator voltage applied over the previous period [V].
-    pub v_ab_last: AlphaBeta,
-    /// Ideal encoder: true electrical angle at the sample instant, wrapped to (−π, π] [rad].
-    pub encoder_theta_e: f32,
-    /// Ideal encoder: true mechanical speed [rad/s].
-    pub encoder_omega_m: f32,
-}
-
-impl SlotInput {
-    /// The ideal encoder's reading as an estimate.
-    pub fn encoder(&self) -> Estimate {
-        Estimate {
-            theta_e: self.encoder_theta_e,
-            omega_m: self.encoder_omega_m,
-            load_nm: None,
-            sliding: None,
-        }
-    }
-}
-
-/// What the slot gives the controller.
+/// What the controller used this period.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Estimate {
     /// Electrical angle [rad].
@@ -150,7 +130,7 @@ impl ObserverKind {
             })
     }
 
-    /// The paper's default settings for this kind (`None` for the encoder).
+    /// The paper's default settings for this kind (`None` for the others).
     pub fn sliding_config(self, motor: MotorParams, rate_hz: f32) -> Option<SlidingConfig> {
         let cfg = match self {
             ObserverKind::Encoder | ObserverKind::Flux | ObserverKind::FluxIi => return None,
@@ -160,201 +140,229 @@ impl ObserverKind {
         Some(SlidingConfig { rate_hz, ..cfg })
     }
 
-    /// A fresh observer of this kind; errors name the bad setting.
-    pub fn build(self, setup: &ObserverSetup) -> anyhow::Result<Box<dyn Observer>> {
-        let err =
-            |what: &str, e: pmsm_sensorless::motor::ParamError| anyhow::anyhow!("{what}: {e}");
+    /// The bare-observer loop on a fresh observer of this kind with `foc`; errors name the
+    /// bad setting.
+    pub fn bare(self, setup: &ObserverSetup, foc: Foc) -> anyhow::Result<Bare> {
+        let err = |what: &str, e: ParamError| anyhow::anyhow!("{what}: {e}");
+        let flux = || setup.flux_config().build().map_err(|e| err("flux observer", e));
         Ok(match self {
-            ObserverKind::Encoder => Box::new(Encoder),
+            ObserverKind::Encoder => Bare::Encoder(BareLoop::new(Encoder, foc)),
             ObserverKind::SlidingVelocity | ObserverKind::SlidingTorque => {
                 let cfg = setup
                     .sliding
                     .or_else(|| self.sliding_config(setup.motor, setup.rate_hz))
                     .ok_or_else(|| anyhow::anyhow!("no sliding settings"))?;
-                Box::new(Sliding::new(&cfg)?)
+                let obs = cfg.build().map_err(|e| err("sliding observer", e))?;
+                Bare::Sliding(BareLoop::new(obs, foc))
             }
-            ObserverKind::Flux => Box::new(FluxPll {
-                flux: setup
-                    .flux_config()
-                    .build()
-                    .map_err(|e| err("flux observer", e))?,
-                flux_state: FluxState::default(),
-                pll: PllConfig {
+            ObserverKind::Flux => {
+                let pll = PllConfig {
                     rate_hz: setup.rate_hz,
                     bandwidth_hz: PLL_BANDWIDTH_HZ,
                     damping: PLL_DAMPING,
                 }
                 .build()
-                .map_err(|e| err("PLL", e))?,
-                pll_state: PllState::default(),
-                n: setup.motor.n(),
-            }),
-            ObserverKind::FluxIi => Box::new(FluxIi {
-                flux: setup
-                    .flux_config()
+                .map_err(|e| err("PLL", e))?;
+                Bare::FluxPll(BareLoop::new(
+                    FluxPll::new(flux()?, pll, setup.motor.n()),
+                    foc,
+                ))
+            }
+            ObserverKind::FluxIi => {
+                let ii = IiConfig::new(setup.motor, setup.rate_hz)
                     .build()
-                    .map_err(|e| err("flux observer", e))?,
-                flux_state: FluxState::default(),
-                ii: IiConfig::new(setup.motor, setup.rate_hz)
-                    .build()
-                    .map_err(|e| err("I&I observer", e))?,
-                ii_state: IiState::default(),
-                torque_constant: setup.motor.torque_constant(),
-                torque_last: 0.0,
-            }),
+                    .map_err(|e| err("I&I observer", e))?;
+                Bare::FluxIi(BareLoop::new(
+                    FluxIi::new(flux()?, ii, setup.motor.torque_constant()),
+                    foc,
+                ))
+            }
         })
     }
 }
 
-/// An observer in the slot.
-pub trait Observer {
-    /// One control period: the estimate the controller uses for this period.
-    fn update(&mut self, input: &SlotInput) -> Estimate;
-    /// Whether the speed loop feeds forward the estimated load torque (Horng Fig 4).
-    fn compensates_load(&self) -> bool {
-        false
-    }
-    /// Sets the estimate to the encoder's reading (a hand-over from a sensored start).
-    fn reset(&mut self, _input: &SlotInput) {}
+/// The ideal encoder as an observer: its estimate is the rotor state it was last seeded with
+/// (the bare-observer loop seeds it with the true state every sample).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Encoder;
+
+/// The encoder's reading.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EncoderState {
+    rotor: Rotor,
+    sc: SinCos,
 }
 
-/// The ideal encoder.
-struct Encoder;
+impl Default for EncoderState {
+    fn default() -> Self {
+        Self {
+            rotor: Rotor::default(),
+            sc: SinCos::ZERO,
+        }
+    }
+}
 
 impl Observer for Encoder {
-    fn update(&mut self, input: &SlotInput) -> Estimate {
-        input.encoder()
+    type State = EncoderState;
+    fn update(&self, _st: &mut EncoderState, _i_ab: AlphaBeta, _v_ab: AlphaBeta) -> bool {
+        true
+    }
+    fn theta_e(&self, st: &EncoderState) -> f32 {
+        st.rotor.theta_e
+    }
+    fn sin_cos(&self, st: &EncoderState) -> SinCos {
+        st.sc
+    }
+    fn omega_m(&self, st: &EncoderState) -> f32 {
+        st.rotor.omega_m
+    }
+    fn seed(&self, st: &mut EncoderState, _i_ab: AlphaBeta, rotor: Rotor) {
+        *st = EncoderState {
+            rotor,
+            sc: SinCos::of(rotor.theta_e),
+        };
     }
 }
 
-/// A Horng & Chin sliding observer in the slot.
-pub struct Sliding {
-    observer: SlidingObserver,
-    state: SlidingState,
-    torque: bool,
+/// What the simulator shows of an observer beyond the core trait (the paper's figures).
+pub trait Diagnostics: Observer {
+    /// The sliding observer's internals.
+    fn sliding_diag(&self, _st: &Self::State) -> Option<SlidingDiag> {
+        None
+    }
 }
 
-impl Sliding {
-    /// Builds the observer; errors name the bad setting.
-    pub fn new(cfg: &SlidingConfig) -> anyhow::Result<Self> {
-        Ok(Self {
-            observer: cfg
-                .build()
-                .map_err(|e| anyhow::anyhow!("sliding observer: {e}"))?,
-            state: SlidingState::default(),
-            torque: cfg.lambda_tau_hz > 0.0,
+impl Diagnostics for Encoder {}
+impl Diagnostics for FluxPll {}
+impl Diagnostics for FluxIi {}
+impl Diagnostics for SlidingObserver {
+    fn sliding_diag(&self, st: &Self::State) -> Option<SlidingDiag> {
+        Some(SlidingDiag {
+            s_ab: st.s,
+            ks: self.sliding_gain(st.omega_m),
         })
     }
 }
 
-impl Observer for Sliding {
-    fn update(&mut self, input: &SlotInput) -> Estimate {
-        self.observer
-            .update(&mut self.state, input.i_ab, input.v_ab_last);
+/// FOC on one observer: the speed loop every fourth sample on its speed (with its load
+/// estimate fed forward, Horng & Chin Fig 4, where it has one), the current loop in its
+/// frame, the voltage at its output angle.
+#[derive(Clone, Copy, Debug)]
+pub struct BareLoop<O: Observer> {
+    observer: O,
+    state: O::State,
+    foc: Foc,
+    foc_state: FocState,
+    /// Sensorless: the observer runs on its own; before, it is held at the true state.
+    sensorless: bool,
+}
+
+/// One sample of the bare loop.
+#[derive(Clone, Copy, Debug)]
+pub struct BareInput {
+    /// Measured phase currents [A].
+    pub i_abc: Abc,
+    /// Bus [V].
+    pub v_bus: f32,
+    /// Voltage applied over the period that just ended [V].
+    pub v_ab_last: AlphaBeta,
+    /// The true rotor state (ideal encoder), load unknown (0).
+    pub truth: Rotor,
+    /// Speed command [rad/s].
+    pub omega_m_ref: f32,
+    /// From this |true speed| on the observer runs on its own [rad/s].
+    pub sensorless_from: f32,
+}
+
+impl<O: Diagnostics> BareLoop<O> {
+    fn new(observer: O, foc: Foc) -> Self {
+        Self {
+            observer,
+            state: O::State::default(),
+            foc,
+            foc_state: FocState::default(),
+            sensorless: false,
+        }
+    }
+
+    /// One period: the observer (update and both read-outs) or, before the run is
+    /// sensorless, the observer seeded at the true state; then FOC on its estimate.
+    fn step(&mut self, input: &BareInput) -> (pmsm_sensorless::foc::FocOutput, Estimate) {
+        let o = &self.observer;
+        let i_ab = input.i_abc.to_alpha_beta();
+        if self.sensorless {
+            o.update(&mut self.state, i_ab, input.v_ab_last);
+            o.read_out(&mut self.state, ReadOut::Angle);
+            o.read_out(&mut self.state, ReadOut::Speed);
+        } else {
+            o.seed(&mut self.state, i_ab, input.truth);
+            self.sensorless = input.truth.omega_m.abs() >= input.sensorless_from;
+        }
         let st = &self.state;
-        Estimate {
-            theta_e: st.theta_e,
-            omega_m: st.omega_m,
-            load_nm: self.torque.then_some(st.load_nm),
-            sliding: Some(SlidingDiag {
-                s_ab: st.s,
-                ks: self.observer.sliding_gain(st.omega_m),
-            }),
+        let est = Estimate {
+            theta_e: o.theta_e(st),
+            omega_m: o.omega_m(st),
+            load_nm: o.load_nm(st),
+            sliding: o.sliding_diag(st),
+        };
+        // The papers' controller takes θ̂ itself: sin/cos of it by the core's polynomial (an
+        // observer's own sin/cos of θ̂ differs from it by rounding, which a run that has lost
+        // lock amplifies), the output angle turned by the controller's lead.
+        let sc = SinCos::of(est.theta_e);
+        let sc_out = self.foc.output_angle(sc, est.omega_m);
+        let out = self.foc.step_at(
+            &mut self.foc_state,
+            &FocInput {
+                i_abc: input.i_abc,
+                v_bus: input.v_bus,
+                theta_e: est.theta_e,
+                omega_m: est.omega_m,
+                omega_m_ref: input.omega_m_ref,
+                torque_ff_nm: est.load_nm.unwrap_or(0.0),
+            },
+            sc,
+            sc_out,
+        );
+        (out, est)
+    }
+}
+
+/// The bare loop on any of the observers.
+#[derive(Clone, Debug)]
+pub enum Bare {
+    /// The ideal encoder (never sensorless).
+    Encoder(BareLoop<Encoder>),
+    /// A Horng & Chin sliding observer.
+    Sliding(BareLoop<SlidingObserver>),
+    /// The flux observer with the PLL.
+    FluxPll(BareLoop<FluxPll>),
+    /// The flux observer with the I&I observer.
+    FluxIi(BareLoop<FluxIi>),
+}
+
+impl Bare {
+    /// Starts the observer on its own from the first sample (a cold start from its zero
+    /// state; the encoder stays the encoder).
+    pub fn start_cold(&mut self) {
+        match self {
+            Bare::Encoder(_) => {}
+            Bare::Sliding(b) => b.sensorless = true,
+            Bare::FluxPll(b) => b.sensorless = true,
+            Bare::FluxIi(b) => b.sensorless = true,
         }
     }
 
-    fn compensates_load(&self) -> bool {
-        self.torque
-    }
-
-    fn reset(&mut self, input: &SlotInput) {
-        self.observer.reset(
-            &mut self.state,
-            input.i_ab,
-            input.encoder_theta_e,
-            input.encoder_omega_m,
-        );
-    }
-}
-
-/// Ortega's flux observer with the PLL speed estimator.
-struct FluxPll {
-    flux: FluxObserver,
-    flux_state: FluxState,
-    pll: Pll,
-    pll_state: PllState,
-    n: f32,
-}
-
-impl Observer for FluxPll {
-    fn update(&mut self, input: &SlotInput) -> Estimate {
-        self.flux
-            .update(&mut self.flux_state, input.i_ab, input.v_ab_last);
-        let omega_e = self
-            .pll
-            .update(&mut self.pll_state, self.flux_state.theta_e);
-        Estimate {
-            theta_e: self.flux_state.theta_e,
-            omega_m: omega_e / self.n,
-            load_nm: None,
-            sliding: None,
+    /// One period (see [`BareLoop`]).
+    pub fn step(&mut self, input: &BareInput) -> (pmsm_sensorless::foc::FocOutput, Estimate) {
+        match self {
+            Bare::Encoder(b) => {
+                // Held at the encoder's reading every sample.
+                b.sensorless = false;
+                b.step(input)
+            }
+            Bare::Sliding(b) => b.step(input),
+            Bare::FluxPll(b) => b.step(input),
+            Bare::FluxIi(b) => b.step(input),
         }
-    }
-
-    fn reset(&mut self, input: &SlotInput) {
-        self.flux
-            .reset(&mut self.flux_state, input.i_ab, input.encoder_theta_e);
-        self.pll.reset(
-            &mut self.pll_state,
-            input.encoder_theta_e,
-            input.encoder_omega_m * self.n,
-        );
-    }
-}
-
-/// Ortega's flux observer for the angle and the I&I observer for speed and load torque.
-struct FluxIi {
-    flux: FluxObserver,
-    flux_state: FluxState,
-    ii: IiObserver,
-    ii_state: IiState,
-    torque_constant: f32,
-    /// Electromagnetic torque `N Φ i_q` at the previous sample [N·m].
-    torque_last: f32,
-}
-
-impl Observer for FluxIi {
-    fn update(&mut self, input: &SlotInput) -> Estimate {
-        self.flux
-            .update(&mut self.flux_state, input.i_ab, input.v_ab_last);
-        let sc = SinCos::of(self.flux_state.theta_e);
-        // Forward Euler over the period that just ended uses the torque at its start.
-        self.ii
-            .update(&mut self.ii_state, (sc.sin, sc.cos), self.torque_last);
-        self.torque_last = self.torque_constant * input.i_ab.to_dq(sc).q;
-        let est = self.ii.estimate(&self.ii_state);
-        Estimate {
-            theta_e: self.flux_state.theta_e,
-            omega_m: est.omega_m,
-            load_nm: Some(est.load_nm),
-            sliding: None,
-        }
-    }
-
-    fn compensates_load(&self) -> bool {
-        true
-    }
-
-    fn reset(&mut self, input: &SlotInput) {
-        self.flux
-            .reset(&mut self.flux_state, input.i_ab, input.encoder_theta_e);
-        let sc = SinCos::of(input.encoder_theta_e);
-        self.ii.reset(
-            &mut self.ii_state,
-            (sc.sin, sc.cos),
-            input.encoder_omega_m,
-            0.0,
-        );
-        self.torque_last = self.torque_constant * input.i_ab.to_dq(sc).q;
     }
 }

@@ -5,20 +5,21 @@
 //! them over `[t_k, t_k + T)` while the plant is integrated with RK4 on `substeps` sub-steps.
 
 use crate::inverter::{CurrentSensor, Inverter};
-use crate::observer::{Estimate, Observer, ObserverKind, ObserverSetup, SlotInput};
+use crate::observer::{Bare, BareInput, Estimate, ObserverKind, ObserverSetup};
 use crate::plant::OpenCircuit;
 use crate::plant::{Plant, PlantParams};
 use crate::scenario::Injection;
 use crate::scenario::Scenario;
 use pmsm_sensorless::bounds::ks_min;
 use pmsm_sensorless::drive::{
-    Command, Drive, DriveConfig, DriveInput, DriveState, Fault, Limits, Mode, Primary, Reason,
-    Transition,
+    Command, Drive, DriveConfig, DriveInput, DriveOutput, Fault, Limits, Mode, Reason, StateOf,
+    Telemetry, Transition,
 };
-use pmsm_sensorless::foc::{Foc, FocConfig, FocInput, FocState};
+use pmsm_sensorless::foc::FocConfig;
 use pmsm_sensorless::frames::AlphaBeta;
 use pmsm_sensorless::motor::{Motor, MotorParams, ParamError};
 use pmsm_sensorless::observer::sliding::SlidingConfig;
+use pmsm_sensorless::observer::{Observer, Rotor};
 use std::f64::consts::PI;
 
 /// rad/s per rpm.
@@ -226,20 +227,48 @@ pub struct Run {
 
 /// What computes the duties.
 enum Controller {
-    /// FOC on the observer slot (the papers' experiments).
-    Slot {
-        foc: Foc,
-        foc_state: FocState,
-        observer: Box<dyn Observer>,
-        sensorless: bool,
-    },
+    /// FOC on one observer (the papers' experiments).
+    Bare(Box<Bare>),
     /// The complete drive of the core.
     Drive {
-        drive: Box<Drive>,
-        state: Box<DriveState>,
+        drive: Box<dyn SimDrive>,
         limits: Limits,
-        primary: Primary,
     },
+}
+
+/// The core's drive and its state, whatever its observers.
+trait SimDrive {
+    /// [`Drive::step`].
+    fn step(&mut self, input: &DriveInput, cmd: &Command) -> DriveOutput;
+    /// [`Drive::telemetry`].
+    fn telemetry(&self) -> Telemetry;
+    /// The voltage the last step's duties apply [V].
+    fn v_ab_applied(&self) -> AlphaBeta;
+}
+
+struct Running<P: Observer, M: Observer> {
+    drive: Drive<P, M>,
+    state: StateOf<P, M>,
+}
+
+impl<P: Observer, M: Observer> SimDrive for Running<P, M> {
+    fn step(&mut self, input: &DriveInput, cmd: &Command) -> DriveOutput {
+        self.drive.step(&mut self.state, input, cmd)
+    }
+    fn telemetry(&self) -> Telemetry {
+        self.drive.telemetry(&self.state)
+    }
+    fn v_ab_applied(&self) -> AlphaBeta {
+        self.state.v_ab_applied()
+    }
+}
+
+/// The drive with `drive`'s observers, idle.
+fn running<P: Observer + 'static, M: Observer + 'static>(drive: Drive<P, M>) -> Box<dyn SimDrive> {
+    Box::new(Running {
+        drive,
+        state: StateOf::<P, M>::default(),
+    })
 }
 
 /// Steps at which a fault's possible causes first appeared.
@@ -285,46 +314,45 @@ impl Sim {
             .apply(&params)
             .map_err(|e| anyhow::anyhow!("controller motor parameters: {e}"))?;
         let controller = if sc.drive.is_some() {
-            let primary = match config.observer {
-                ObserverKind::SlidingTorque => Primary::SlidingTorque,
-                ObserverKind::Flux => Primary::Flux,
+            let motor = Motor {
+                params: controller_motor,
+                ..sc.motor
+            };
+            let mut cfg = DriveConfig::new(&motor);
+            cfg.rate_hz = config.rate_hz as f32;
+            let err = |e| anyhow::anyhow!("drive configuration: {e}");
+            let drive = match config.observer {
+                ObserverKind::SlidingTorque => running(cfg.build_sliding_primary().map_err(err)?),
+                ObserverKind::Flux => running(cfg.build_flux_primary().map_err(err)?),
                 other => anyhow::bail!(
                     "drive scenarios run with --observer sliding-torque or flux, not '{}'",
                     other.name()
                 ),
             };
-            let motor = Motor {
-                params: controller_motor,
-                ..sc.motor
-            };
-            let mut cfg = DriveConfig::new(&motor, primary);
-            cfg.rate_hz = config.rate_hz as f32;
             Controller::Drive {
-                drive: Box::new(
-                    cfg.build()
-                        .map_err(|e| anyhow::anyhow!("drive configuration: {e}"))?,
-                ),
-                state: Box::default(),
+                drive,
                 limits: cfg.limits,
-                primary,
             }
         } else {
             let mut foc_cfg = FocConfig::new(controller_motor, sc.i_max_a() as f32);
             foc_cfg.current_rate_hz = config.rate_hz as f32;
-            Controller::Slot {
-                foc: foc_cfg
-                    .build()
-                    .map_err(|e| anyhow::anyhow!("controller configuration: {e}"))?,
-                foc_state: FocState::default(),
-                observer: config.observer.build(&ObserverSetup {
+            let foc = foc_cfg
+                .build()
+                .map_err(|e| anyhow::anyhow!("controller configuration: {e}"))?;
+            let mut bare = config.observer.bare(
+                &ObserverSetup {
                     motor: controller_motor,
                     rate_hz: config.rate_hz as f32,
                     sliding: config.sliding,
                     min_speed_rpm: sc.min_speed_rpm as f32,
                     gamma: config.gamma,
-                })?,
-                sensorless: config.cold_start,
+                },
+                foc,
+            )?;
+            if config.cold_start {
+                bare.start_cold();
             }
+            Controller::Bare(Box::new(bare))
         };
         let sensor = CurrentSensor::new(
             config.offset_a,
@@ -414,51 +442,25 @@ impl Sim {
         }
         let v_bus = self.inverter.v_bus;
         let speed_cmd_rpm = self.config.scenario.speed_cmd_rpm.at(t);
-        let slot = SlotInput {
-            i_ab: i_abc.to_alpha_beta(),
-            v_ab_last: self.v_ab_last,
-            encoder_theta_e: theta_e as f32,
-            encoder_omega_m: omega_m as f32,
-        };
         let (duties, est, mode, monitor) = match &mut self.controller {
-            Controller::Slot {
-                foc,
-                foc_state,
-                observer,
-                sensorless,
-            } => {
-                let est = if *sensorless {
-                    observer.update(&slot)
-                } else {
-                    observer.reset(&slot);
-                    let from = self.config.sensorless_from_rpm.unwrap_or(0.0);
-                    *sensorless = omega_m.abs() >= from * RAD_S_PER_RPM;
-                    slot.encoder()
-                };
-                let torque_ff_nm = match est.load_nm {
-                    Some(x) if observer.compensates_load() => x,
-                    _ => 0.0,
-                };
-                let out = foc.step(
-                    foc_state,
-                    &FocInput {
-                        i_abc,
-                        v_bus: v_bus as f32,
-                        theta_e: est.theta_e,
-                        omega_m: est.omega_m,
-                        omega_m_ref: (speed_cmd_rpm * RAD_S_PER_RPM) as f32,
-                        torque_ff_nm,
+            Controller::Bare(bare) => {
+                let (out, est) = bare.step(&BareInput {
+                    i_abc,
+                    v_bus: v_bus as f32,
+                    v_ab_last: self.v_ab_last,
+                    truth: Rotor {
+                        theta_e: theta_e as f32,
+                        omega_m: omega_m as f32,
+                        load_nm: 0.0,
                     },
-                );
+                    omega_m_ref: (speed_cmd_rpm * RAD_S_PER_RPM) as f32,
+                    sensorless_from: (self.config.sensorless_from_rpm.unwrap_or(0.0)
+                        * RAD_S_PER_RPM) as f32,
+                });
                 self.v_ab_last = out.v_ab;
                 (Some(out.duties), est, None, None)
             }
-            Controller::Drive {
-                drive,
-                state,
-                limits,
-                primary,
-            } => {
+            Controller::Drive { drive, limits } => {
                 let script = self.config.scenario.drive.as_ref();
                 let cmd = Command {
                     enable: script.is_some_and(|d| t + 0.5 * self.ts >= d.enable_s),
@@ -474,7 +476,6 @@ impl Sim {
                     self.causes.bus_out.get_or_insert(self.k);
                 }
                 let out = drive.step(
-                    state,
                     &DriveInput {
                         i_abc,
                         v_bus: bus,
@@ -488,14 +489,14 @@ impl Sim {
                         self.causes.fault.get_or_insert((self.k, f));
                     }
                 }
-                let tel = drive.telemetry(state);
+                let tel = drive.telemetry();
                 let est = Estimate {
                     theta_e: tel.theta_e_primary,
-                    omega_m: tel.speed_rpm * (std::f32::consts::PI / 30.0),
-                    load_nm: (*primary == Primary::SlidingTorque).then_some(tel.load_nm),
+                    omega_m: tel.speed_rpm * pmsm_sensorless::units::RAD_S_PER_RPM,
+                    load_nm: tel.load_nm,
                     sliding: None,
                 };
-                self.v_ab_last = state.v_ab_last;
+                self.v_ab_last = drive.v_ab_applied();
                 let monitor = (tel.theta_e_monitor as f64).to_degrees();
                 (out.duties, est, Some(tel.mode), Some(monitor))
             }

@@ -68,7 +68,7 @@ pub struct FluxConfig {
 impl FluxConfig {
     /// γ from [`gamma_recommended`] with margin 0.5 for a lowest speed `min_speed_rpm`.
     pub fn new(motor: MotorParams, rate_hz: f32, min_speed_rpm: f32) -> Self {
-        let omega_min = min_speed_rpm * (core::f32::consts::PI / 30.0);
+        let omega_min = min_speed_rpm * crate::units::RAD_S_PER_RPM;
         Self {
             motor,
             rate_hz,

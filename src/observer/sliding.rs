@@ -25,6 +25,7 @@
 use crate::frames::{AlphaBeta, SinCos};
 use crate::math::{all_finite, clamp, sin_cos_wrapped, wrap_pi};
 use crate::motor::{non_negative, positive, MotorParams, ParamError};
+use crate::observer::{Observer, Rotor};
 use core::f32::consts::TAU;
 use core::hint::cold_path;
 
@@ -111,37 +112,20 @@ impl SlidingConfig {
         }
         let n = m.n();
         let kn = m.flux_wb * n;
-        let (k1, k2, k3) = (
-            l_th + l_om + l_ta,
-            l_th * l_om + l_om * l_ta + l_ta * l_th,
-            l_th * l_om * l_ta,
-        );
-        let (b_over_h, l_over_kn2) = (m.b_nms / m.j_kgm2, m.l_h / (kn * n));
-        let g34_num = m.j_kgm2 * l_over_kn2 * k3;
+        let factors = GainFactors {
+            k1: l_th + l_om + l_ta,
+            k2: l_th * l_om + l_om * l_ta + l_ta * l_th,
+            k3: l_th * l_om * l_ta,
+            b_over_h: m.b_nms / m.j_kgm2,
+            l_over_h: m.l_h / m.j_kgm2,
+            l_over_kn2: m.l_h / (kn * n),
+            h: m.j_kgm2,
+        };
         Ok(SlidingObserver {
             ts,
             n,
-            euler: EulerStep {
-                a_i: 1.0 - ts * m.r_ohm / m.l_h,
-                t_kn_over_l: ts * kn / m.l_h,
-                t_inv_l: ts / m.l_h,
-                tn: ts * n,
-                a_omega: 1.0 - ts * b_over_h,
-                t_kn_over_h: ts * kn / m.j_kgm2,
-                t_inv_h: ts / m.j_kgm2,
-                t_l_over_h: ts * m.l_h / m.j_kgm2,
-                t_lk2: ts * l_over_kn2 * k2,
-                t_lk3: ts * l_over_kn2 * k3 / n,
-                t_cy: ts * n * l_over_kn2 * (b_over_h - k1),
-                t_g34: ts * g34_num,
-            },
-            b_over_h,
-            l_over_h: m.l_h / m.j_kgm2,
-            l_over_kn2,
-            k1,
-            k2,
-            k3_over_n: k3 / n,
-            g34_num,
+            euler: EulerStep::new(ts, &m, &factors),
+            factors,
             inv_epsilon: 1.0 / epsilon,
             ks,
             omega_low,
@@ -155,23 +139,42 @@ impl SlidingConfig {
 pub struct SlidingObserver {
     ts: f32,
     n: f32,
+    /// The gains' factors, the paper's form ([`SlidingObserver::gains`]).
+    factors: GainFactors,
+    /// The same multiplied out with `T` for the Euler step.
     euler: EulerStep,
-    b_over_h: f32,
-    l_over_h: f32,
-    l_over_kn2: f32,
-    /// K1 = λθ + λω + λτ [rad/s].
-    k1: f32,
-    /// K2 = λθλω + λωλτ + λτλθ [rad²/s²].
-    k2: f32,
-    /// K3/N = λθλωλτ/N [rad³/s³].
-    k3_over_n: f32,
-    /// H·L·K3/(K·N²), the speed-free factor of G3, G4.
-    g34_num: f32,
     inv_epsilon: f32,
     ks: SlidingGain,
     omega_low: f32,
     /// a·T·N [s]: the EMF angle leads θ̂_e by this times ω̂ [rad].
     emf_advance_s: f32,
+}
+
+/// The speed-free factors of the observer gains G1..G4 (Horng & Chin Secs 3.1, 3.2), from
+/// which both [`SlidingObserver::gains`] and the Euler step's coefficients are formed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct GainFactors {
+    /// K1 = λθ + λω + λτ [rad/s].
+    k1: f32,
+    /// K2 = λθλω + λωλτ + λτλθ [rad²/s²].
+    k2: f32,
+    /// K3 = λθλωλτ [rad³/s³] (0 for the velocity observer).
+    k3: f32,
+    /// B/H [1/s].
+    b_over_h: f32,
+    /// L/H.
+    l_over_h: f32,
+    /// L/(K N²).
+    l_over_kn2: f32,
+    /// H [kg·m²].
+    h: f32,
+}
+
+impl GainFactors {
+    /// H·L·K3/(K N²): G3, G4 are this over ω̂ times (sin ± cos).
+    fn g34(&self) -> f32 {
+        self.h * self.l_over_kn2 * self.k3
+    }
 }
 
 /// The coefficients of one forward-Euler period of eqs (20)-(22), (34), (35), the period
@@ -202,6 +205,28 @@ struct EulerStep {
     t_cy: f32,
     /// T H L K3/(K N²).
     t_g34: f32,
+}
+
+impl EulerStep {
+    /// The plant terms of eqs (20)-(22), (35) times `T`, and the gain factors `f` times `T`.
+    fn new(ts: f32, m: &MotorParams, f: &GainFactors) -> Self {
+        let n = m.n();
+        let kn = m.flux_wb * n;
+        Self {
+            a_i: 1.0 - ts * m.r_ohm / m.l_h,
+            t_kn_over_l: ts * kn / m.l_h,
+            t_inv_l: ts / m.l_h,
+            tn: ts * n,
+            a_omega: 1.0 - ts * f.b_over_h,
+            t_kn_over_h: ts * kn / m.j_kgm2,
+            t_inv_h: ts / m.j_kgm2,
+            t_l_over_h: ts * f.l_over_h,
+            t_lk2: ts * f.l_over_kn2 * f.k2,
+            t_lk3: ts * f.l_over_kn2 * f.k3 / n,
+            t_cy: ts * n * f.l_over_kn2 * (f.b_over_h - f.k1),
+            t_g34: ts * f.g34(),
+        }
+    }
 }
 
 /// Running state of a sliding observer.
@@ -255,18 +280,18 @@ impl SlidingObserver {
     /// `|ω̂| < ω̂_low` (Sec 5). G1, G2 in rad/(A·s) so that `G·w` is rad/s²; G3, G4 in N·m/A.
     /// For the velocity observer (λτ = 0) K3 = 0, G3 = G4 = 0 and these are the gains after
     /// eq (32).
-    // Inlined: the 4 kHz step compiles to one function (see `drive`).
-    #[inline(always)]
+    /// (Not on the step's path: the Euler step uses the same factors multiplied out, see
+    /// [`SlidingObserver::propagate`].)
     pub fn gains(&self, sc: SinCos, omega_m: f32, i_hat: AlphaBeta) -> [f32; 4] {
+        let f = &self.factors;
         let w = self.gain_speed(omega_m);
-        let inv_w = 1.0 / w;
         let (s, c) = (sc.sin, sc.cos);
-        let lambda3 = self.k2 - self.k3_over_n * inv_w;
-        let x = self.l_over_h * inv_w * (i_hat.alpha * c + i_hat.beta * s)
-            - self.l_over_kn2 * lambda3 * inv_w;
-        let y = self.l_over_kn2 * inv_w * (self.b_over_h - self.k1);
+        let lambda3 = f.k2 - f.k3 / (self.n * w);
+        let lambda4 = f.k1;
+        let x = f.l_over_h / w * (i_hat.alpha * c + i_hat.beta * s) - f.l_over_kn2 * lambda3 / w;
+        let y = f.l_over_kn2 / w * (f.b_over_h - lambda4);
         let nw = self.n * w;
-        let g34 = self.g34_num * inv_w;
+        let g34 = f.g34() / w;
         [
             c * x + nw * s * y,
             s * x - nw * c * y,
@@ -398,5 +423,52 @@ impl SlidingObserver {
     #[inline(always)]
     fn emf_angle(&self, sc: SinCos, omega_m: f32) -> SinCos {
         sc.advanced(self.emf_advance_s * omega_m)
+    }
+}
+
+impl Observer for SlidingObserver {
+    type State = SlidingState;
+
+    #[inline(always)]
+    fn update(&self, st: &mut SlidingState, i_ab: AlphaBeta, v_ab: AlphaBeta) -> bool {
+        SlidingObserver::update(self, st, i_ab, v_ab)
+    }
+
+    #[inline(always)]
+    fn theta_e(&self, st: &SlidingState) -> f32 {
+        st.theta_e
+    }
+
+    #[inline(always)]
+    fn sin_cos(&self, st: &SlidingState) -> SinCos {
+        st.sc
+    }
+
+    /// The back-EMF angle of the coming period, [`SlidingState::sc_mid`], which the observer
+    /// keeps (the drive builds the controller with the same advance, so it equals θ̂_e turned
+    /// by `lead`).
+    #[inline(always)]
+    fn sin_cos_output(&self, st: &SlidingState, _lead: SinCos) -> SinCos {
+        st.sc_mid
+    }
+
+    #[inline(always)]
+    fn omega_m(&self, st: &SlidingState) -> f32 {
+        st.omega_m
+    }
+
+    /// τ̂_L of the torque observer; `None` for the velocity observer (λτ = 0).
+    #[inline(always)]
+    fn load_nm(&self, st: &SlidingState) -> Option<f32> {
+        (self.factors.k3 > 0.0).then_some(st.load_nm)
+    }
+
+    /// [`SlidingObserver::reset`] at the rotor's angle and speed, τ̂_L at its load for the
+    /// torque observer.
+    fn seed(&self, st: &mut SlidingState, i_ab: AlphaBeta, rotor: Rotor) {
+        self.reset(st, i_ab, rotor.theta_e, rotor.omega_m);
+        if self.factors.k3 > 0.0 {
+            st.load_nm = rotor.load_nm;
+        }
     }
 }

@@ -1,0 +1,288 @@
+//! The drive's configuration in SI units, its validation, and what it derives: the FOC gains,
+//! the observers' settings, and each mode's per-step coefficients.
+
+use super::open_loop;
+use super::schedule::SLOTS;
+use super::supervision;
+use super::{align, Drive};
+use crate::bounds::{ks_max_e2, ks_max_t};
+use crate::foc::FocConfig;
+use crate::frames::SinCos;
+use crate::motor::{positive, Motor, MotorParams, ParamError};
+use crate::observer::flux::FluxConfig;
+use crate::observer::flux_speed::FluxPll;
+use crate::observer::pll::PllConfig;
+use crate::observer::sliding::{SlidingConfig, SlidingGain, SlidingObserver};
+use crate::observer::Observer;
+use crate::units::{RAD_PER_DEG, RAD_S_PER_RPM};
+
+/// The sliding observer's back-EMF angle and the controller's output angle lead the sample by
+/// half a period of rotation: the middle of the period the voltage is held over.
+const ADVANCE_PERIODS: f32 = 0.5;
+
+/// Natural frequency [Hz] and damping of the PLL on the flux observer's angle.
+const PLL_BANDWIDTH_HZ: f32 = 50.0;
+const PLL_DAMPING: f32 = 1.0;
+
+/// Protection limits.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Limits {
+    /// Limit of the speed loop's current command [A].
+    pub i_max_a: f32,
+    /// Phase-current trip level [A], > `i_max_a`.
+    pub i_trip_a: f32,
+    /// Largest current the sensing path can report [A]; beyond it a sample is invalid.
+    pub i_sense_max_a: f32,
+    /// Bus under-voltage trip [V].
+    pub bus_min_v: f32,
+    /// Bus over-voltage trip [V].
+    pub bus_max_v: f32,
+}
+
+/// Open-loop start and hand-over settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StartConfig {
+    /// d-axis current while aligning the rotor to θ_e = 0 [A].
+    pub align_current_a: f32,
+    /// Alignment time [s].
+    pub align_time_s: f32,
+    /// Magnitude of the open-loop (I/f) current [A].
+    pub open_loop_current_a: f32,
+    /// Speed-reference slew rate, also the open-loop frequency ramp [rpm/s].
+    pub accel_rpm_per_s: f32,
+    /// Hand-over to the observer is allowed above this |speed| [rpm].
+    pub handover_rpm: f32,
+    /// The observer's angle must agree with θ_ol within this [deg, electrical]...
+    pub handover_tol_deg: f32,
+    /// ...for this long [s].
+    pub handover_hold_s: f32,
+    /// Back to open loop when both |speed reference| and |ω̂| are below this [rpm].
+    pub handback_rpm: f32,
+    /// Stall if no hand-over within this time after the ramp passed `handover_rpm` [s].
+    pub handover_timeout_s: f32,
+}
+
+/// Health supervision settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HealthConfig {
+    /// Largest tolerated angle disagreement between the two observers [deg, electrical].
+    pub max_disagreement_deg: f32,
+    /// Largest tolerated speed disagreement [rpm].
+    pub max_speed_disagreement_rpm: f32,
+    /// A disagreement must last this long to be an observer loss [s].
+    pub loss_time_s: f32,
+    /// Speed collapse: the speed loop at its current limit with |ω̂| below half the reference
+    /// for this long is a stall [s].
+    pub stall_time_s: f32,
+}
+
+/// Everything the drive is built from. [`DriveConfig::new`] derives it from a motor.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DriveConfig {
+    /// The controller's motor model.
+    pub motor: MotorParams,
+    /// Step rate [Hz] (4000).
+    pub rate_hz: f32,
+    /// Current-loop bandwidth [Hz] (300).
+    pub current_bandwidth_hz: f32,
+    /// Speed-loop bandwidth [Hz] (20), run every 4th step.
+    pub speed_bandwidth_hz: f32,
+    /// Protection limits.
+    pub limits: Limits,
+    /// Start-up and hand-over.
+    pub start: StartConfig,
+    /// Health supervision.
+    pub health: HealthConfig,
+    /// Rated speed [rpm]: the sliding gain must stay below (K_s,max)_E2 there.
+    pub rated_speed_rpm: f32,
+}
+
+impl DriveConfig {
+    /// Defaults from the motor's ratings: current command limit 1.5× the current of rated
+    /// torque, trip at 1.5× that, sensing range 2× the trip; bus trips at 0.75 and 1.25 of the
+    /// rated bus; align and open-loop currents 0.5 and 0.6 of the rated-torque current for
+    /// 0.2 s and up the ramp; ramp 1000 rpm/s; hand-over above 10 % of rated speed when the
+    /// angle agrees within 30° for 20 ms; hand-back below 6 %; observer loss after 30° or
+    /// 10 % of rated speed disagreement for 20 ms; stall after 1 s without hand-over or
+    /// 0.1 s at the current limit below half the speed reference.
+    pub fn new(motor: &Motor) -> Self {
+        let i_rated = motor.rated_torque_current_a();
+        let i_max = 1.5 * i_rated;
+        let i_trip = 1.5 * i_max;
+        let bus = motor.ratings.bus_v;
+        let speed = motor.ratings.speed_rpm;
+        Self {
+            motor: motor.params,
+            rate_hz: 4000.0,
+            current_bandwidth_hz: 300.0,
+            speed_bandwidth_hz: 20.0,
+            limits: Limits {
+                i_max_a: i_max,
+                i_trip_a: i_trip,
+                i_sense_max_a: 2.0 * i_trip,
+                bus_min_v: 0.75 * bus,
+                bus_max_v: 1.25 * bus,
+            },
+            start: StartConfig {
+                align_current_a: 0.5 * i_rated,
+                align_time_s: 0.2,
+                open_loop_current_a: 0.6 * i_rated,
+                accel_rpm_per_s: 1000.0,
+                handover_rpm: 0.1 * speed,
+                handover_tol_deg: 30.0,
+                handover_hold_s: 0.02,
+                handback_rpm: 0.06 * speed,
+                handover_timeout_s: 1.0,
+            },
+            health: HealthConfig {
+                max_disagreement_deg: 30.0,
+                max_speed_disagreement_rpm: 0.1 * speed,
+                loss_time_s: 0.02,
+                stall_time_s: 0.1,
+            },
+            rated_speed_rpm: speed,
+        }
+    }
+
+    /// The settings validated: the error names the bad field.
+    fn validate(&self) -> Result<MotorParams, ParamError> {
+        let m = self.motor.validate()?;
+        let rate = positive("rate_hz", self.rate_hz)?;
+        let l = self.limits;
+        let s = self.start;
+        let h = self.health;
+        positive("i_max_a", l.i_max_a)?;
+        positive("i_trip_a - i_max_a", l.i_trip_a - l.i_max_a)?;
+        positive("i_sense_max_a - i_trip_a", l.i_sense_max_a - l.i_trip_a)?;
+        positive("bus_min_v", l.bus_min_v)?;
+        positive("bus_max_v - bus_min_v", l.bus_max_v - l.bus_min_v)?;
+        positive("align_current_a", s.align_current_a)?;
+        positive("align_time_s", s.align_time_s)?;
+        positive("open_loop_current_a", s.open_loop_current_a)?;
+        if s.align_current_a > l.i_max_a || s.open_loop_current_a > l.i_max_a {
+            return Err(ParamError::OutOfRange("open_loop_current_a"));
+        }
+        positive("accel_rpm_per_s", s.accel_rpm_per_s)?;
+        positive("handback_rpm", s.handback_rpm)?;
+        positive(
+            "handover_rpm - handback_rpm",
+            s.handover_rpm - s.handback_rpm,
+        )?;
+        positive("handover_tol_deg", s.handover_tol_deg)?;
+        positive("handover_hold_s", s.handover_hold_s)?;
+        positive(
+            "handover_timeout_s - handover_hold_s",
+            s.handover_timeout_s - s.handover_hold_s,
+        )?;
+        if s.align_time_s * rate < 2.0 {
+            return Err(ParamError::OutOfRange("align_time_s"));
+        }
+        positive("rated_speed_rpm", self.rated_speed_rpm)?;
+        positive("max_disagreement_deg", h.max_disagreement_deg)?;
+        positive("max_speed_disagreement_rpm", h.max_speed_disagreement_rpm)?;
+        positive("loss_time_s", h.loss_time_s)?;
+        positive("stall_time_s", h.stall_time_s)?;
+        Ok(m)
+    }
+
+    /// Horng & Chin's torque observer with the paper's settings (Sec 5) at the drive's rate,
+    /// its `K_s` checked inside its bounds (Sec 4): below the discrete-time bound
+    /// `(K_s,max)_T` and below `(K_s,max)_E2` at the rated speed. E2 grows with speed: the
+    /// paper's constant K_s = 1000π exceeds it below about 620 rpm on the Sinano motor, where
+    /// the (always unstable) second equilibrium exists, as in the paper's own experiment.
+    pub fn sliding_torque(&self) -> Result<SlidingObserver, ParamError> {
+        let m = self.validate()?;
+        let cfg = SlidingConfig {
+            rate_hz: self.rate_hz,
+            emf_advance_periods: ADVANCE_PERIODS,
+            ..SlidingConfig::torque(m)
+        };
+        if let SlidingGain::Constant(ks) = cfg.ks {
+            let eps = cfg.epsilon_a;
+            let rated = self.rated_speed_rpm * RAD_S_PER_RPM;
+            if ks >= ks_max_t(&m, self.rate_hz, eps) || ks > ks_max_e2(&m, rated, eps) {
+                return Err(ParamError::OutOfRange("ks"));
+            }
+        }
+        cfg.build()
+    }
+
+    /// Ortega et al.'s flux observer, γ recommended for the lowest sensorless speed
+    /// (`handback_rpm`, Proposition 4), with a 50 Hz critically damped PLL run at the speed
+    /// loop's rate (1 kHz).
+    pub fn flux_pll(&self) -> Result<FluxPll, ParamError> {
+        let m = self.validate()?;
+        let flux = FluxConfig::new(m, self.rate_hz, self.start.handback_rpm).build()?;
+        let pll = PllConfig {
+            rate_hz: self.rate_hz / SLOTS as f32,
+            bandwidth_hz: PLL_BANDWIDTH_HZ,
+            damping: PLL_DAMPING,
+        }
+        .build()?;
+        Ok(FluxPll::new(flux, pll, m.n()))
+    }
+
+    /// The drive with the sliding torque observer feeding the controller and the flux
+    /// observer watching it.
+    pub fn build_sliding_primary(&self) -> Result<Drive<SlidingObserver, FluxPll>, ParamError> {
+        self.build(self.sliding_torque()?, self.flux_pll()?)
+    }
+
+    /// The drive with the flux observer (and its PLL) feeding the controller and the sliding
+    /// torque observer watching it.
+    pub fn build_flux_primary(&self) -> Result<Drive<FluxPll, SlidingObserver>, ParamError> {
+        self.build(self.flux_pll()?, self.sliding_torque()?)
+    }
+
+    /// Validates every setting and derives the FOC gains and each mode's coefficients;
+    /// `primary` feeds the controller, `monitor` watches it. The error names the bad field.
+    pub fn build<P: Observer, M: Observer>(
+        &self,
+        primary: P,
+        monitor: M,
+    ) -> Result<Drive<P, M>, ParamError> {
+        let m = self.validate()?;
+        let rate = self.rate_hz;
+        let (l, s, h) = (self.limits, self.start, self.health);
+        let foc = FocConfig {
+            current_bandwidth_hz: self.current_bandwidth_hz,
+            speed_bandwidth_hz: self.speed_bandwidth_hz,
+            current_rate_hz: rate,
+            speed_divider: SLOTS,
+            angle_advance_periods: ADVANCE_PERIODS,
+            ..FocConfig::new(m, l.i_max_a)
+        }
+        .build()?;
+        let ts = 1.0 / rate;
+        let steps = |t: f32| (t * rate) as u32;
+        let slot_cycles = |t: f32| (t * rate / SLOTS as f32) as u32;
+        Ok(Drive {
+            primary,
+            monitor,
+            foc,
+            limits: l,
+            align: align::Settings {
+                current_a: s.align_current_a,
+                steps: steps(s.align_time_s).max(1),
+            },
+            open_loop: open_loop::Settings {
+                current_a: s.open_loop_current_a,
+                n_ts: m.n() * ts,
+                accel_per_slot_cycle: s.accel_rpm_per_s * ts * SLOTS as f32,
+                handover_rpm: s.handover_rpm,
+            },
+            supervision: supervision::Settings {
+                handover_rpm: s.handover_rpm,
+                handover_cos: SinCos::of(s.handover_tol_deg * RAD_PER_DEG).cos,
+                handover_checks: slot_cycles(s.handover_hold_s).max(1),
+                handover_timeout_checks: slot_cycles(s.handover_timeout_s).max(1),
+                handback_rpm: s.handback_rpm,
+                max_disagreement: h.max_disagreement_deg * RAD_PER_DEG,
+                max_speed_disagreement_rpm: h.max_speed_disagreement_rpm,
+                loss_checks: slot_cycles(h.loss_time_s).max(1),
+                stall_checks: slot_cycles(h.stall_time_s).max(1),
+                i_limit_a: 0.99 * l.i_max_a,
+            },
+        })
+    }
+}

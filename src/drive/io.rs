@@ -1,0 +1,142 @@
+//! What goes into and out of the drive: the sample, the command, the output, the modes as the
+//! outside sees them, faults, transitions and the log record.
+
+use crate::frames::Abc;
+use crate::svpwm::Duties;
+
+/// Operating mode.
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Mode {
+    /// PWM off, waiting for enable.
+    #[default]
+    Idle,
+    /// d-axis current at θ_e = 0 pulls the rotor to a known angle.
+    Align,
+    /// Current-controlled open loop with a frequency ramp.
+    OpenLoop,
+    /// FOC on the configured observer.
+    Sensorless,
+    /// PWM off, latched until cleared.
+    Fault,
+}
+
+/// Why the drive stopped switching.
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Fault {
+    /// A phase current beyond `i_trip_a`.
+    Overcurrent,
+    /// Bus below `bus_min_v`.
+    BusUndervoltage,
+    /// Bus above `bus_max_v`.
+    BusOvervoltage,
+    /// A non-finite sample, or a current beyond the sensing range.
+    InvalidInput,
+    /// The observers disagreed beyond the limits for longer than `loss_time_s`, or one of them
+    /// could not update (its state would have become non-finite) while sensorless.
+    ObserverLoss,
+    /// No hand-over after the ramp, or the speed collapsed under load.
+    Stall,
+    /// The caller reported that the previous step overran its period.
+    Overrun,
+}
+
+/// Why the mode changed.
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Reason {
+    /// Enable command.
+    Enabled,
+    /// Alignment time elapsed.
+    Aligned,
+    /// The observer agreed with the open-loop angle above the observable speed.
+    HandOver,
+    /// Speed and reference fell below the hand-back speed (stop or reversal).
+    HandBack,
+    /// The open-loop ramp reached zero speed with a zero command.
+    Stopped,
+    /// Enable withdrawn.
+    Disabled,
+    /// A fault.
+    Fault(Fault),
+    /// Fault cleared by command.
+    Cleared,
+}
+
+/// One mode change, for the log.
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Transition {
+    /// Mode before.
+    pub from: Mode,
+    /// Mode after.
+    pub to: Mode,
+    /// Why.
+    pub reason: Reason,
+}
+
+/// Samples of one period.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DriveInput {
+    /// Phase currents [A].
+    pub i_abc: Abc,
+    /// DC bus voltage [V].
+    pub v_bus: f32,
+    /// The previous step did not finish within its period.
+    pub overrun: bool,
+}
+
+/// What the user asks for.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Command {
+    /// Run (true) or stop switching (false). From idle the drive starts when enabled with a
+    /// non-zero speed command.
+    pub enable: bool,
+    /// Speed command [rpm, mechanical]; the drive slews to it.
+    pub speed_rpm: f32,
+    /// Clear a latched fault (back to idle); the drive then starts again only after `enable`
+    /// has been low.
+    pub clear_fault: bool,
+}
+
+/// Small fixed-size record for the log, read at a low rate with [`Drive::telemetry`] (the
+/// 4 kHz step does not build it).
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Telemetry {
+    /// Mode.
+    pub mode: Mode,
+    /// Latched fault, if any.
+    pub fault: Option<Fault>,
+    /// Slewed speed reference [rpm].
+    pub speed_ref_rpm: f32,
+    /// Speed used by the controller [rpm] (primary estimate, or the open-loop speed).
+    pub speed_rpm: f32,
+    /// Primary observer's electrical angle [rad].
+    pub theta_e_primary: f32,
+    /// Monitor observer's electrical angle [rad].
+    pub theta_e_monitor: f32,
+    /// Angle used by the controller (θ_ol in open loop) [rad].
+    pub theta_e_control: f32,
+    /// Measured d current (the observers' last sample) in the controller's frame [A].
+    pub i_d: f32,
+    /// Measured q current (the observers' last sample) in the controller's frame [A].
+    pub i_q: f32,
+    /// The primary observer's load-torque estimate [N·m], if it has one.
+    pub load_nm: Option<f32>,
+    /// Health: |θ̂_primary − θ̂_monitor| [deg, electrical].
+    pub disagreement_deg: f32,
+    /// Health: |ω̂_primary − ω̂_monitor| [rpm].
+    pub speed_disagreement_rpm: f32,
+}
+
+/// Result of one step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DriveOutput {
+    /// Duties to load, each in [0, 1]; `None`: all switches off.
+    pub duties: Option<Duties>,
+    /// The mode change this step made, if any.
+    pub transition: Option<Transition>,
+}
+
