@@ -77,7 +77,7 @@ mod firmware {
     use heapless::spsc::{Producer, Queue};
     use panic_probe as _;
     use pmsm_sensorless::drive::{
-        Command, Drive, DriveConfig, DriveInput, DriveState, Mode, Primary, Telemetry, Transition,
+        Command, Drive, DriveConfig, DriveInput, Mode, StateOf, Telemetry, Transition,
     };
     use pmsm_sensorless::frames::Abc;
     use pmsm_sensorless::motor::{Motor, Ratings, HORNG_SINANO};
@@ -102,8 +102,9 @@ mod firmware {
         },
     };
 
-    /// Observer feeding the controller (the other one monitors it).
-    const PRIMARY: Primary = Primary::SlidingTorque;
+    /// Observer feeding the controller, and the one that monitors it.
+    type Primary = pmsm_sensorless::observer::sliding::SlidingObserver;
+    type Monitor = pmsm_sensorless::observer::flux_speed::FluxPll;
 
     /// Speed command while enabled [rpm, mechanical].
     pub const SPEED_CMD_RPM: f32 = 400.0;
@@ -243,8 +244,8 @@ mod firmware {
 
     /// Everything the 4 kHz interrupt owns.
     struct Control {
-        drive: Drive,
-        state: DriveState,
+        drive: Drive<Primary, Monitor>,
+        state: StateOf<Primary, Monitor>,
         tim1: pac::TIM1,
         adc1: pac::ADC1,
         adc2: pac::ADC2,
@@ -494,18 +495,18 @@ mod firmware {
             }
         }
 
-        let mut cfg = DriveConfig::new(&MOTOR, PRIMARY);
+        let mut cfg = DriveConfig::new(&MOTOR);
         cfg.rate_hz = CONTROL_HZ as f32;
         cfg.limits.bus_max_v = cfg.limits.bus_max_v.min(BOARD_BUS_MAX_V);
         cfg.limits.i_sense_max_a = cfg.limits.i_sense_max_a.min(I_ADC_RANGE_A);
-        let drive = match cfg.build() {
+        let drive = match cfg.build_sliding_primary() {
             Ok(d) => d,
             Err(e) => defmt::panic!("drive configuration rejected: {=str}", e.field()),
         };
         defmt::info!(
-            "motor {=str}, primary {}, speed command {=f32} rpm, trip {=f32} A, bus {=f32}..{=f32} V",
+            "motor {=str}, primary {=str}, speed command {=f32} rpm, trip {=f32} A, bus {=f32}..{=f32} V",
             MOTOR.name,
-            PRIMARY,
+            core::any::type_name::<Primary>(),
             SPEED_CMD_RPM,
             cfg.limits.i_trip_a,
             cfg.limits.bus_min_v,
@@ -526,7 +527,7 @@ mod firmware {
         cortex_m::interrupt::free(|cs| {
             CONTROL.borrow(cs).replace(Some(Control {
                 drive,
-                state: DriveState::default(),
+                state: StateOf::<Primary, Monitor>::default(),
                 tim1: dp.TIM1,
                 adc1: dp.ADC1,
                 adc2: dp.ADC2,

@@ -19,7 +19,6 @@ use crate::svpwm::{svpwm_limited, Duties, Svpwm};
 use core::f32::consts::TAU;
 use core::hint::cold_path;
 
-
 /// The current loop cuts its voltage to at most this fraction of `v_max`, 1 − 2⁻¹⁸.
 const CUT_INSIDE: f32 = 1.0 - 1.0 / 262_144.0;
 
@@ -414,7 +413,12 @@ impl Foc {
             Reference::Voltage(v_dq) => {
                 cold_path();
                 let v_max = v_bus * INV_SQRT3;
-                self.modulate(limit(v_dq, v_max), &sample, req.frame_out, i_ab.to_dq(req.frame))
+                self.modulate(
+                    limit(v_dq, v_max),
+                    &sample,
+                    req.frame_out,
+                    i_ab.to_dq(req.frame),
+                )
             }
         }
     }

@@ -5,11 +5,14 @@ use pmsm_host_sim::profile::Pwl;
 use pmsm_host_sim::scenario::{self, Scenario};
 use pmsm_host_sim::sim::{run, SimConfig};
 use pmsm_host_sim::summary::Summary;
-use pmsm_sensorless::drive::{Command, Drive, DriveConfig, DriveInput, DriveState, Mode, Primary};
+use pmsm_sensorless::drive::{Command, Drive, DriveConfig, DriveInput, DriveState, Mode, StateOf};
 use pmsm_sensorless::frames::Abc;
 use pmsm_sensorless::motor::{ParamError, HORNG_SINANO};
+use pmsm_sensorless::observer::flux_speed::FluxPll;
+use pmsm_sensorless::observer::sliding::SlidingObserver;
+use pmsm_sensorless::observer::Observer;
 use proptest::prelude::*;
-use proptest::test_runner::{Config, RngSeed};
+use proptest::test_runner::{Config, RngSeed, TestCaseError};
 
 fn summary(sc: Scenario, kind: ObserverKind, noise_a: f64) -> Summary {
     let mut cfg = SimConfig::new(sc, kind);
@@ -18,9 +21,16 @@ fn summary(sc: Scenario, kind: ObserverKind, noise_a: f64) -> Summary {
 }
 
 /// The drive on the Sinano motor with its defaults, sliding torque observer primary.
-fn sinano_drive() -> Drive {
-    DriveConfig::new(&HORNG_SINANO, Primary::SlidingTorque)
-        .build()
+fn sinano_drive() -> Drive<SlidingObserver, FluxPll> {
+    DriveConfig::new(&HORNG_SINANO)
+        .build_sliding_primary()
+        .unwrap()
+}
+
+/// The drive on the Sinano motor with its defaults, flux observer primary.
+fn sinano_flux_drive() -> Drive<FluxPll, SlidingObserver> {
+    DriveConfig::new(&HORNG_SINANO)
+        .build_flux_primary()
         .unwrap()
 }
 
@@ -172,33 +182,39 @@ fn a_speed_collapse_under_load_is_a_stall() {
 
 #[test]
 fn impossible_settings_name_the_field() {
-    let base = DriveConfig::new(&HORNG_SINANO, Primary::Flux);
-    assert!(base.build().is_ok());
+    let base = DriveConfig::new(&HORNG_SINANO);
+    assert!(base.build_flux_primary().is_ok());
     let mut c = base;
     c.limits.i_trip_a = 0.5 * c.limits.i_max_a;
     assert_eq!(
-        c.build().unwrap_err(),
+        c.build_flux_primary().unwrap_err(),
         ParamError::NotPositive("i_trip_a - i_max_a")
     );
     let mut c = base;
     c.start.handover_rpm = 10.0;
     assert_eq!(
-        c.build().unwrap_err(),
+        c.build_flux_primary().unwrap_err(),
         ParamError::NotPositive("handover_rpm - handback_rpm")
     );
     let mut c = base;
     // K_s = 1000π above (K_s,max)_E2 = 2456 A/s at a rated speed of 500 rpm.
     c.rated_speed_rpm = 500.0;
-    assert_eq!(c.build().unwrap_err(), ParamError::OutOfRange("ks"));
+    assert_eq!(
+        c.build_flux_primary().unwrap_err(),
+        ParamError::OutOfRange("ks")
+    );
     let mut c = base;
     c.start.handover_hold_s = 2.0; // longer than the 1 s timeout: hand-over could never happen
     assert_eq!(
-        c.build().unwrap_err(),
+        c.build_flux_primary().unwrap_err(),
         ParamError::NotPositive("handover_timeout_s - handover_hold_s")
     );
     let mut c = base;
     c.motor.l_h = f32::NAN;
-    assert_eq!(c.build().unwrap_err(), ParamError::NotFinite("l_h"));
+    assert_eq!(
+        c.build_flux_primary().unwrap_err(),
+        ParamError::NotFinite("l_h")
+    );
 }
 
 #[test]
@@ -217,7 +233,7 @@ fn a_fault_latches_until_cleared() {
         &run,
     );
     assert!(out.duties.is_none());
-    assert_eq!(st.mode, Mode::Fault);
+    assert_eq!(st.mode(), Mode::Fault);
     for _ in 0..10 {
         assert!(drive.step(&mut st, &ok, &run).duties.is_none(), "latched");
     }
@@ -230,7 +246,7 @@ fn a_fault_latches_until_cleared() {
         },
     );
     assert!(out.duties.is_none());
-    assert_eq!(st.mode, Mode::Idle);
+    assert_eq!(st.mode(), Mode::Idle);
     assert!(
         drive.step(&mut st, &ok, &run).duties.is_none(),
         "no restart while enable is held"
@@ -251,9 +267,7 @@ fn a_fault_latches_until_cleared() {
 
 #[test]
 fn a_fault_found_in_the_step_that_asks_to_clear_stays_latched() {
-    let drive = DriveConfig::new(&HORNG_SINANO, Primary::Flux)
-        .build()
-        .unwrap();
+    let drive = sinano_flux_drive();
     let mut st = DriveState::default();
     let ok = no_current_48v();
     let run = Command {
@@ -268,22 +282,20 @@ fn a_fault_found_in_the_step_that_asks_to_clear_stays_latched() {
     }; // above the 6.75 A trip
     let out = drive.step(&mut st, &over, &run);
     assert!(out.duties.is_none());
-    assert_eq!(st.fault, Some(pmsm_sensorless::drive::Fault::Overcurrent));
-    assert_eq!(st.mode, Mode::Fault);
+    assert_eq!(st.fault(), Some(pmsm_sensorless::drive::Fault::Overcurrent));
+    assert_eq!(st.mode(), Mode::Fault);
 }
 
 #[test]
 fn starting_on_a_low_bus_or_with_a_bad_command_is_a_fault() {
     use pmsm_sensorless::drive::Fault;
-    let drive = DriveConfig::new(&HORNG_SINANO, Primary::Flux)
-        .build()
-        .unwrap();
+    let drive = sinano_flux_drive();
     let ok = no_current_48v();
     let run = running_at(500.0);
     let mut st = DriveState::default();
     let out = drive.step(&mut st, &DriveInput { v_bus: 0.0, ..ok }, &run);
     assert!(out.duties.is_none());
-    assert_eq!(st.fault, Some(Fault::BusUndervoltage));
+    assert_eq!(st.fault(), Some(Fault::BusUndervoltage));
     let mut st = DriveState::default();
     let out = drive.step(
         &mut st,
@@ -294,7 +306,7 @@ fn starting_on_a_low_bus_or_with_a_bad_command_is_a_fault() {
         },
     );
     assert!(out.duties.is_none());
-    assert_eq!(st.fault, Some(Fault::InvalidInput));
+    assert_eq!(st.fault(), Some(Fault::InvalidInput));
     // Idle with a low bus and no start request is not a fault.
     let mut st = DriveState::default();
     drive.step(
@@ -305,7 +317,7 @@ fn starting_on_a_low_bus_or_with_a_bad_command_is_a_fault() {
             ..run
         },
     );
-    assert_eq!(st.fault, None);
+    assert_eq!(st.fault(), None);
 }
 
 fn wild_f32() -> impl Strategy<Value = f32> {
@@ -366,21 +378,33 @@ proptest! {
     /// 10,000 random sequences of samples and commands, NaN, ±Inf, huge values and zero bus
     /// included: `step` never panics and never returns a duty outside [0, 1].
     #[test]
-    fn step_never_panics_and_duties_stay_in_range(seq in prop::collection::vec(step_input(), 1..60), primary in prop_oneof![Just(Primary::SlidingTorque), Just(Primary::Flux)]) {
-        let drive = DriveConfig::new(&HORNG_SINANO, primary).build().unwrap();
-        let mut st = DriveState::default();
-        for (input, cmd) in &seq {
-            let out = drive.step(&mut st, input, cmd);
-            if let Some(d) = out.duties {
-                for x in [d.a, d.b, d.c] {
-                    prop_assert!((0.0..=1.0).contains(&x), "duty {x}");
-                }
-            }
-            if st.mode == Mode::Fault {
-                prop_assert!(out.duties.is_none());
-            }
+    fn step_never_panics_and_duties_stay_in_range(seq in prop::collection::vec(step_input(), 1..60), flux_primary in prop::bool::ANY) {
+        if flux_primary {
+            check_sequence(&sinano_flux_drive(), &seq)?;
+        } else {
+            check_sequence(&sinano_drive(), &seq)?;
         }
     }
+}
+
+/// `drive` from idle through `seq`: every duty in [0, 1], none while faulted.
+fn check_sequence<P: Observer, M: Observer>(
+    drive: &Drive<P, M>,
+    seq: &[(DriveInput, Command)],
+) -> Result<(), TestCaseError> {
+    let mut st = StateOf::<P, M>::default();
+    for (input, cmd) in seq {
+        let out = drive.step(&mut st, input, cmd);
+        if let Some(d) = out.duties {
+            for x in [d.a, d.b, d.c] {
+                prop_assert!((0.0..=1.0).contains(&x), "duty {x}");
+            }
+        }
+        if st.mode() == Mode::Fault {
+            prop_assert!(out.duties.is_none());
+        }
+    }
+    Ok(())
 }
 
 #[test]
@@ -393,6 +417,8 @@ fn telemetry_is_a_small_fixed_size_record() {
 #[test]
 fn telemetry_reads_the_state_the_step_left() {
     use pmsm_sensorless::drive::Telemetry;
+    use pmsm_sensorless::frames::AlphaBeta;
+    use pmsm_sensorless::observer::Rotor;
     let drive = sinano_drive();
     let mut st = DriveState::default();
     // PWM off: only the mode.
@@ -400,13 +426,29 @@ fn telemetry_reads_the_state_the_step_left() {
     let input = no_current_48v();
     let cmd = running_at(500.0);
     drive.step(&mut st, &input, &cmd);
-    st.sliding.theta_e = 0.5;
-    st.sliding.load_nm = 0.1;
     let tel = drive.telemetry(&st);
     assert_eq!(tel.mode, Mode::Align);
     assert_eq!((tel.theta_e_control, tel.speed_rpm), (0.0, 0.0));
-    assert_eq!((tel.theta_e_primary, tel.load_nm), (0.5, 0.1));
-    assert_eq!(tel.theta_e_monitor, st.flux.theta_e);
+    // Sensorless at a rotor state the observers are seeded with: the record shows their
+    // estimates.
+    let rotor = Rotor {
+        theta_e: 0.5,
+        omega_m: 50.0,
+        load_nm: 0.1,
+    };
+    let st = drive.running_state(AlphaBeta::default(), rotor);
+    let tel = drive.telemetry(&st);
+    assert_eq!(tel.mode, Mode::Sensorless);
+    assert_eq!((tel.theta_e_primary, tel.load_nm), (0.5, Some(0.1)));
+    assert_eq!(tel.theta_e_control, tel.theta_e_primary);
+    assert_eq!(tel.theta_e_primary, st.primary().theta_e);
+    // The flux observer's angle is read out of its rotor-flux vector Φ·(cos 0.5, sin 0.5).
+    assert!(
+        (tel.theta_e_monitor - 0.5).abs() < 1e-6,
+        "{}",
+        tel.theta_e_monitor
+    );
+    assert!((tel.speed_rpm - 50.0 * 30.0 / std::f32::consts::PI).abs() < 1e-3);
 }
 
 /// The open-loop frame is kept as the sin/cos of θ_ol, turned by `N ω_ol T` every step: over a
@@ -414,8 +456,8 @@ fn telemetry_reads_the_state_the_step_left() {
 /// length stays 1 and its angle follows the f64 integral of `N ω_ol T`.
 #[test]
 fn open_loop_frame_turns_at_the_ramp_speed_and_stays_unit_length() {
-    let cfg = DriveConfig::new(&HORNG_SINANO, Primary::SlidingTorque);
-    let drive = cfg.build().unwrap();
+    let cfg = DriveConfig::new(&HORNG_SINANO);
+    let drive = cfg.build_sliding_primary().unwrap();
     let n = f64::from(HORNG_SINANO.params.n());
     let ts = 1.0 / f64::from(cfg.rate_hz);
     let mut st = DriveState::default();
@@ -424,20 +466,23 @@ fn open_loop_frame_turns_at_the_ramp_speed_and_stays_unit_length() {
     let (mut theta_ref, mut worst_angle, mut worst_len) = (0.0f64, 0.0f64, 0.0f64);
     let steps = 50 * 4000;
     for _ in 0..steps {
-        let was_open_loop = st.mode == Mode::OpenLoop;
+        let was_open_loop = st.mode() == Mode::OpenLoop;
         drive.step(&mut st, &input, &cmd);
-        if st.mode != Mode::OpenLoop {
-            assert!(!was_open_loop, "left open loop: {:?}", st.mode);
+        if st.mode() != Mode::OpenLoop {
+            assert!(!was_open_loop, "left open loop: {:?}", st.mode());
             continue;
         }
         if was_open_loop {
-            theta_ref += n * f64::from(st.speed_ol_rpm) * std::f64::consts::PI / 30.0 * ts;
+            // The open-loop speed ω_ol [rpm], which telemetry reports as the reference.
+            let speed_ol_rpm = drive.telemetry(&st).speed_ref_rpm;
+            theta_ref += n * f64::from(speed_ol_rpm) * std::f64::consts::PI / 30.0 * ts;
         }
         let theta = f64::from(drive.telemetry(&st).theta_e_control);
         let err = (theta - theta_ref + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
             - std::f64::consts::PI;
         worst_angle = worst_angle.max(err.abs());
-        let (s, c) = (f64::from(st.sc_ol.sin), f64::from(st.sc_ol.cos));
+        let frame = st.open_loop_frame().unwrap();
+        let (s, c) = (f64::from(frame.sin), f64::from(frame.cos));
         worst_len = worst_len.max((s.hypot(c) - 1.0).abs());
     }
     println!(
@@ -445,7 +490,7 @@ fn open_loop_frame_turns_at_the_ramp_speed_and_stays_unit_length() {
          worst |length − 1| {worst_len:.2e}",
         cmd.speed_rpm
     );
-    assert_eq!(st.mode, Mode::OpenLoop);
+    assert_eq!(st.mode(), Mode::OpenLoop);
     // 1e-4 rad over 1042 rad: a frequency error of 1e-7 relative would reach it; the f32
     // rounding of one rotation (a few 1e-8 rad) does not accumulate to that.
     assert!(worst_angle < 1e-4, "{worst_angle}");

@@ -144,7 +144,12 @@ impl ObserverKind {
     /// bad setting.
     pub fn bare(self, setup: &ObserverSetup, foc: Foc) -> anyhow::Result<Bare> {
         let err = |what: &str, e: ParamError| anyhow::anyhow!("{what}: {e}");
-        let flux = || setup.flux_config().build().map_err(|e| err("flux observer", e));
+        let flux = || {
+            setup
+                .flux_config()
+                .build()
+                .map_err(|e| err("flux observer", e))
+        };
         Ok(match self {
             ObserverKind::Encoder => Bare::Encoder(BareLoop::new(Encoder, foc)),
             ObserverKind::SlidingVelocity | ObserverKind::SlidingTorque => {

@@ -139,4 +139,3 @@ pub struct DriveOutput {
     /// The mode change this step made, if any.
     pub transition: Option<Transition>,
 }
-

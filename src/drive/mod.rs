@@ -41,6 +41,7 @@ use crate::foc::{CurrentLoopState, Foc, Request};
 use crate::frames::{AlphaBeta, SinCos};
 use crate::math::atan2;
 use crate::observer::{Observer, ReadOut, Rotor};
+use crate::power_stage::PowerStage;
 use crate::units::{DEG_PER_RAD, RAD_S_PER_RPM, RPM_PER_RAD_S};
 use align::Align;
 use core::hint::cold_path;
@@ -193,12 +194,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     /// the PWM off in the same step.
     // A hint, so a firmware can take the whole step into its own interrupt code.
     #[inline]
-    pub fn step(
-        &self,
-        st: &mut StateOf<P, M>,
-        input: &DriveInput,
-        cmd: &Command,
-    ) -> DriveOutput {
+    pub fn step(&self, st: &mut StateOf<P, M>, input: &DriveInput, cmd: &Command) -> DriveOutput {
         let from = st.mode();
         let mut reason = None;
         // A start needs the enable command to have been low since the last fault was cleared.
@@ -263,6 +259,21 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 .filter(|_| to != from)
                 .map(|reason| Transition { from, to, reason }),
         }
+    }
+
+    /// One period on a power stage: its sample, [`Drive::step`], the duties (or PWM off)
+    /// applied.
+    #[inline]
+    pub fn step_on<S: PowerStage>(
+        &self,
+        st: &mut StateOf<P, M>,
+        stage: &mut S,
+        cmd: &Command,
+    ) -> DriveOutput {
+        let input = stage.sample();
+        let out = self.step(st, &input, cmd);
+        stage.apply(out.duties);
+        out
     }
 
     /// A state already in sensorless control at a known rotor state `rotor`, `i_ab` the

@@ -81,12 +81,10 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             }
             Slot::Supervision => {
                 let views = self.sample_views(obs);
-                match self.supervision.health(
-                    &mut s.health,
-                    &views,
-                    s.speed_ref_rpm,
-                    s.i_q_ref,
-                ) {
+                match self
+                    .supervision
+                    .health(&mut s.health, &views, s.speed_ref_rpm, s.i_q_ref)
+                {
                     Health::Good => {}
                     Health::ObserverLoss => return Outcome::Fault(Fault::ObserverLoss),
                     Health::Stall => return Outcome::Fault(Fault::Stall),
@@ -100,9 +98,10 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             Slot::Pll => s.out_rot = self.foc.output_rotation(omega_m),
             Slot::MonitorAngle => {}
         }
+        let frame = self.primary.sin_cos(&obs.primary);
         let request = Request {
-            frame: self.primary.sin_cos(&obs.primary),
-            frame_out: self.primary.sin_cos_output(&obs.primary, s.out_rot),
+            frame,
+            frame_out: self.primary.sin_cos_output(&obs.primary, frame, s.out_rot),
             omega_m,
             reference: Reference::Current(Dq::new(0.0, s.i_q_ref)),
         };

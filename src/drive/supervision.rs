@@ -120,7 +120,11 @@ impl Settings {
         let agrees = ol_cos > self.handover_cos
             && views.disagreement() < 0.5 * self.max_disagreement
             && views.speed_disagreement_rpm() < 0.5 * self.max_speed_disagreement_rpm;
-        c.agree = if fast_enough && agrees { c.agree + 1 } else { 0 };
+        c.agree = if fast_enough && agrees {
+            c.agree + 1
+        } else {
+            0
+        };
         c.waiting = if fast_enough {
             c.waiting.saturating_add(1)
         } else {

@@ -61,11 +61,12 @@ pub trait Observer {
     /// sin/cos of θ̂_e at the last sample.
     fn sin_cos(&self, st: &Self::State) -> SinCos;
 
-    /// sin/cos of the angle the coming period's voltage is applied at: θ̂_e turned by `lead`
-    /// (the controller's output rotation at its speed, `Foc::output_rotation`). An observer
-    /// that keeps that angle itself returns its own.
-    fn sin_cos_output(&self, st: &Self::State, lead: SinCos) -> SinCos {
-        self.sin_cos(st).rotated(lead)
+    /// sin/cos of the angle the coming period's voltage is applied at: `frame` (this
+    /// observer's [`Observer::sin_cos`], which the caller has) turned by `lead` (the
+    /// controller's output rotation at its speed, `Foc::output_rotation`). An observer that
+    /// keeps that angle itself returns its own.
+    fn sin_cos_output(&self, _st: &Self::State, frame: SinCos, lead: SinCos) -> SinCos {
+        frame.rotated(lead)
     }
 
     /// ω̂_m [rad/s].

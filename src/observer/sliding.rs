@@ -445,10 +445,10 @@ impl Observer for SlidingObserver {
     }
 
     /// The back-EMF angle of the coming period, [`SlidingState::sc_mid`], which the observer
-    /// keeps (the drive builds the controller with the same advance, so it equals θ̂_e turned
-    /// by `lead`).
+    /// keeps (the drive builds the controller with the same advance, so it equals `frame`
+    /// turned by `lead`).
     #[inline(always)]
-    fn sin_cos_output(&self, st: &SlidingState, _lead: SinCos) -> SinCos {
+    fn sin_cos_output(&self, st: &SlidingState, _frame: SinCos, _lead: SinCos) -> SinCos {
         st.sc_mid
     }
 

@@ -18,10 +18,12 @@ mod firmware {
     use cortex_m_semihosting::debug::{self, EXIT_FAILURE, EXIT_SUCCESS};
     use defmt_semihosting as _;
     use panic_probe as _;
-    use pmsm_sensorless::drive::{Command, DriveConfig, DriveInput, DriveState, Mode, Primary};
+    use pmsm_sensorless::drive::{Command, Drive, DriveConfig, DriveInput, Mode, StateOf};
     use pmsm_sensorless::frames::{Abc, AlphaBeta};
     use pmsm_sensorless::math::{sin_cos, wrap_pi};
     use pmsm_sensorless::motor::HORNG_SINANO;
+    use pmsm_sensorless::observer::Observer;
+    use pmsm_sensorless::power_stage::PowerStage;
     use pmsm_sensorless::svpwm::Duties;
 
     const RATE_HZ: f32 = 4000.0;
@@ -32,13 +34,30 @@ mod firmware {
     const BRAKE_NM: f32 = 0.1;
     const BRAKE_AT_S: f32 = 1.5;
     const WINDOW_S: (f32, f32) = (2.0, 2.5);
-    const RAD_S_PER_RPM: f32 = core::f32::consts::PI / 30.0;
+    use pmsm_sensorless::units::{DEG_PER_RAD, RAD_S_PER_RPM};
 
-    /// The Sinano motor of Horng & Chin's Table 1 (eqs (16)-(19)), f32, θ electrical.
+    /// The Sinano motor of Horng & Chin's Table 1 (eqs (16)-(19)), f32, θ electrical, behind
+    /// an ideal inverter on a 48 V bus.
     struct Plant {
         i_ab: AlphaBeta,
         theta_e: f32,
         omega_m: f32,
+        /// The duties held over the coming period (`None`: all switches off).
+        duties: Option<Duties>,
+    }
+
+    impl PowerStage for Plant {
+        fn sample(&mut self) -> DriveInput {
+            DriveInput {
+                i_abc: self.i_ab.to_abc(),
+                v_bus: BUS_V,
+                overrun: false,
+            }
+        }
+
+        fn apply(&mut self, duties: Option<Duties>) {
+            self.duties = duties;
+        }
     }
 
     impl Plant {
@@ -74,8 +93,10 @@ mod firmware {
         }
 
         /// One control period with the duties held (midpoint rule on `SUBSTEPS` sub-steps).
-        fn advance(&mut self, duties: Option<Duties>, t: f32) {
-            let v = duties.map(|d| Abc::new(d.a * BUS_V, d.b * BUS_V, d.c * BUS_V).to_alpha_beta());
+        fn advance(&mut self, t: f32) {
+            let v = self
+                .duties
+                .map(|d| Abc::new(d.a * BUS_V, d.b * BUS_V, d.c * BUS_V).to_alpha_beta());
             if v.is_none() {
                 self.i_ab = AlphaBeta::default();
             }
@@ -101,20 +122,14 @@ mod firmware {
         }
     }
 
-    /// One run; returns whether it met its checks.
-    fn run(primary: Primary) -> bool {
-        let drive = match DriveConfig::new(&HORNG_SINANO, primary).build() {
-            Ok(d) => d,
-            Err(e) => {
-                defmt::error!("configuration: {}", e.field());
-                return false;
-            }
-        };
-        let mut st = DriveState::default();
+    /// One run of `drive` (`name` in the log); returns whether it met its checks.
+    fn run<P: Observer, M: Observer>(name: &str, drive: &Drive<P, M>) -> bool {
+        let mut st = StateOf::<P, M>::default();
         let mut plant = Plant {
             i_ab: AlphaBeta::default(),
             theta_e: 0.3,
             omega_m: 0.0,
+            duties: None,
         };
         let cmd = Command {
             enable: true,
@@ -125,16 +140,7 @@ mod firmware {
         let (mut n, mut speed_err, mut angle_err, mut handovers) = (0u32, 0.0f32, 0.0f32, 0u32);
         for k in 0..steps {
             let t = k as f32 / RATE_HZ;
-            let i_abc = plant.i_ab.to_abc();
-            let out = drive.step(
-                &mut st,
-                &DriveInput {
-                    i_abc,
-                    v_bus: BUS_V,
-                    overrun: false,
-                },
-                &cmd,
-            );
+            let out = drive.step_on(&mut st, &mut plant, &cmd);
             if let Some(tr) = out.transition {
                 defmt::info!("t = {=f32} s: {} -> {} ({})", t, tr.from, tr.to, tr.reason);
                 if tr.to == Mode::Sensorless {
@@ -150,19 +156,19 @@ mod firmware {
                 speed_err += plant.omega_m / RAD_S_PER_RPM - SPEED_CMD_RPM;
                 angle_err += wrap_pi(tel.theta_e_primary - plant.theta_e).abs();
             }
-            plant.advance(out.duties, t);
+            plant.advance(t);
         }
         let speed_err = speed_err / n.max(1) as f32;
-        let angle_err_deg = angle_err / n.max(1) as f32 * (180.0 / core::f32::consts::PI);
-        let ok = st.fault.is_none()
-            && st.mode == Mode::Sensorless
+        let angle_err_deg = angle_err / n.max(1) as f32 * DEG_PER_RAD;
+        let ok = st.fault().is_none()
+            && st.mode() == Mode::Sensorless
             && handovers == 1
             && (speed_err / SPEED_CMD_RPM).abs() < 0.01
             && angle_err_deg < 2.0;
         defmt::info!(
-            "{}: fault {}, mean speed error {=f32} rpm, mean |angle error| {=f32} deg (e) in {=f32}..{=f32} s -> {}",
-            primary,
-            st.fault,
+            "{=str}: fault {}, mean speed error {=f32} rpm, mean |angle error| {=f32} deg (e) in {=f32}..{=f32} s -> {}",
+            name,
+            st.fault(),
             speed_err,
             angle_err_deg,
             WINDOW_S.0,
@@ -174,7 +180,14 @@ mod firmware {
 
     #[entry]
     fn main() -> ! {
-        let ok = run(Primary::SlidingTorque) & run(Primary::Flux);
+        let cfg = DriveConfig::new(&HORNG_SINANO);
+        let ok = match (cfg.build_sliding_primary(), cfg.build_flux_primary()) {
+            (Ok(sliding), Ok(flux)) => run("SlidingTorque", &sliding) & run("Flux", &flux),
+            (Err(e), _) | (_, Err(e)) => {
+                defmt::error!("configuration: {}", e.field());
+                false
+            }
+        };
         debug::exit(if ok { EXIT_SUCCESS } else { EXIT_FAILURE });
         loop {
             cortex_m::asm::wfi();

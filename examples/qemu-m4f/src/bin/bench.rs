@@ -3,11 +3,12 @@
 //! `-d exec,nochain -singlestep` (one trace line per executed instruction) and counts the
 //! instructions between the markers, weighting them with the Cortex-M4 timing table.
 //!
-//! The drive is put straight into a sensorless state at 1000 rpm on the Sinano motor (the
-//! state's fields are public), so the measured `step` takes the sensorless branch with both
-//! observers live; it is measured in each of the four slots of the 1 kHz work (`Slot`), with
-//! the flux observer primary, in open loop (start-up), with the voltage at its limit (bus at
-//! its under-voltage trip, 37 V), and with the angles crossing ±π. Every case runs a full
+//! The drive starts in sensorless control at 1000 rpm on the Sinano motor
+//! (`Drive::running_state`: both observers seeded at that rotor state), so the measured `step`
+//! takes the sensorless branch with both observers live; it is measured in each of the four
+//! slots of the 1 kHz work (`Slot`), with the flux observer primary, in open loop (start-up,
+//! reached from idle through the alignment), with the voltage at its limit (bus at its
+//! under-voltage trip, 37 V), and with the angles crossing ±π. Every case runs a full
 //! electrical turn (64 steps); each measured call is a function of its own, as the firmware's
 //! interrupt is.
 #![cfg_attr(target_os = "none", no_std, no_main)]
@@ -25,14 +26,16 @@ mod firmware {
     use defmt_semihosting as _;
     use panic_probe as _;
     use pmsm_sensorless::drive::{
-        Command, Drive, DriveConfig, DriveInput, DriveOutput, DriveState, Mode, Primary, Slot,
+        Command, Drive, DriveConfig, DriveInput, DriveOutput, Mode, Slot, StateOf,
     };
     use pmsm_sensorless::foc::{CurrentLoopState, Foc, FocConfig, FocInput, FocOutput};
-    use pmsm_sensorless::frames::{AlphaBeta, Dq, SinCos};
+    use pmsm_sensorless::frames::{AlphaBeta, Dq};
     use pmsm_sensorless::motor::HORNG_SINANO;
     use pmsm_sensorless::observer::flux::{FluxConfig, FluxObserver, FluxState};
+    use pmsm_sensorless::observer::flux_speed::FluxPll;
     use pmsm_sensorless::observer::pll::{Pll, PllConfig, PllState};
     use pmsm_sensorless::observer::sliding::{SlidingConfig, SlidingObserver, SlidingState};
+    use pmsm_sensorless::observer::{Observer, Rotor};
 
     /// Defines the begin/end markers of one measured section; the trace is cut at the first
     /// instruction of each (their symbol names are what `pmsm-sim cycles` looks for).
@@ -74,9 +77,9 @@ mod firmware {
     /// count includes that function's register saves and returns, and none of the bench
     /// loop's own register pressure.
     #[inline(never)]
-    fn control_step(
-        drive: &Drive,
-        st: &mut DriveState,
+    fn control_step<P: Observer, M: Observer>(
+        drive: &Drive<P, M>,
+        st: &mut StateOf<P, M>,
         input: &DriveInput,
         cmd: &Command,
     ) -> DriveOutput {
@@ -126,8 +129,9 @@ mod firmware {
     fn main() -> ! {
         let m = HORNG_SINANO;
         let rate = 4000.0;
-        let drive = DriveConfig::new(&m, Primary::SlidingTorque).build().ok();
-        let drive_flux = DriveConfig::new(&m, Primary::Flux).build().ok();
+        let cfg = DriveConfig::new(&m);
+        let drive = cfg.build_sliding_primary().ok();
+        let drive_flux = cfg.build_flux_primary().ok();
         let sliding = SlidingConfig::torque(m.params).build().ok();
         let flux = FluxConfig::new(m.params, rate, 60.0).build().ok();
         let pll = PllConfig {
@@ -149,20 +153,12 @@ mod firmware {
         };
         let omega_m = 104.72;
         let (theta0, i0) = sample(0);
-        // A drive already sensorless at 1000 rpm at angle `start`, and its input at step k.
-        let sensorless_at = |start: f32| {
-            let (theta0, i0) = sample_from(start, 0);
-            let mut st = DriveState {
-                mode: Mode::Sensorless,
-                speed_ref_rpm: 1000.0,
-                ..DriveState::default()
-            };
-            sliding.reset(&mut st.sliding, i0, theta0, omega_m);
-            flux.reset(&mut st.flux, i0, theta0);
-            pll.reset(&mut st.pll, theta0, 4.0 * omega_m);
-            st
+        // Sensorless at 1000 rpm at angle `start` under `load_nm`.
+        let rotor = |start: f32, load_nm: f32| Rotor {
+            theta_e: start,
+            omega_m,
+            load_nm,
         };
-        let sensorless = || sensorless_at(theta0);
         let input = |start, k| DriveInput {
             i_abc: sample_from(start, k).1.to_abc(),
             v_bus: 48.0,
@@ -174,33 +170,35 @@ mod firmware {
             clear_fault: false,
         };
         // One electrical turn and more (64 steps of 0.105 rad, each slot 16 times, every
-        // quadrant of the angles) from `st` on the samples from angle `start`, each step
-        // between the markers `slot` names.
-        let run = |name: &str,
-                   drive: &Drive,
-                   mut st: DriveState,
-                   start: f32,
-                   v_bus: f32,
-                   markers: &dyn Fn(Slot) -> (extern "C" fn(), extern "C" fn())| {
+        // quadrant of the angles) of `drive` from `st` on the samples from angle `start`, each
+        // step between the markers `slot` names.
+        fn run<P: Observer, M: Observer>(
+            name: &str,
+            drive: &Drive<P, M>,
+            mut st: StateOf<P, M>,
+            (start, v_bus, cmd): (f32, f32, &Command),
+            markers: &dyn Fn(Slot) -> (extern "C" fn(), extern "C" fn()),
+        ) {
             for k in 1..=STEPS {
                 let input = DriveInput {
+                    i_abc: sample_from(start, k).1.to_abc(),
                     v_bus,
-                    ..input(start, k)
+                    overrun: false,
                 };
-                let (begin, end) = markers(st.slot);
+                let (begin, end) = markers(st.slot());
                 begin();
-                let out = control_step(drive, &mut st, &input, &cmd);
+                let out = control_step(drive, &mut st, &input, cmd);
                 black_box(&out);
                 end();
                 defmt::info!(
-                    "{} step {}: mode {}, duties {}",
+                    "{=str} step {}: mode {}, duties {}",
                     name,
                     k,
-                    st.mode,
+                    st.mode(),
                     out.duties.map(|d| [d.a, d.b, d.c])
                 );
             }
-        };
+        }
         let per_slot = |slot: Slot| -> (extern "C" fn(), extern "C" fn()) {
             match slot {
                 Slot::MonitorAngle => {
@@ -211,48 +209,67 @@ mod firmware {
                 Slot::SpeedLoop => (bench_begin_step_speed_loop, bench_end_step_speed_loop),
             }
         };
+        let at_48v = (theta0, 48.0, &cmd);
         run(
             "sliding primary",
             &drive,
-            sensorless(),
-            theta0,
-            48.0,
+            drive.running_state(i0, rotor(theta0, 0.0)),
+            at_48v,
             &per_slot,
         );
         // The flux observer feeding the controller (the sliding observer as the monitor).
         run(
             "flux primary",
             &drive_flux,
-            sensorless(),
-            theta0,
-            48.0,
+            drive_flux.running_state(i0, rotor(theta0, 0.0)),
+            at_48v,
             &|_| (bench_begin_step_flux_primary, bench_end_step_flux_primary),
         );
-        // Start-up: open loop at half the hand-over speed, both observers running.
-        let open_loop = DriveState {
-            mode: Mode::OpenLoop,
-            speed_ol_rpm: 60.0,
-            sc_ol: SinCos::of(theta0),
-            ..sensorless()
+        // Start-up: open loop at 60 rpm, past half the hand-over speed (the observers have
+        // restarted), below the hand-over: reached from idle through the alignment (0.2 s)
+        // and the ramp (60 ms), not measured.
+        let open_loop_cmd = Command {
+            speed_rpm: 60.0,
+            ..cmd
         };
-        run("open loop", &drive, open_loop, theta0, 48.0, &|_| {
-            (bench_begin_step_open_loop, bench_end_step_open_loop)
-        });
+        let mut open_loop = StateOf::<SlidingObserver, FluxPll>::default();
+        for k in 0..1200 {
+            control_step(&drive, &mut open_loop, &input(theta0, k), &open_loop_cmd);
+        }
+        if open_loop.mode() != Mode::OpenLoop {
+            defmt::error!("not in open loop: {}", open_loop.mode());
+            debug::exit(debug::EXIT_FAILURE);
+        }
+        run(
+            "open loop",
+            &drive,
+            open_loop,
+            (theta0, 48.0, &open_loop_cmd),
+            &|_| (bench_begin_step_open_loop, bench_end_step_open_loop),
+        );
         // The voltage at its limit: at 1000 rpm the back-EMF alone is ~24 V and the bus gives
-        // 37/√3 = 21.4 V; with 1.5 A of i_q command the current loop asks for more still.
-        let mut saturated = sensorless();
-        saturated.foc.speed.integral = 1.5;
-        saturated.foc.i_q_ref = 1.5;
-        run("saturated", &drive, saturated, theta0, 37.0, &|_| {
-            (bench_begin_step_saturated, bench_end_step_saturated)
-        });
+        // 37/√3 = 21.4 V; with 1.5 A of i_q command (the load's current) the current loop asks
+        // for more still.
+        let load_1a5 = 1.5 * m.params.torque_constant();
+        run(
+            "saturated",
+            &drive,
+            drive.running_state(i0, rotor(theta0, load_1a5)),
+            (theta0, 37.0, &cmd),
+            &|_| (bench_begin_step_saturated, bench_end_step_saturated),
+        );
         // The angles crossing ±π: the sliding observer's θ̂ (eq (22)) wraps in each slot in
         // turn, the PLL's angle in its slot.
         for j in 0..4u8 {
             let start = core::f32::consts::PI - 0.05 - 0.10472 * f32::from(j);
-            run("seam", &drive, sensorless_at(start), start, 48.0, &|_| {
-                (bench_begin_step_seam, bench_end_step_seam)
-            });
+            let (_, i_start) = sample_from(start, 0);
+            run(
+                "seam",
+                &drive,
+                drive.running_state(i_start, rotor(start, 0.0)),
+                (start, 48.0, &cmd),
+                &|_| (bench_begin_step_seam, bench_end_step_seam),
+            );
         }
         let mut s_state = SlidingState::default();
         sliding.reset(&mut s_state, i0, theta0, omega_m);

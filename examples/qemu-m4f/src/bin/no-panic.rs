@@ -1,7 +1,9 @@
-//! Link-time proof that the drive's `step` cannot panic: this binary's panic handler calls a
-//! function that exists nowhere, so the link fails if any panic path survives optimisation
-//! anywhere in what it calls — `DriveConfig::build` and, in the loop, `Drive::step` on inputs
-//! the compiler cannot see. Built in CI (`cargo build ... --bin no-panic`); never run.
+//! Link-time proof that the drive cannot panic: this binary's panic handler calls a function
+//! that exists nowhere, so the link fails if any panic path survives optimisation anywhere in
+//! what it calls. Every pairing of the core's observers as primary and monitor is built from
+//! parameters, and stepped with samples and commands, that the compiler cannot know: each
+//! value is read from memory a debugger could write, so no branch of the step can be proved
+//! unreachable and folded away. Built in CI (`cargo build ... --bin no-panic`); never run.
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
 #[cfg(not(target_os = "none"))]
@@ -11,11 +13,14 @@ fn main() {
 
 #[cfg(target_os = "none")]
 mod firmware {
-    use core::ptr::{addr_of, addr_of_mut};
+    use core::ptr::{addr_of, addr_of_mut, read_volatile, write_volatile};
     use cortex_m_rt::entry;
-    use pmsm_sensorless::drive::{Command, DriveConfig, DriveInput, DriveState, Primary};
-    use pmsm_sensorless::frames::Abc;
-    use pmsm_sensorless::motor::HORNG_SINANO;
+    use pmsm_sensorless::drive::{Command, Drive, DriveConfig, DriveInput, StateOf};
+    use pmsm_sensorless::frames::{Abc, AlphaBeta};
+    use pmsm_sensorless::motor::{Motor, MotorParams, Ratings};
+    use pmsm_sensorless::observer::flux_speed::FluxIi;
+    use pmsm_sensorless::observer::ii::IiConfig;
+    use pmsm_sensorless::observer::{Observer, Rotor};
 
     extern "C" {
         /// Deliberately undefined: referenced only if a panic can happen.
@@ -28,37 +33,123 @@ mod firmware {
         unsafe { the_drive_step_can_panic() }
     }
 
-    /// Inputs the compiler cannot know (written by a debugger, say).
-    static mut INPUT: [f32; 6] = [0.0; 6];
-    static mut DUTY_SUM: f32 = 0.0;
+    /// Values the compiler cannot know (written by a debugger, say): the motor and its
+    /// ratings, then the samples and the command.
+    static mut MOTOR: [f32; 11] = [0.0; 11];
+    static mut POLE_PAIRS: u32 = 0;
+    static mut SAMPLE: [f32; 4] = [0.0; 4];
+    static mut SPEED_RPM: f32 = 0.0;
+    static mut FLAGS: [bool; 3] = [false; 3];
+    static mut SINK: f32 = 0.0;
 
-    #[entry]
-    fn main() -> ! {
-        let drive = match DriveConfig::new(&HORNG_SINANO, Primary::SlidingTorque).build() {
-            Ok(d) => d,
-            Err(_) => loop {
-                cortex_m::asm::wfi();
+    /// Reads a value through a volatile load.
+    fn unknown<T: Copy>(p: *const T) -> T {
+        // SAFETY: single-threaded, no interrupt touches these statics; volatile so nothing is
+        // assumed about their values.
+        unsafe { read_volatile(p) }
+    }
+
+    /// Keeps `x` alive.
+    fn sink(x: f32) {
+        // SAFETY: as above.
+        unsafe { write_volatile(addr_of_mut!(SINK), x) };
+    }
+
+    /// A drive configuration from unknown parameters.
+    fn config() -> DriveConfig {
+        let x = unknown(addr_of!(MOTOR));
+        let motor = Motor {
+            name: "unknown",
+            params: MotorParams {
+                pole_pairs: unknown(addr_of!(POLE_PAIRS)),
+                r_ohm: x[0],
+                l_h: x[1],
+                flux_wb: x[2],
+                j_kgm2: x[3],
+                b_nms: x[4],
+            },
+            ratings: Ratings {
+                bus_v: x[5],
+                current_a: x[6],
+                torque_nm: x[7],
+                speed_rpm: x[8],
+                power_w: x[9],
             },
         };
-        let mut st = DriveState::default();
+        let mut cfg = DriveConfig::new(&motor);
+        cfg.rate_hz = x[10];
+        cfg
+    }
+
+    /// The flux observer with the I&I speed and load observer, run at the speed loop's rate.
+    fn flux_ii(cfg: &DriveConfig) -> Option<FluxIi> {
+        let fp = cfg.flux_pll().ok()?;
+        let ii = IiConfig::new(cfg.motor, cfg.rate_hz / 4.0).build().ok()?;
+        Some(FluxIi::new(fp.flux, ii, cfg.motor.torque_constant()))
+    }
+
+    /// Builds the drive of `primary` and `monitor` and steps it once on unknown inputs, from
+    /// a state that is either idle or sensorless at an unknown rotor state; its telemetry too.
+    fn exercise<P: Observer, M: Observer>(cfg: &DriveConfig, primary: P, monitor: M) {
+        let Ok(drive): Result<Drive<P, M>, _> = cfg.build(primary, monitor) else {
+            return;
+        };
+        let x = unknown(addr_of!(SAMPLE));
+        let flags = unknown(addr_of!(FLAGS));
+        let speed_rpm = unknown(addr_of!(SPEED_RPM));
+        let mut st = if flags[0] {
+            let rotor = Rotor {
+                theta_e: x[0],
+                omega_m: speed_rpm,
+                load_nm: x[3],
+            };
+            drive.running_state(AlphaBeta::new(x[1], x[2]), rotor)
+        } else {
+            StateOf::<P, M>::default()
+        };
         loop {
-            // SAFETY: single-threaded, no interrupt touches these; volatile so nothing is
-            // assumed about their values.
-            let x = unsafe { core::ptr::read_volatile(addr_of!(INPUT)) };
+            let x = unknown(addr_of!(SAMPLE));
+            let flags = unknown(addr_of!(FLAGS));
             let input = DriveInput {
                 i_abc: Abc::new(x[0], x[1], x[2]),
                 v_bus: x[3],
-                overrun: x[4] > 0.0,
+                overrun: flags[0],
             };
             let cmd = Command {
-                enable: x[5] != 0.0,
-                speed_rpm: x[5],
-                clear_fault: x[4] < 0.0,
+                enable: flags[1],
+                speed_rpm: unknown(addr_of!(SPEED_RPM)),
+                clear_fault: flags[2],
             };
             let out = drive.step(&mut st, &input, &cmd);
-            let sum = out.duties.map_or(0.0, |d| d.a + d.b + d.c);
-            // SAFETY: as above.
-            unsafe { core::ptr::write_volatile(addr_of_mut!(DUTY_SUM), sum) };
+            sink(out.duties.map_or(0.0, |d| d.a + d.b + d.c));
+            sink(drive.telemetry(&st).speed_rpm);
+            if flags[2] && flags[1] {
+                break;
+            }
+        }
+    }
+
+    #[entry]
+    fn main() -> ! {
+        let cfg = config();
+        let sliding = cfg.sliding_torque();
+        let flux = cfg.flux_pll();
+        let ii = flux_ii(&cfg);
+        if let (Ok(s), Ok(f), Some(i)) = (sliding, flux, ii) {
+            // Every ordered pairing of the three observers (the sliding velocity and torque
+            // observers are one type).
+            exercise(&cfg, s, f);
+            exercise(&cfg, f, s);
+            exercise(&cfg, i, s);
+            exercise(&cfg, s, i);
+            exercise(&cfg, f, i);
+            exercise(&cfg, i, f);
+            exercise(&cfg, s, s);
+            exercise(&cfg, f, f);
+            exercise(&cfg, i, i);
+        }
+        loop {
+            cortex_m::asm::wfi();
         }
     }
 }
