@@ -398,7 +398,7 @@ pub fn min(a: f32, b: f32) -> f32 {
 /// `(sin δ, cos δ)` for an angle known to be small: `sin δ ≈ δ − δ³/6 + δ⁵/120`,
 /// `cos δ ≈ 1 − δ²/2 + δ⁴/24 − δ⁶/720` for |δ| ≤ 0.3 rad (truncation below 5e-8), [`sin_cos`]
 /// for a larger one (and NaN).
-#[inline]
+#[inline(always)]
 pub fn sin_cos_small(delta: f32) -> (f32, f32) {
     if libm::fabsf(delta) <= 0.3 {
         let d2 = delta * delta;
@@ -421,7 +421,7 @@ pub fn rotate(sin_cos_theta: (f32, f32), sin_cos_delta: (f32, f32)) -> (f32, f32
 
 /// `(sin(θ + δ), cos(θ + δ))` from `(sin θ, cos θ)`: the rotation by `δ` [rad] with
 /// [`sin_cos_small`] of δ (the result is within 3e-7 of f64, measured in `tests/math.rs`).
-#[inline]
+#[inline(always)]
 pub fn advance(sin_cos_theta: (f32, f32), delta: f32) -> (f32, f32) {
     rotate(sin_cos_theta, sin_cos_small(delta))
 }
