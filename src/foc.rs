@@ -27,15 +27,15 @@ const CUT_INSIDE: f32 = 1.0 - 1.0 / 262_144.0;
 pub struct FocConfig {
     /// Motor model the gains are computed from (the controller's belief, may differ from the plant).
     pub motor: MotorParams,
-    /// Current-loop rate [Hz]; the step runs at this rate. Default 4000.
+    /// Current-loop rate \[Hz]; the step runs at this rate. Default 4000.
     pub current_rate_hz: f32,
-    /// Current-loop bandwidth [Hz], at most `current_rate_hz / (2π)`. Default 300.
+    /// Current-loop bandwidth \[Hz], at most `current_rate_hz / (2π)`. Default 300.
     pub current_bandwidth_hz: f32,
     /// The speed loop runs every `speed_divider` steps (default 4: 1 kHz at 4 kHz), ≥ 1.
     pub speed_divider: u32,
-    /// Speed-loop bandwidth [Hz], at most a fifth of the current-loop bandwidth. Default 20.
+    /// Speed-loop bandwidth \[Hz], at most a fifth of the current-loop bandwidth. Default 20.
     pub speed_bandwidth_hz: f32,
-    /// Limit of the `i_q` command [A], > 0.
+    /// Limit of the `i_q` command \[A], > 0.
     pub i_max_a: f32,
     /// The voltage is held for one period while the rotor turns; the inverse Park uses
     /// `θ_e + advance·ω_e·Ts`. Default 0.5 (the middle of the period in which it is applied).
@@ -110,19 +110,19 @@ pub struct CurrentLoop {
     flux_wb: f32,
 }
 
-/// Integrators of the current loop [V].
+/// Integrators of the current loop \[V].
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct CurrentLoopState {
-    /// d-axis integral term [V].
+    /// d-axis integral term \[V].
     pub integral_d: f32,
-    /// q-axis integral term [V].
+    /// q-axis integral term \[V].
     pub integral_q: f32,
 }
 
 /// Output of one current-loop update.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CurrentLoopOutput {
-    /// Voltage command in the rotor frame [V], `|v_dq| ≤ v_max` (a cut vector is between
+    /// Voltage command in the rotor frame \[V], `|v_dq| ≤ v_max` (a cut vector is between
     /// 1 − 1e-5 and 1 − 2⁻¹⁸ of `v_max` long, to f32 rounding).
     pub v_dq: Dq,
     /// The command was cut to (just inside) `v_max`; the integrators were held.
@@ -134,8 +134,8 @@ pub struct CurrentLoopOutput {
 
 impl CurrentLoop {
     /// One update at the current-loop rate.
-    /// `i_dq`, `i_dq_ref` [A]; `omega_e` electrical speed [rad/s]; `v_max` the largest
-    /// voltage magnitude the inverter can apply [V], positive, 1.1e-19..1.8e19 (its square a
+    /// `i_dq`, `i_dq_ref` \[A]; `omega_e` electrical speed [rad/s]; `v_max` the largest
+    /// voltage magnitude the inverter can apply \[V], positive, 1.1e-19..1.8e19 (its square a
     /// normal f32). Anti-windup: when the vector is cut to `v_max`, neither integrator moves.
     /// Non-finite inputs, or a `v_max` outside that range, give zero volts (`saturated`).
     // Inlined: the 4 kHz step compiles to one function (see `drive`).
@@ -223,9 +223,9 @@ pub struct Request {
 /// The reference of a [`Request`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Reference {
-    /// Current command [A]: the current loop.
+    /// Current command \[A]: the current loop.
     Current(Dq),
-    /// Voltage command [V], applied as it is (limited to the bus) with the current loop's
+    /// Voltage command \[V], applied as it is (limited to the bus) with the current loop's
     /// integrators held.
     Voltage(Dq),
 }
@@ -246,9 +246,9 @@ pub struct Foc {
 pub struct FocState {
     /// Current-loop integrators.
     pub current: CurrentLoopState,
-    /// Speed-loop integrator [A].
+    /// Speed-loop integrator \[A].
     pub speed: PiState,
-    /// Latest `i_q` command from the speed loop [A].
+    /// Latest `i_q` command from the speed loop \[A].
     pub i_q_ref: f32,
     /// Steps since the last speed-loop update.
     pub tick: u32,
@@ -257,11 +257,11 @@ pub struct FocState {
 /// Inputs of one FOC step.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FocInput {
-    /// Sampled phase currents [A].
+    /// Sampled phase currents \[A].
     pub i_abc: Abc,
-    /// DC bus voltage [V].
+    /// DC bus voltage \[V].
     pub v_bus: f32,
-    /// Rotor electrical angle used for the transforms [rad] (encoder or observer).
+    /// Rotor electrical angle used for the transforms \[rad] (encoder or observer).
     pub theta_e: f32,
     /// Rotor mechanical speed used by the loops [rad/s] (encoder or observer).
     pub omega_m: f32,
@@ -275,9 +275,9 @@ pub struct FocInput {
 /// frame (see [`Foc::current_step_at`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CurrentSample {
-    /// Measured currents in the stationary frame [A].
+    /// Measured currents in the stationary frame \[A].
     pub i_ab: AlphaBeta,
-    /// DC bus voltage [V].
+    /// DC bus voltage \[V].
     pub v_bus: f32,
     /// Rotor mechanical speed used by the decoupling [rad/s].
     pub omega_m: f32,
@@ -299,13 +299,13 @@ impl CurrentSample {
 pub struct FocOutput {
     /// PWM duties, each in `[0, 1]`.
     pub duties: Duties,
-    /// The stator voltage these duties apply on average over the period [V] (for observers).
+    /// The stator voltage these duties apply on average over the period \[V] (for observers).
     pub v_ab: AlphaBeta,
-    /// Measured currents in the stationary frame [A].
+    /// Measured currents in the stationary frame \[A].
     pub i_ab: AlphaBeta,
-    /// Measured currents in the rotor frame of `theta_e` [A].
+    /// Measured currents in the rotor frame of `theta_e` \[A].
     pub i_dq: Dq,
-    /// Current command [A].
+    /// Current command \[A].
     pub i_dq_ref: Dq,
     /// The voltage vector was limited.
     pub saturated: bool,
@@ -368,7 +368,7 @@ impl Foc {
         )
     }
 
-    /// One speed-loop update (at `current_rate_hz / speed_divider`): the `i_q` command [A]
+    /// One speed-loop update (at `current_rate_hz / speed_divider`): the `i_q` command \[A]
     /// from the speed error [rad/s, mechanical] with the load-torque feed-forward
     /// `torque_ff_nm` [N·m].
     // Inlined: the 4 kHz step compiles to one function (see `drive`).
@@ -384,14 +384,14 @@ impl Foc {
         self.speed.update(speed, omega_m_ref - omega_m, ff_a)
     }
 
-    /// The q current that makes `torque_nm` [N·m] in the papers' model, `τ/(N ψ_f)` [A].
+    /// The q current that makes `torque_nm` [N·m] in the papers' model, `τ/(N ψ_f)` \[A].
     pub fn current_for_torque(&self, torque_nm: f32) -> f32 {
         torque_nm * self.inv_kt
     }
 
     /// One period of a drive mode's [`Request`]: the current loop on a current reference, or
-    /// the voltage reference limited to the bus; then SVPWM. `i_ab` the measured currents [A],
-    /// `v_bus` [V].
+    /// the voltage reference limited to the bus; then SVPWM. `i_ab` the measured currents \[A],
+    /// `v_bus` \[V].
     // Inlined: the 4 kHz step compiles to one function (see `drive`).
     #[inline(always)]
     pub fn run(

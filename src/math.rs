@@ -419,7 +419,7 @@ pub fn rotate(sin_cos_theta: (f32, f32), sin_cos_delta: (f32, f32)) -> (f32, f32
     (s * cd + c * sd, c * cd - s * sd)
 }
 
-/// `(sin(θ + δ), cos(θ + δ))` from `(sin θ, cos θ)`: the rotation by `δ` [rad] with
+/// `(sin(θ + δ), cos(θ + δ))` from `(sin θ, cos θ)`: the rotation by `δ` \[rad] with
 /// [`sin_cos_small`] of δ (the result is within 3e-7 of f64, measured in `tests/math.rs`).
 #[inline(always)]
 pub fn advance(sin_cos_theta: (f32, f32), delta: f32) -> (f32, f32) {

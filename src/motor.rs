@@ -8,7 +8,7 @@
 //! J dω_m/dt  = N ψ_f (i_β cos θ_e − i_α sin θ_e) − B ω_m − τ_L,     θ_e = N θ_m
 //! ```
 //!
-//! Horng & Chin's motor constant `K` [V·s/rad] and Ortega's rotor flux `Φ` [Wb] are the same
+//! Horng & Chin's motor constant `K` [V·s/rad] and Ortega's rotor flux `Φ` \[Wb] are the same
 //! quantity, the permanent-magnet flux linkage, here `flux_wb`. The torque is `N ψ_f i_q` as
 //! printed in both papers (no 3/2 factor: their αβ model is the machine).
 
@@ -19,9 +19,9 @@ use core::fmt;
 pub struct MotorParams {
     /// Pole pairs `N` (Horng) / `n_P` (Ortega); `θ_e = N θ_m`. At least 1.
     pub pole_pairs: u32,
-    /// Stator phase resistance `R` [Ω], > 0.
+    /// Stator phase resistance `R` \[Ω], > 0.
     pub r_ohm: f32,
-    /// Stator inductance `L` [H] (non-salient), > 0.
+    /// Stator inductance `L` \[H] (non-salient), > 0.
     pub l_h: f32,
     /// Permanent-magnet flux linkage `K` = `Φ` [Wb = V·s/rad], > 0.
     pub flux_wb: f32,
@@ -139,15 +139,15 @@ impl MotorParams {
 /// Nameplate ratings used for limits and scenarios.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ratings {
-    /// DC bus voltage [V], > 0.
+    /// DC bus voltage \[V], > 0.
     pub bus_v: f32,
-    /// Rated phase current [A] as printed by the source (see each preset), > 0.
+    /// Rated phase current \[A] as printed by the source (see each preset), > 0.
     pub current_a: f32,
     /// Rated torque [N·m], > 0.
     pub torque_nm: f32,
     /// Rated speed [rpm, mechanical], > 0.
     pub speed_rpm: f32,
-    /// Rated output power [W], > 0.
+    /// Rated output power \[W], > 0.
     pub power_w: f32,
 }
 
@@ -175,7 +175,7 @@ pub struct Motor {
 }
 
 impl Motor {
-    /// The `i_q` that makes rated torque in the papers' model, `τ_rated/(N ψ_f)` [A]: the
+    /// The `i_q` that makes rated torque in the papers' model, `τ_rated/(N ψ_f)` \[A]: the
     /// current limit of the speed loop.
     pub fn rated_torque_current_a(&self) -> f32 {
         self.ratings.torque_nm / self.params.torque_constant()

@@ -34,7 +34,7 @@ pub struct PiState {
 }
 
 impl PiConfig {
-    /// Precomputes the per-sample integral gain for period `ts_s` [s].
+    /// Precomputes the per-sample integral gain for period `ts_s` \[s].
     pub fn build(&self, ts_s: f32) -> Result<Pi, ParamError> {
         let ts = positive("ts_s", ts_s)?;
         non_negative("kp", self.kp)?;

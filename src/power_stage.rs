@@ -8,8 +8,8 @@ use crate::svpwm::Duties;
 
 /// Three half-bridges with phase-current and bus sensing.
 pub trait PowerStage {
-    /// The sample of this period: phase currents [A] (positive into the motor), bus voltage
-    /// [V], and whether the previous period's step overran.
+    /// The sample of this period: phase currents \[A] (positive into the motor), bus voltage
+    /// \[V], and whether the previous period's step overran.
     fn sample(&mut self) -> DriveInput;
 
     /// Loads the duties for the coming period (each in [0, 1]), or turns every switch off

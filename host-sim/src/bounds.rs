@@ -22,11 +22,11 @@ pub struct OperatingPoint {
     pub omega: f64,
     /// Load torque [N·m].
     pub load_nm: f64,
-    /// Electrical angle Nθ at which the frozen-time matrix is built [rad].
+    /// Electrical angle Nθ at which the frozen-time matrix is built \[rad].
     pub theta_e: f64,
     /// λθ, λω, λτ [rad/s] (λτ = 0: velocity observer).
     pub lambdas: [f64; 3],
-    /// Boundary layer ε [A].
+    /// Boundary layer ε \[A].
     pub epsilon: f64,
 }
 
@@ -56,7 +56,7 @@ impl OperatingPoint {
         (a + b + c, a * b + b * c + c * a, a * b * c)
     }
 
-    /// Plant phase currents `(i_a, i_b)` of step 6 at this point [A].
+    /// Plant phase currents `(i_a, i_b)` of step 6 at this point \[A].
     pub fn currents(&self) -> (f64, f64) {
         let m = &self.motor;
         let i_q = (m.b * self.omega + self.load_nm) / (m.flux * m.n);

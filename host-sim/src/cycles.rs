@@ -55,11 +55,11 @@ pub struct CyclesReport {
     /// Cycle estimate of one current-loop step with SVPWM.
     pub foc_svpwm_cycles_est: u64,
     /// Board firmware: flash image (vector table, code, read-only data, the .data and
-    /// .ramfunc images) [bytes].
+    /// .ramfunc images) \[bytes].
     pub flash_bytes: u64,
-    /// Board firmware: static RAM (.data, .bss, .uninit; the stack is not counted) [bytes].
+    /// Board firmware: static RAM (.data, .bss, .uninit; the stack is not counted) \[bytes].
     pub ram_bytes: u64,
-    /// Board firmware: the control path copied to CCM SRAM (`.ramfunc`, 10 KiB there) [bytes].
+    /// Board firmware: the control path copied to CCM SRAM (`.ramfunc`, 10 KiB there) \[bytes].
     pub ramfunc_bytes: u64,
     /// f64 soft-float routines linked into the board firmware or the bench (should be none).
     pub f64_soft_float_symbols: Vec<String>,

@@ -11,11 +11,11 @@ use rand_distr::{Distribution, Normal};
 /// the dead-time error `sign(i)·t_dead·f_pwm·V_dc`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Inverter {
-    /// DC bus voltage [V].
+    /// DC bus voltage \[V].
     pub v_bus: f64,
-    /// Dead time per switching transition [s] (0 = ideal).
+    /// Dead time per switching transition \[s] (0 = ideal).
     pub dead_time_s: f64,
-    /// PWM (switching) frequency [Hz]; only matters with dead time.
+    /// PWM (switching) frequency \[Hz]; only matters with dead time.
     pub pwm_hz: f64,
 }
 
@@ -30,7 +30,7 @@ pub struct HeldDuties<'a> {
 }
 
 impl HeldDuties<'_> {
-    /// Phase-to-neutral average voltages for currents `i_abc` [V].
+    /// Phase-to-neutral average voltages for currents `i_abc` \[V].
     pub fn phase_voltages(&self, i_abc: [f64; 3]) -> [f64; 3] {
         let inv = self.inverter;
         let v_dt = inv.dead_time_s * inv.pwm_hz * inv.v_bus;
@@ -88,11 +88,11 @@ impl Inverter {
 /// Phase-current measurement: offset, seeded Gaussian noise, then quantisation.
 #[derive(Clone, Debug)]
 pub struct CurrentSensor {
-    /// Offset added to each phase [A].
+    /// Offset added to each phase \[A].
     pub offset_a: [f64; 3],
-    /// Noise standard deviation per phase [A] (0 = none).
+    /// Noise standard deviation per phase \[A] (0 = none).
     pub noise_sigma_a: f64,
-    /// Quantisation step [A] (0 = none).
+    /// Quantisation step \[A] (0 = none).
     pub lsb_a: f64,
     rng: ChaCha8Rng,
     normal: Option<Normal<f64>>,

@@ -131,10 +131,10 @@ struct GammaArgs {
     /// Motor preset.
     #[arg(long)]
     motor: String,
-    /// Observer update rate [Hz].
+    /// Observer update rate \[Hz].
     #[arg(long)]
     rate_hz: f64,
-    /// Lowest operating speed [rpm].
+    /// Lowest operating speed \[rpm].
     #[arg(long)]
     min_speed_rpm: f64,
     /// Print JSON.
@@ -217,7 +217,7 @@ struct BoundsArgs {
     /// Speed [rpm, mechanical], not 0.
     #[arg(long, allow_negative_numbers = true)]
     speed_rpm: f64,
-    /// Sample rate of the observer [Hz].
+    /// Sample rate of the observer \[Hz].
     #[arg(long)]
     rate_hz: f64,
     /// Load torque [N·m].
@@ -250,16 +250,16 @@ struct RunArgs {
     /// Load torque level [N·m] replacing the scenario's.
     #[arg(long, allow_negative_numbers = true)]
     load_nm: Option<f64>,
-    /// DC bus voltage [V] (default: the motor's).
+    /// DC bus voltage \[V] (default: the motor's).
     #[arg(long, allow_negative_numbers = true)]
     bus_v: Option<f64>,
-    /// Current-sensor noise, standard deviation per phase [A].
+    /// Current-sensor noise, standard deviation per phase \[A].
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     noise_a: f64,
-    /// Current-sensor offsets per phase [A], `a,b,c`.
+    /// Current-sensor offsets per phase \[A], `a,b,c`.
     #[arg(long, value_parser = parse_offsets, default_value = "0,0,0", allow_negative_numbers = true)]
     offset_a: [f64; 3],
-    /// ADC quantisation step of the current measurement [A] (0 = none).
+    /// ADC quantisation step of the current measurement \[A] (0 = none).
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     adc_lsb_a: f64,
     /// Noise seed.
@@ -268,13 +268,13 @@ struct RunArgs {
     /// Controller parameter factors, e.g. `r=1.2,l=0.9` (keys r, l, flux, j, b).
     #[arg(long, value_parser = parse_mismatch, default_value = "")]
     mismatch: Mismatch,
-    /// Inverter dead time [µs].
+    /// Inverter dead time \[µs].
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     dead_time_us: f64,
-    /// Control (current-loop and observer) rate [Hz]; the speed loop runs at a quarter of it.
+    /// Control (current-loop and observer) rate \[Hz]; the speed loop runs at a quarter of it.
     #[arg(long, default_value_t = 4000.0)]
     rate_hz: f64,
-    /// Run on the encoder until this speed [rpm], then sensorless (a stand-in for a start-up
+    /// Run on the encoder until this speed \[rpm], then sensorless (a stand-in for a start-up
     /// sequence; default: sensorless from t = 0).
     #[arg(long)]
     sensorless_from_rpm: Option<f64>,

@@ -15,7 +15,7 @@ use pmsm_sensorless::observer::{Observer, ReadOut, Rotor};
 /// What the controller used this period.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Estimate {
-    /// Electrical angle [rad].
+    /// Electrical angle \[rad].
     pub theta_e: f32,
     /// Mechanical speed [rad/s].
     pub omega_m: f32,
@@ -28,7 +28,7 @@ pub struct Estimate {
 /// What a sliding observer shows of itself each sample.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SlidingDiag {
-    /// Sliding variable `S = î − i` [A].
+    /// Sliding variable `S = î − i` \[A].
     pub s_ab: AlphaBeta,
     /// Sliding gain in use [A/s].
     pub ks: f32,
@@ -55,17 +55,17 @@ pub enum ObserverKind {
 pub struct ObserverSetup {
     /// The controller's motor model.
     pub motor: MotorParams,
-    /// Update rate [Hz].
+    /// Update rate \[Hz].
     pub rate_hz: f32,
     /// Settings replacing the paper's defaults of a sliding observer.
     pub sliding: Option<SlidingConfig>,
-    /// Lowest operating speed the flux observer's γ is chosen for (Proposition 4) [rpm].
+    /// Lowest operating speed the flux observer's γ is chosen for (Proposition 4) \[rpm].
     pub min_speed_rpm: f32,
     /// γ replacing the recommended one.
     pub gamma: Option<f32>,
 }
 
-/// PLL natural frequency [Hz] and damping for the `flux` observer's speed.
+/// PLL natural frequency \[Hz] and damping for the `flux` observer's speed.
 pub const PLL_BANDWIDTH_HZ: f32 = 50.0;
 /// PLL damping.
 pub const PLL_DAMPING: f32 = 1.0;
@@ -265,11 +265,11 @@ pub struct BareLoop<O: Observer> {
 /// One sample of the bare loop.
 #[derive(Clone, Copy, Debug)]
 pub struct BareInput {
-    /// Measured phase currents [A].
+    /// Measured phase currents \[A].
     pub i_abc: Abc,
-    /// Bus [V].
+    /// Bus \[V].
     pub v_bus: f32,
-    /// Voltage applied over the period that just ended [V].
+    /// Voltage applied over the period that just ended \[V].
     pub v_ab_last: AlphaBeta,
     /// The true rotor state (ideal encoder), load unknown (0).
     pub truth: Rotor,

@@ -17,11 +17,11 @@ use pmsm_sensorless::motor::MotorParams;
 pub struct PlantParams {
     /// Pole pairs N.
     pub n: f64,
-    /// Resistance [Ω].
+    /// Resistance \[Ω].
     pub r: f64,
-    /// Inductance [H].
+    /// Inductance \[H].
     pub l: f64,
-    /// Flux linkage ψ = K = Φ [Wb].
+    /// Flux linkage ψ = K = Φ \[Wb].
     pub flux: f64,
     /// Inertia [kg·m²].
     pub j: f64,
@@ -45,11 +45,11 @@ impl From<&MotorParams> for PlantParams {
 /// Plant state (and energy integrals, all in J).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PlantState {
-    /// Stator current α [A].
+    /// Stator current α \[A].
     pub i_alpha: f64,
-    /// Stator current β [A].
+    /// Stator current β \[A].
     pub i_beta: f64,
-    /// Rotor angle, mechanical, not wrapped [rad].
+    /// Rotor angle, mechanical, not wrapped \[rad].
     pub theta_m: f64,
     /// Rotor speed, mechanical [rad/s].
     pub omega_m: f64,
@@ -96,12 +96,12 @@ impl PlantState {
         }
     }
 
-    /// Electrical angle Nθ, not wrapped [rad].
+    /// Electrical angle Nθ, not wrapped \[rad].
     pub fn theta_e(&self, p: &PlantParams) -> f64 {
         p.n * self.theta_m
     }
 
-    /// Currents in the true rotor frame `(i_d, i_q)` [A].
+    /// Currents in the true rotor frame `(i_d, i_q)` \[A].
     pub fn i_dq(&self, p: &PlantParams) -> (f64, f64) {
         let (s, c) = self.theta_e(p).sin_cos();
         (
@@ -115,7 +115,7 @@ impl PlantState {
         p.n * p.flux * self.i_dq(p).1
     }
 
-    /// Energy stored in the inductance and the rotor [J].
+    /// Energy stored in the inductance and the rotor \[J].
     pub fn stored_energy(&self, p: &PlantParams) -> f64 {
         0.5 * p.l * (self.i_alpha * self.i_alpha + self.i_beta * self.i_beta)
             + 0.5 * p.j * self.omega_m * self.omega_m
@@ -126,7 +126,7 @@ impl PlantState {
 /// inverter's dead time depends on their sign) and of the back-EMF term `e = KNω[sin, −cos]`
 /// of eqs (16)-(17) (an open circuit is `v = −e` at zero current).
 pub trait Supply {
-    /// Stator voltage `(v_α, v_β)` [V] given the currents `i` and the back-EMF term `e`.
+    /// Stator voltage `(v_α, v_β)` \[V] given the currents `i` and the back-EMF term `e`.
     fn v_alpha_beta(&self, i: (f64, f64), e: (f64, f64)) -> (f64, f64);
 }
 
@@ -140,7 +140,7 @@ impl Supply for OpenCircuit {
     }
 }
 
-/// Load torque [N·m] as a function of time from the start of the period [s] and of speed
+/// Load torque [N·m] as a function of time from the start of the period \[s] and of speed
 /// [rad/s, mechanical].
 pub trait Load: Fn(f64, f64) -> f64 {}
 impl<F: Fn(f64, f64) -> f64> Load for F {}
@@ -209,7 +209,7 @@ impl Plant {
         self.state = PlantState::from_array(x);
     }
 
-    /// Phase currents `(a, b, c)` [A] (inverse amplitude-invariant Clarke).
+    /// Phase currents `(a, b, c)` \[A] (inverse amplitude-invariant Clarke).
     pub fn i_abc(&self) -> [f64; 3] {
         crate::inverter::inverse_clarke(self.state.i_alpha, self.state.i_beta)
     }

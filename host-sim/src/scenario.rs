@@ -3,19 +3,19 @@
 use crate::profile::Pwl;
 use pmsm_sensorless::motor::{self, Motor};
 
-/// A named interval over which metrics are computed [s].
+/// A named interval over which metrics are computed \[s].
 #[derive(Clone, Debug, PartialEq)]
 pub struct Window {
     /// Name used in the JSON summary.
     pub name: &'static str,
-    /// Start [s].
+    /// Start \[s].
     pub t0: f64,
-    /// End [s].
+    /// End \[s].
     pub t1: f64,
 }
 
 impl Window {
-    /// A window named `name` from `t0` to `t1` [s].
+    /// A window named `name` from `t0` to `t1` \[s].
     pub const fn new(name: &'static str, t0: f64, t1: f64) -> Self {
         Self { name, t0, t1 }
     }
@@ -32,21 +32,21 @@ pub struct Scenario {
     pub motor_name: String,
     /// The plant's motor (the controller's copy may carry mismatch factors).
     pub motor: Motor,
-    /// Simulated duration [s].
+    /// Simulated duration \[s].
     pub duration_s: f64,
     /// Speed command [rpm, mechanical].
     pub speed_cmd_rpm: Pwl,
-    /// Load torque shape, scaled by `load_nm` [dimensionless].
+    /// Load torque shape, scaled by `load_nm` \[dimensionless].
     pub load_shape: Pwl,
     /// Load torque level [N·m] (positive opposes positive rotation).
     pub load_nm: f64,
     /// Metric windows.
     pub windows: Vec<Window>,
-    /// Rotor speed at t = 0 [rpm].
+    /// Rotor speed at t = 0 \[rpm].
     pub initial_speed_rpm: f64,
-    /// Lowest operating speed [rpm]: the flux observer's γ is chosen for it (Proposition 4).
+    /// Lowest operating speed \[rpm]: the flux observer's γ is chosen for it (Proposition 4).
     pub min_speed_rpm: f64,
-    /// Limit of the speed loop's i_q [A]; default 1.5× the current of rated torque.
+    /// Limit of the speed loop's i_q \[A]; default 1.5× the current of rated torque.
     pub i_max_a: Option<f64>,
     /// The paper's figures this scenario reproduces (shown in the plot title).
     pub figures: &'static str,
@@ -64,7 +64,7 @@ pub enum LoadKind {
     Active,
     /// A brake: the level opposes the motion, fading linearly to zero below `sat_rpm`.
     Brake {
-        /// Speed below which the brake torque fades [rpm].
+        /// Speed below which the brake torque fades \[rpm].
         sat_rpm: f64,
     },
 }
@@ -72,7 +72,7 @@ pub enum LoadKind {
 /// What the drive is told, and what goes wrong, during a drive scenario.
 #[derive(Clone, Debug, PartialEq)]
 pub struct DriveScript {
-    /// The enable command turns on at this time [s]; the speed command is `speed_cmd_rpm`.
+    /// The enable command turns on at this time \[s]; the speed command is `speed_cmd_rpm`.
     pub enable_s: f64,
     /// A fault cause injected during the run.
     pub injection: Option<Injection>,
@@ -84,7 +84,7 @@ pub enum Injection {
     /// The plant's R, L and flux are multiplied by these factors at `t` (a winding short, a
     /// demagnetisation).
     Plant {
-        /// Time [s].
+        /// Time \[s].
         t: f64,
         /// Factor on R.
         r: f64,
@@ -95,20 +95,20 @@ pub enum Injection {
     },
     /// The DC bus steps to `v` at `t`.
     Bus {
-        /// Time [s].
+        /// Time \[s].
         t: f64,
-        /// New bus voltage [V].
+        /// New bus voltage \[V].
         v: f64,
     },
     /// The current sample of phase b reads NaN from `t` on.
     NanCurrent {
-        /// Time [s].
+        /// Time \[s].
         t: f64,
     },
 }
 
 impl Injection {
-    /// When it happens [s].
+    /// When it happens \[s].
     pub fn t(&self) -> f64 {
         match *self {
             Injection::Plant { t, .. } | Injection::Bus { t, .. } | Injection::NanCurrent { t } => {
@@ -122,7 +122,7 @@ impl Injection {
 pub const OVERLOAD: f64 = 1.5;
 
 impl Scenario {
-    /// The speed loop's current limit [A].
+    /// The speed loop's current limit \[A].
     pub fn i_max_a(&self) -> f64 {
         self.i_max_a
             .unwrap_or(OVERLOAD * self.motor.rated_torque_current_a() as f64)
@@ -233,7 +233,7 @@ fn ortega_load(name: &'static str, description: &'static str, rpm: f64) -> Scena
     }
 }
 
-/// [`ortega_load`] at 200 rpm.
+/// Ortega et al. Sec V, Fig 8a: the test motor at 200 rpm with a full-load (3 N·m) step at 0.5 s.
 pub fn ortega_load_200() -> Scenario {
     ortega_load(
         "ortega-load-200",
@@ -242,7 +242,7 @@ pub fn ortega_load_200() -> Scenario {
     )
 }
 
-/// [`ortega_load`] at 800 rpm.
+/// Ortega et al. Sec V, Fig 8b: the test motor at 800 rpm with a full-load (3 N·m) step at 0.5 s.
 pub fn ortega_load_800() -> Scenario {
     ortega_load(
         "ortega-load-800",

@@ -74,23 +74,23 @@ pub struct SimConfig {
     pub scenario: Scenario,
     /// What fills the observer slot.
     pub observer: ObserverKind,
-    /// DC bus voltage [V].
+    /// DC bus voltage \[V].
     pub bus_v: f64,
-    /// Current-sensor noise per phase, standard deviation [A].
+    /// Current-sensor noise per phase, standard deviation \[A].
     pub noise_sigma_a: f64,
-    /// Current-sensor offset per phase [A].
+    /// Current-sensor offset per phase \[A].
     pub offset_a: [f64; 3],
-    /// ADC quantisation step [A] (0 = none).
+    /// ADC quantisation step \[A] (0 = none).
     pub adc_lsb_a: f64,
     /// Noise seed.
     pub seed: u64,
-    /// Inverter dead time [s].
+    /// Inverter dead time \[s].
     pub dead_time_s: f64,
-    /// PWM frequency for the dead-time error [Hz].
+    /// PWM frequency for the dead-time error \[Hz].
     pub pwm_hz: f64,
     /// Controller-vs-plant parameter factors.
     pub mismatch: Mismatch,
-    /// Control (current-loop) rate [Hz].
+    /// Control (current-loop) rate \[Hz].
     pub rate_hz: f64,
     /// RK4 sub-steps per control period.
     pub substeps: usize,
@@ -98,7 +98,7 @@ pub struct SimConfig {
     pub theta_m0: f64,
     /// Settings replacing the paper's defaults when the observer is a sliding one.
     pub sliding: Option<SlidingConfig>,
-    /// Stand-in for a start-up sequence: below this |speed| [rpm] the controller uses the
+    /// Stand-in for a start-up sequence: below this |speed| \[rpm] the controller uses the
     /// encoder and the observer is held at the encoder's state; from the sample after the
     /// first one at or above it, the run is sensorless. `None`: the observer is set to the
     /// encoder's state at t = 0 and the run is sensorless from the second sample on.
@@ -140,31 +140,31 @@ impl SimConfig {
 /// One control period of the trace (values at the sample instant `t`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Row {
-    /// Time [s].
+    /// Time \[s].
     pub t: f64,
-    /// Speed command [rpm].
+    /// Speed command \[rpm].
     pub speed_cmd_rpm: f64,
-    /// True speed [rpm].
+    /// True speed \[rpm].
     pub speed_rpm: f64,
-    /// Estimated speed [rpm].
+    /// Estimated speed \[rpm].
     pub speed_hat_rpm: f64,
-    /// True electrical angle, wrapped to (−180°, 180°] [deg].
+    /// True electrical angle, wrapped to (−180°, 180°] \[deg].
     pub theta_e_deg: f64,
-    /// Estimated electrical angle, wrapped [deg].
+    /// Estimated electrical angle, wrapped \[deg].
     pub theta_e_hat_deg: f64,
-    /// True-frame d current [A].
+    /// True-frame d current \[A].
     pub i_d: f64,
-    /// True-frame q current [A].
+    /// True-frame q current \[A].
     pub i_q: f64,
-    /// Applied α voltage over the following period [V].
+    /// Applied α voltage over the following period \[V].
     pub v_alpha: f64,
-    /// Applied β voltage [V].
+    /// Applied β voltage \[V].
     pub v_beta: f64,
     /// Load torque [N·m].
     pub load_nm: f64,
     /// Estimated load torque [N·m], if the observer has one.
     pub load_hat_nm: Option<f64>,
-    /// Sliding observers: `S_a = î_a − i_a` [A] (Horng Figs 9, 10).
+    /// Sliding observers: `S_a = î_a − i_a` \[A] (Horng Figs 9, 10).
     pub s_a: Option<f64>,
     /// Sliding observers: the sliding gain in use [A/s].
     pub ks: Option<f64>,
@@ -178,12 +178,12 @@ pub struct Row {
 }
 
 impl Row {
-    /// `θ̂_e − θ_e` wrapped to (−180°, 180°] [deg].
+    /// `θ̂_e − θ_e` wrapped to (−180°, 180°] \[deg].
     pub fn theta_err_deg(&self) -> f64 {
         wrap_deg(self.theta_e_hat_deg - self.theta_e_deg)
     }
 
-    /// `ω_m − command` [rpm].
+    /// `ω_m − command` \[rpm].
     pub fn speed_err_rpm(&self) -> f64 {
         self.speed_rpm - self.speed_cmd_rpm
     }
@@ -219,7 +219,7 @@ pub struct Run {
     pub plant: Plant,
     /// Why the run stopped early (plant not finite) or the drive's fault, if any.
     pub fault: Option<String>,
-    /// Drive scenarios: every mode change with its time [s].
+    /// Drive scenarios: every mode change with its time \[s].
     pub transitions: Vec<(f64, Transition)>,
     /// Drive scenarios: steps from the fault's cause to PWM off.
     pub fault_step: Option<usize>,
@@ -382,7 +382,7 @@ impl Sim {
         })
     }
 
-    /// Time of the next sample [s].
+    /// Time of the next sample \[s].
     pub fn t(&self) -> f64 {
         self.k as f64 * self.ts
     }

@@ -12,15 +12,15 @@ pub const LOST_LOCK_DEG_E: f64 = 90.0;
 /// Metrics of one window.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct WindowMetrics {
-    /// Start [s].
+    /// Start \[s].
     pub t0: f64,
-    /// End [s].
+    /// End \[s].
     pub t1: f64,
-    /// Mean speed command [rpm].
+    /// Mean speed command \[rpm].
     pub speed_cmd_mean_rpm: f64,
-    /// Mean of `ω_m − command` [rpm].
+    /// Mean of `ω_m − command` \[rpm].
     pub speed_err_mean_rpm: f64,
-    /// Largest `|ω_m − command|` [rpm].
+    /// Largest `|ω_m − command|` \[rpm].
     pub speed_err_max_abs_rpm: f64,
     /// Mean of `θ̂_e − θ_e` wrapped to (−180°, 180°] [deg, electrical].
     pub theta_err_mean_deg_e: f64,
@@ -43,7 +43,7 @@ pub struct Summary {
     pub motor: String,
     /// Observer name.
     pub observer: String,
-    /// Control rate [Hz].
+    /// Control rate \[Hz].
     pub rate_hz: f64,
     /// Some window saw `|θ̂_e − θ_e| > 90°` electrical.
     pub lost_lock: bool,
@@ -56,10 +56,10 @@ pub struct Summary {
     /// Drive scenarios: every mode change.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub transitions: Vec<TransitionRecord>,
-    /// Drive scenarios: times of the hand-overs to sensorless [s].
+    /// Drive scenarios: times of the hand-overs to sensorless \[s].
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub handovers_s: Vec<f64>,
-    /// Drive scenarios: lowest |true speed| while sensorless [rpm].
+    /// Drive scenarios: lowest |true speed| while sensorless \[rpm].
     #[serde(skip_serializing_if = "Option::is_none")]
     pub lowest_sensorless_rpm: Option<f64>,
 }
@@ -67,7 +67,7 @@ pub struct Summary {
 /// One mode change of the drive.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct TransitionRecord {
-    /// Time [s].
+    /// Time \[s].
     pub t: f64,
     /// Mode before.
     pub from: String,

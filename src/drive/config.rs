@@ -27,38 +27,38 @@ const PLL_DAMPING: f32 = 1.0;
 /// Protection limits.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Limits {
-    /// Limit of the speed loop's current command [A].
+    /// Limit of the speed loop's current command \[A].
     pub i_max_a: f32,
-    /// Phase-current trip level [A], > `i_max_a`.
+    /// Phase-current trip level \[A], > `i_max_a`.
     pub i_trip_a: f32,
-    /// Largest current the sensing path can report [A]; beyond it a sample is invalid.
+    /// Largest current the sensing path can report \[A]; beyond it a sample is invalid.
     pub i_sense_max_a: f32,
-    /// Bus under-voltage trip [V].
+    /// Bus under-voltage trip \[V].
     pub bus_min_v: f32,
-    /// Bus over-voltage trip [V].
+    /// Bus over-voltage trip \[V].
     pub bus_max_v: f32,
 }
 
 /// Open-loop start and hand-over settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct StartConfig {
-    /// d-axis current while aligning the rotor to θ_e = 0 [A].
+    /// d-axis current while aligning the rotor to θ_e = 0 \[A].
     pub align_current_a: f32,
-    /// Alignment time [s].
+    /// Alignment time \[s].
     pub align_time_s: f32,
-    /// Magnitude of the open-loop (I/f) current [A].
+    /// Magnitude of the open-loop (I/f) current \[A].
     pub open_loop_current_a: f32,
     /// Speed-reference slew rate, also the open-loop frequency ramp [rpm/s].
     pub accel_rpm_per_s: f32,
-    /// Hand-over to the observer is allowed above this |speed| [rpm].
+    /// Hand-over to the observer is allowed above this |speed| \[rpm].
     pub handover_rpm: f32,
     /// The observer's angle must agree with θ_ol within this [deg, electrical]...
     pub handover_tol_deg: f32,
-    /// ...for this long [s].
+    /// ...for this long \[s].
     pub handover_hold_s: f32,
-    /// Back to open loop when both |speed reference| and |ω̂| are below this [rpm].
+    /// Back to open loop when both |speed reference| and |ω̂| are below this \[rpm].
     pub handback_rpm: f32,
-    /// Stall if no hand-over within this time after the ramp passed `handover_rpm` [s].
+    /// Stall if no hand-over within this time after the ramp passed `handover_rpm` \[s].
     pub handover_timeout_s: f32,
 }
 
@@ -67,12 +67,12 @@ pub struct StartConfig {
 pub struct HealthConfig {
     /// Largest tolerated angle disagreement between the two observers [deg, electrical].
     pub max_disagreement_deg: f32,
-    /// Largest tolerated speed disagreement [rpm].
+    /// Largest tolerated speed disagreement \[rpm].
     pub max_speed_disagreement_rpm: f32,
-    /// A disagreement must last this long to be an observer loss [s].
+    /// A disagreement must last this long to be an observer loss \[s].
     pub loss_time_s: f32,
     /// Speed collapse: the speed loop at its current limit with |ω̂| below half the reference
-    /// for this long is a stall [s].
+    /// for this long is a stall \[s].
     pub stall_time_s: f32,
 }
 
@@ -81,11 +81,11 @@ pub struct HealthConfig {
 pub struct DriveConfig {
     /// The controller's motor model.
     pub motor: MotorParams,
-    /// Step rate [Hz] (4000).
+    /// Step rate \[Hz] (4000).
     pub rate_hz: f32,
-    /// Current-loop bandwidth [Hz] (300).
+    /// Current-loop bandwidth \[Hz] (300).
     pub current_bandwidth_hz: f32,
-    /// Speed-loop bandwidth [Hz] (20), run every 4th step.
+    /// Speed-loop bandwidth \[Hz] (20), run every 4th step.
     pub speed_bandwidth_hz: f32,
     /// Protection limits.
     pub limits: Limits,
@@ -93,7 +93,7 @@ pub struct DriveConfig {
     pub start: StartConfig,
     /// Health supervision.
     pub health: HealthConfig,
-    /// Rated speed [rpm]: the sliding gain must stay below (K_s,max)_E2 there.
+    /// Rated speed \[rpm]: the sliding gain must stay below (K_s,max)_E2 there.
     pub rated_speed_rpm: f32,
 }
 

@@ -79,9 +79,9 @@ pub struct Transition {
 /// Samples of one period.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DriveInput {
-    /// Phase currents [A].
+    /// Phase currents \[A].
     pub i_abc: Abc,
-    /// DC bus voltage [V].
+    /// DC bus voltage \[V].
     pub v_bus: f32,
     /// The previous step did not finish within its period.
     pub overrun: bool,
@@ -100,7 +100,7 @@ pub struct Command {
     pub clear_fault: bool,
 }
 
-/// Small fixed-size record for the log, read at a low rate with [`Drive::telemetry`] (the
+/// Small fixed-size record for the log, read at a low rate with [`Drive::telemetry`](super::Drive::telemetry) (the
 /// 4 kHz step does not build it).
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -109,25 +109,25 @@ pub struct Telemetry {
     pub mode: Mode,
     /// Latched fault, if any.
     pub fault: Option<Fault>,
-    /// Slewed speed reference [rpm].
+    /// Slewed speed reference \[rpm].
     pub speed_ref_rpm: f32,
-    /// Speed used by the controller [rpm] (primary estimate, or the open-loop speed).
+    /// Speed used by the controller \[rpm] (primary estimate, or the open-loop speed).
     pub speed_rpm: f32,
-    /// Primary observer's electrical angle [rad].
+    /// Primary observer's electrical angle \[rad].
     pub theta_e_primary: f32,
-    /// Monitor observer's electrical angle [rad].
+    /// Monitor observer's electrical angle \[rad].
     pub theta_e_monitor: f32,
-    /// Angle used by the controller (θ_ol in open loop) [rad].
+    /// Angle used by the controller (θ_ol in open loop) \[rad].
     pub theta_e_control: f32,
-    /// Measured d current (the observers' last sample) in the controller's frame [A].
+    /// Measured d current (the observers' last sample) in the controller's frame \[A].
     pub i_d: f32,
-    /// Measured q current (the observers' last sample) in the controller's frame [A].
+    /// Measured q current (the observers' last sample) in the controller's frame \[A].
     pub i_q: f32,
     /// The primary observer's load-torque estimate [N·m], if it has one.
     pub load_nm: Option<f32>,
     /// Health: |θ̂_primary − θ̂_monitor| [deg, electrical].
     pub disagreement_deg: f32,
-    /// Health: |ω̂_primary − ω̂_monitor| [rpm].
+    /// Health: |ω̂_primary − ω̂_monitor| \[rpm].
     pub speed_disagreement_rpm: f32,
 }
 

@@ -2,21 +2,21 @@
 //!
 //! It takes the sampled phase currents and bus voltage and returns the three duties, or `None`
 //! for PWM off. Inside it, in this order:
-//! 1. the input checks ([`protection`](self::protection)): a fault turns the PWM off in the
+//! 1. the input checks (`protection.rs`): a fault turns the PWM off in the
 //!    same step and is latched until cleared;
 //! 2. the commands: enable, disable, clear a fault;
 //! 3. both observers ([`Observer`]) every step while the inverter is on, the primary feeding
 //!    the controller and the monitor watching it, their read-outs in their slots;
 //! 4. the mode's step, each mode in a file of its own with its state in its variant of the
-//!    mode: idle → [`align`](self::align) → [`open_loop`](self::open_loop) start (I/f) →
-//!    [`sensorless`](self::sensorless) control → back to open loop through zero speed → idle;
+//!    mode: idle → `align.rs` → `open_loop.rs` start (I/f) →
+//!    `sensorless.rs` control → back to open loop through zero speed → idle;
 //!    fault from anywhere. Each mode returns a [`Request`] (a frame and a current or voltage
 //!    reference) and, rarely, the mode to switch to;
 //! 5. the one FOC call site, [`Foc::run`]: current loop and SVPWM.
 //!
 //! The 1 kHz work is spread over the four steps of each millisecond
-//! ([`schedule`](self::schedule)); the checks of supervision
-//! ([`supervision`](self::supervision)) take the angles of one sample.
+//! (`schedule.rs`); the checks of supervision
+//! (`supervision.rs`) take the angles of one sample.
 //!
 //! The drive is generic over its two observers (`Drive<P, M>`, monomorphised): the step
 //! compiles to one function, with no per-block register save and restore and no structs
@@ -120,7 +120,7 @@ impl<PS, MS> DriveState<PS, MS> {
         self.slot
     }
 
-    /// The voltage the last step's duties apply over the period [V] (what the observers take
+    /// The voltage the last step's duties apply over the period \[V] (what the observers take
     /// next step); zero before the first switching step.
     pub fn v_ab_applied(&self) -> AlphaBeta {
         self.v_ab_last
@@ -277,7 +277,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     }
 
     /// A state already in sensorless control at a known rotor state `rotor`, `i_ab` the
-    /// currents measured now [A]: both observers seeded there, the speed reference at the
+    /// currents measured now \[A]: both observers seeded there, the speed reference at the
     /// rotor's speed, the speed loop's integrator at the current of its load torque. For a
     /// start from a rotor state known otherwise (an encoder at commissioning, a flying-start
     /// estimate) and for benches.

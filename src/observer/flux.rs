@@ -5,7 +5,7 @@
 //! dx̂/dt = y12 + (γ/2)(x̂ − L i)(Φ² − |x̂ − L i|²),   y12 = v − R i          (9), (7)
 //! θ̂_e = atan2(x̂2 − L i_β, x̂1 − L i_α)                                    (Sec V iii)
 //! ```
-//! `x` is the stator flux linkage in αβ [Wb], `Φ` the magnet flux, θ electrical.
+//! `x` is the stator flux linkage in αβ \[Wb], `Φ` the magnet flux, θ electrical.
 //!
 //! Discretisation at the control period T, between the samples `k−1` and `k`:
 //! - the flux integral of `y12` is exact for a voltage held over the period and a current
@@ -59,7 +59,7 @@ pub fn gamma_recommended(
 pub struct FluxConfig {
     /// Motor model (R, L, Φ are used).
     pub motor: MotorParams,
-    /// Update rate [Hz].
+    /// Update rate \[Hz].
     pub rate_hz: f32,
     /// Gradient gain γ [1/(Wb²·s)], in `(0, gamma_max_discrete)`.
     pub gamma: f32,
@@ -116,13 +116,13 @@ pub struct FluxObserver {
 /// Running state of the flux observer.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FluxState {
-    /// Flux estimate x̂ at the last sample [Wb].
+    /// Flux estimate x̂ at the last sample \[Wb].
     pub x_hat: AlphaBeta,
-    /// Current at the last sample [A].
+    /// Current at the last sample \[A].
     pub i_last: AlphaBeta,
-    /// Rotor-flux estimate `x̂ − L i` at the last sample [Wb] (its angle is θ̂_e).
+    /// Rotor-flux estimate `x̂ − L i` at the last sample \[Wb] (its angle is θ̂_e).
     pub rotor_flux: AlphaBeta,
-    /// Electrical angle estimate [rad], in (−π, π]: the angle of `rotor_flux` as of the last
+    /// Electrical angle estimate \[rad], in (−π, π]: the angle of `rotor_flux` as of the last
     /// [`FluxObserver::update`] or [`FluxState::update_angle`].
     pub theta_e: f32,
     /// False until the first sample.
@@ -160,8 +160,8 @@ impl FluxState {
 }
 
 impl FluxObserver {
-    /// One sample: `i_ab` measured now [A], `v_ab` the voltage applied over the period that just
-    /// ended [V]: [`FluxObserver::integrate`], then θ̂_e by the arctangent of Sec V.
+    /// One sample: `i_ab` measured now \[A], `v_ab` the voltage applied over the period that just
+    /// ended \[V]: [`FluxObserver::integrate`], then θ̂_e by the arctangent of Sec V.
     /// Returns false, leaving the state untouched, on non-finite input or output.
     // Inlined: the 4 kHz step compiles to one function (see `drive`).
     #[inline(always)]

@@ -39,11 +39,11 @@ use core::f32::consts::TAU;
 pub struct IiConfig {
     /// Motor model (J, B, N).
     pub motor: MotorParams,
-    /// Update rate [Hz].
+    /// Update rate \[Hz].
     pub rate_hz: f32,
-    /// Slower pole of `A*` [Hz], > 0.
+    /// Slower pole of `A*` \[Hz], > 0.
     pub pole_slow_hz: f32,
-    /// Faster pole of `A*` [Hz], > `pole_slow_hz`, and `2π·pole_fast_hz·T < 0.5`.
+    /// Faster pole of `A*` \[Hz], > `pole_slow_hz`, and `2π·pole_fast_hz·T < 0.5`.
     pub pole_fast_hz: f32,
     /// High-gain injection k4 > 0 (keep small, Remark 5).
     pub k4: f32,

@@ -29,7 +29,7 @@ pub enum ReadOut {
 /// A known rotor state, to seed an observer with.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Rotor {
-    /// Electrical angle θ_e [rad].
+    /// Electrical angle θ_e \[rad].
     pub theta_e: f32,
     /// Mechanical speed ω_m [rad/s].
     pub omega_m: f32,
@@ -47,15 +47,15 @@ pub trait Observer {
     /// Running state; `Default` is the state before the first sample.
     type State: Copy + Default + core::fmt::Debug + PartialEq;
 
-    /// One sample: `i_ab` measured now [A], `v_ab` applied over the period that just ended
-    /// [V]. Returns false, leaving the state untouched, when an input is not finite or the
+    /// One sample: `i_ab` measured now \[A], `v_ab` applied over the period that just ended
+    /// \[V]. Returns false, leaving the state untouched, when an input is not finite or the
     /// update would not be.
     fn update(&self, st: &mut Self::State, i_ab: AlphaBeta, v_ab: AlphaBeta) -> bool;
 
     /// One [`ReadOut`] (nothing, for observers whose estimates come out of `update`).
     fn read_out(&self, _st: &mut Self::State, _part: ReadOut) {}
 
-    /// θ̂_e [rad] in (−π, π], as of the last angle read-out.
+    /// θ̂_e \[rad] in (−π, π], as of the last angle read-out.
     fn theta_e(&self, st: &Self::State) -> f32;
 
     /// sin/cos of θ̂_e at the last sample.
@@ -77,6 +77,6 @@ pub trait Observer {
         None
     }
 
-    /// Restarts the observer at a known rotor state, `i_ab` the currents measured now [A].
+    /// Restarts the observer at a known rotor state, `i_ab` the currents measured now \[A].
     fn seed(&self, st: &mut Self::State, i_ab: AlphaBeta, rotor: Rotor);
 }

@@ -16,9 +16,9 @@ use core::hint::cold_path;
 /// PLL settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PllConfig {
-    /// Update rate [Hz].
+    /// Update rate \[Hz].
     pub rate_hz: f32,
-    /// Natural frequency ω_n/2π [Hz], below `rate_hz/(4π)` (so `ω_n·T < 0.5`).
+    /// Natural frequency ω_n/2π \[Hz], below `rate_hz/(4π)` (so `ω_n·T < 0.5`).
     pub bandwidth_hz: f32,
     /// Damping ζ, > 0 (1 = critically damped), with `2ζω_n·T < 1`.
     pub damping: f32,
@@ -35,7 +35,7 @@ pub struct Pll {
 /// PLL state.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PllState {
-    /// Tracked angle z1 [rad], in (−π, π].
+    /// Tracked angle z1 \[rad], in (−π, π].
     pub z1: f32,
     /// Integral term `Ki·z2` [rad/s].
     pub integral: f32,
@@ -66,7 +66,7 @@ impl PllConfig {
 }
 
 impl Pll {
-    /// One sample of the input angle `theta` [rad]; returns ω̂ [rad/s]. A non-finite input
+    /// One sample of the input angle `theta` \[rad]; returns ω̂ [rad/s]. A non-finite input
     /// leaves the state untouched.
     // Inlined: the 4 kHz step compiles to one function (see `drive`).
     #[inline(always)]

@@ -48,15 +48,15 @@ pub enum SlidingGain {
 pub struct SlidingConfig {
     /// Motor model (K = `flux_wb`, H = `j_kgm2`).
     pub motor: MotorParams,
-    /// Update rate [Hz] (4 kHz in the paper).
+    /// Update rate \[Hz] (4 kHz in the paper).
     pub rate_hz: f32,
-    /// λθ [Hz], > 0 (paper: 10). Multiplied by 2π internally (see DESIGN notes).
+    /// λθ \[Hz], > 0 (paper: 10). Multiplied by 2π internally (see DESIGN notes).
     pub lambda_theta_hz: f32,
-    /// λω [Hz], > 0 (paper: 60).
+    /// λω \[Hz], > 0 (paper: 60).
     pub lambda_omega_hz: f32,
-    /// λτ [Hz]: 0 for the velocity observer, > 0 for the torque observer (paper: 2).
+    /// λτ \[Hz]: 0 for the velocity observer, > 0 for the torque observer (paper: 2).
     pub lambda_tau_hz: f32,
-    /// Boundary-layer width ε of `sat(S, ε)` [A], > 0 (paper: 1).
+    /// Boundary-layer width ε of `sat(S, ε)` \[A], > 0 (paper: 1).
     pub epsilon_a: f32,
     /// Sliding gain K_s.
     pub ks: SlidingGain,
@@ -232,9 +232,9 @@ impl EulerStep {
 /// Running state of a sliding observer.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SlidingState {
-    /// Current estimate î at the last sample [A].
+    /// Current estimate î at the last sample \[A].
     pub i_hat: AlphaBeta,
-    /// Electrical angle estimate θ̂_e = N θ̂, in (−π, π] [rad].
+    /// Electrical angle estimate θ̂_e = N θ̂, in (−π, π] \[rad].
     pub theta_e: f32,
     /// Mechanical speed estimate ω̂ [rad/s].
     pub omega_m: f32,
@@ -242,7 +242,7 @@ pub struct SlidingState {
     pub load_nm: f32,
     /// Innovation `w = K_s sat(S/ε)` of the last sample [A/s].
     pub w: AlphaBeta,
-    /// Sliding variable `S = î − i` of the last sample [A].
+    /// Sliding variable `S = î − i` of the last sample \[A].
     pub s: AlphaBeta,
     /// `sin θ̂_e`, `cos θ̂_e` of the last sample (reused by the next propagation).
     pub sc: SinCos,
@@ -280,8 +280,8 @@ impl SlidingObserver {
     /// `|ω̂| < ω̂_low` (Sec 5). G1, G2 in rad/(A·s) so that `G·w` is rad/s²; G3, G4 in N·m/A.
     /// For the velocity observer (λτ = 0) K3 = 0, G3 = G4 = 0 and these are the gains after
     /// eq (32).
-    /// (Not on the step's path: the Euler step uses the same factors multiplied out, see
-    /// [`SlidingObserver::propagate`].)
+    /// (Not on the step's path: the Euler step uses the same factors multiplied out with the
+    /// period, `EulerStep`.)
     pub fn gains(&self, sc: SinCos, omega_m: f32, i_hat: AlphaBeta) -> [f32; 4] {
         let f = &self.factors;
         let w = self.gain_speed(omega_m);
@@ -337,8 +337,8 @@ impl SlidingObserver {
         };
     }
 
-    /// One sample. `i_ab`: currents measured now [A]; `v_ab`: the voltage applied over the
-    /// period that just ended [V]. First propagates the estimate from the previous sample to
+    /// One sample. `i_ab`: currents measured now \[A]; `v_ab`: the voltage applied over the
+    /// period that just ended \[V]. First propagates the estimate from the previous sample to
     /// now with forward Euler (the previous innovation, eqs (20)-(22), (34), (35)), then
     /// computes the new sliding variable and innovation. Returns false, leaving the state
     /// untouched, when an input is not finite or the update would not be.
