@@ -109,7 +109,7 @@ mod firmware {
     /// Speed command while enabled [rpm, mechanical].
     pub const SPEED_CMD_RPM: f32 = 400.0;
 
-    /// Bus over-voltage trip of this board [V]: a full 6S LiPo (UM2516: "up to 6S"; NuttX's
+    /// Bus over-voltage trip of this board \[V]: a full 6S LiPo (UM2516: "up to 6S"; NuttX's
     /// board port gives 25 V as Vbus max). The drive's own default (1.25 × rated bus) is
     /// lowered to this if higher.
     const BOARD_BUS_MAX_V: f32 = 25.2;
@@ -118,11 +118,11 @@ mod firmware {
     // Clocks and PWM timing
     // ---------------------------------------------------------------------------------------
 
-    /// SYSCLK = HCLK = PCLK1 = PCLK2 = TIM1 kernel clock [Hz].
+    /// SYSCLK = HCLK = PCLK1 = PCLK2 = TIM1 kernel clock \[Hz].
     const SYSCLK_HZ: u32 = 170_000_000;
-    /// Switching frequency [Hz].
+    /// Switching frequency \[Hz].
     const PWM_HZ: u32 = 20_000;
-    /// Control (drive step) rate [Hz]; must equal the drive's `rate_hz`.
+    /// Control (drive step) rate \[Hz]; must equal the drive's `rate_hz`.
     const CONTROL_HZ: u32 = 4_000;
     /// Centre-aligned: one PWM period is 2·ARR timer clocks (RM0440 §28, "Center-aligned mode
     /// (up/down counting)").
@@ -136,7 +136,7 @@ mod firmware {
     /// inserts no dead time of its own; 500 ns is the value NuttX uses for this board ("REVISIT" there): NOT
     /// derived from the STL180N6F7 switching times.
     const DEAD_TIME_NS: u32 = 500;
-    /// DTG[7:0] with DTG[7] = 0: dead time = DTG × t_DTS, t_DTS = 1/170 MHz (CKD = 0),
+    /// DTG\[7:0] with DTG\[7] = 0: dead time = DTG × t_DTS, t_DTS = 1/170 MHz (CKD = 0),
     /// at most 127 steps = 747 ns (RM0440 TIMx_BDTR).
     const DTG: u8 = (DEAD_TIME_NS * (SYSCLK_HZ / 1_000_000) / 1000) as u8;
     /// Largest duty loaded into the timer. Currents are sampled in the middle of the low-side
@@ -159,7 +159,7 @@ mod firmware {
     const VREF_V: f32 = 3.3;
     /// 12-bit conversions.
     const ADC_COUNTS: f32 = 4096.0;
-    /// Shunt resistance [Ω] (NuttX board port and ST's motor-control SDK settings for this
+    /// Shunt resistance \[Ω] (NuttX board port and ST's motor-control SDK settings for this
     /// board: 3 mΩ).
     const R_SHUNT_OHM: f32 = 0.003;
     /// Shunt voltage → ADC input voltage: OPAMPx in PGA mode (internal gain 16, VINM0 used as
@@ -169,14 +169,14 @@ mod firmware {
     /// (positive = into the motor) must be checked on the bench: in `Align` the telemetry's
     /// `i_d` must come out positive.
     const CURRENT_SENSE_GAIN: f32 = -9.14;
-    /// Phase current per ADC count [A/LSB] (about −0.0294).
+    /// Phase current per ADC count \[A/LSB] (about −0.0294).
     const AMPS_PER_LSB: f32 = VREF_V / ADC_COUNTS / (R_SHUNT_OHM * CURRENT_SENSE_GAIN);
     /// Bus divider 169 kΩ over 18 kΩ (NuttX board port: "Vbus sense gain = 18k/(18k+169k)").
     /// UNVERIFIED against UM2516's schematic.
     const VBUS_DIVIDER: f32 = (169.0 + 18.0) / 18.0;
-    /// Bus voltage per ADC count [V/LSB] (about 0.0084).
+    /// Bus voltage per ADC count \[V/LSB] (about 0.0084).
     const VOLTS_PER_LSB: f32 = VREF_V / ADC_COUNTS * VBUS_DIVIDER;
-    /// Largest current the ADC can represent around a mid-scale offset, with 5 % margin [A];
+    /// Largest current the ADC can represent around a mid-scale offset, with 5 % margin \[A];
     /// the drive's sensing range (`i_sense_max_a`) is capped to it.
     const I_ADC_RANGE_A: f32 = 0.95 * 2048.0 * AMPS_PER_LSB.abs();
     /// Conversions averaged for the current offsets at start-up, PWM off.
@@ -938,7 +938,7 @@ mod firmware {
     }
 
     /// Averages `OFFSET_SAMPLES` triggered conversions with the bridge off (MOE = 0): the
-    /// current channels' zero [LSB] and the bus voltage [V]. Polls the flags; the control
+    /// current channels' zero [LSB] and the bus voltage \[V]. Polls the flags; the control
     /// interrupt is still masked in the NVIC.
     fn measure_offsets(adc1: &pac::ADC1, adc2: &pac::ADC2) -> ([f32; 3], f32) {
         let wait = |adc: &pac::adc1::RegisterBlock| {

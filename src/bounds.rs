@@ -6,9 +6,9 @@
 use crate::math::sin_cos;
 use crate::motor::MotorParams;
 
-/// Lower bound `K_s,min` of eq (28) [A/s]: the largest of
+/// Lower bound `K_s,min` of eq (28) \[A/s]: the largest of
 /// `|KN/L (ω̂ sin θ̂_e − ω sin θ_e)|` and `|KN/L (ω̂ cos θ̂_e − ω cos θ_e)|`.
-/// `kn_over_l` = K·N/L [V·s/(rad·H)], speeds mechanical [rad/s], angles electrical \[rad].
+/// `kn_over_l` = K·N/L \[V·s/(rad·H)], speeds mechanical \[rad/s], angles electrical \[rad].
 pub fn ks_min(kn_over_l: f32, omega_hat: f32, theta_e_hat: f32, omega: f32, theta_e: f32) -> f32 {
     let (sh, ch) = sin_cos(theta_e_hat);
     let (s, c) = sin_cos(theta_e);
@@ -17,15 +17,15 @@ pub fn ks_min(kn_over_l: f32, omega_hat: f32, theta_e_hat: f32, omega: f32, thet
     a.abs().max(b.abs())
 }
 
-/// Upper bound `(K_s,max)_E2 = (√2·K·N·|ω| − R·ε)/L` [A/s] above which the second, always
-/// unstable, equilibrium (44)-(45) exists (Sec 4 step 4). `omega_m` mechanical [rad/s],
+/// Upper bound `(K_s,max)_E2 = (√2·K·N·|ω| − R·ε)/L` \[A/s] above which the second, always
+/// unstable, equilibrium (44)-(45) exists (Sec 4 step 4). `omega_m` mechanical \[rad/s],
 /// `epsilon_a` the boundary layer \[A]. Negative when no `K_s > 0` avoids it.
 pub fn ks_max_e2(motor: &MotorParams, omega_m: f32, epsilon_a: f32) -> f32 {
     let kn = motor.flux_wb * motor.n();
     (core::f32::consts::SQRT_2 * kn * omega_m.abs() - motor.r_ohm * epsilon_a) / motor.l_h
 }
 
-/// Discrete-time upper bound `(K_s,max)_T = ε (2/T − R/L)` [A/s] of the forward-Euler
+/// Discrete-time upper bound `(K_s,max)_T = ε (2/T − R/L)` \[A/s] of the forward-Euler
 /// observer at `rate_hz` (Sec 4, delta transform: an eigenvalue `p` is stable when
 /// `(T/2)|p|² + Re p < 0`). Inside the boundary layer the current errors `S_a`, `S_b` have the
 /// real eigenvalue `−(R/L + K_s/ε)`, which leaves that circle at `K_s = ε(2/T − R/L)`; this is

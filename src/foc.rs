@@ -134,7 +134,7 @@ pub struct CurrentLoopOutput {
 
 impl CurrentLoop {
     /// One update at the current-loop rate.
-    /// `i_dq`, `i_dq_ref` \[A]; `omega_e` electrical speed [rad/s]; `v_max` the largest
+    /// `i_dq`, `i_dq_ref` \[A]; `omega_e` electrical speed \[rad/s]; `v_max` the largest
     /// voltage magnitude the inverter can apply \[V], positive, 1.1e-19..1.8e19 (its square a
     /// normal f32). Anti-windup: when the vector is cut to `v_max`, neither integrator moves.
     /// Non-finite inputs, or a `v_max` outside that range, give zero volts (`saturated`).
@@ -165,7 +165,7 @@ impl CurrentLoop {
     }
 }
 
-/// `v_dq` [V] limited to the circle of radius `v_max` [V] (positive, 1.1e-19..1.8e19 V, its
+/// `v_dq` \[V] limited to the circle of radius `v_max` \[V] (positive, 1.1e-19..1.8e19 V, its
 /// square a normal f32); non-finite inputs or a `v_max` outside that range give zero volts,
 /// `valid` false.
 #[inline(always)]
@@ -263,11 +263,11 @@ pub struct FocInput {
     pub v_bus: f32,
     /// Rotor electrical angle used for the transforms \[rad] (encoder or observer).
     pub theta_e: f32,
-    /// Rotor mechanical speed used by the loops [rad/s] (encoder or observer).
+    /// Rotor mechanical speed used by the loops \[rad/s] (encoder or observer).
     pub omega_m: f32,
     /// Speed command [rad/s, mechanical].
     pub omega_m_ref: f32,
-    /// Load-torque feed-forward [N·m] (estimated load torque; 0 without a torque observer).
+    /// Load-torque feed-forward \[N·m] (estimated load torque; 0 without a torque observer).
     pub torque_ff_nm: f32,
 }
 
@@ -279,7 +279,7 @@ pub struct CurrentSample {
     pub i_ab: AlphaBeta,
     /// DC bus voltage \[V].
     pub v_bus: f32,
-    /// Rotor mechanical speed used by the decoupling [rad/s].
+    /// Rotor mechanical speed used by the decoupling \[rad/s].
     pub omega_m: f32,
 }
 
@@ -370,7 +370,7 @@ impl Foc {
 
     /// One speed-loop update (at `current_rate_hz / speed_divider`): the `i_q` command \[A]
     /// from the speed error [rad/s, mechanical] with the load-torque feed-forward
-    /// `torque_ff_nm` [N·m].
+    /// `torque_ff_nm` \[N·m].
     // Inlined: the 4 kHz step compiles to one function (see `drive`).
     #[inline(always)]
     pub fn speed_step(
@@ -384,7 +384,7 @@ impl Foc {
         self.speed.update(speed, omega_m_ref - omega_m, ff_a)
     }
 
-    /// The q current that makes `torque_nm` [N·m] in the papers' model, `τ/(N ψ_f)` \[A].
+    /// The q current that makes `torque_nm` \[N·m] in the papers' model, `τ/(N ψ_f)` \[A].
     pub fn current_for_torque(&self, torque_nm: f32) -> f32 {
         torque_nm * self.inv_kt
     }

@@ -17,7 +17,7 @@ const PIO2_HI: f32 = 1.570_312_5;
 const PIO2_MID: f32 = 4.837_513e-4;
 const PIO2_LO: f32 = 7.549_79e-8;
 
-/// Largest |θ| [rad] `sin_cos` reduces directly (quadrant count below 2^13).
+/// Largest |θ| \[rad] `sin_cos` reduces directly (quadrant count below 2^13).
 const REDUCE_MAX: f32 = 1.28e4;
 
 /// 1/√3: the largest phase voltage amplitude SVPWM makes is `v_bus/√3`; the Clarke transform's β
@@ -242,10 +242,10 @@ pub fn wrap_pi(theta: f32) -> f32 {
     wrap_pi_far(theta)
 }
 
-/// Below this |θ| [rad] (< 3π) one turn brings θ into (−π, π].
+/// Below this |θ| \[rad] (< 3π) one turn brings θ into (−π, π].
 const ONE_TURN_OUT: f32 = 9.0;
 
-/// The f32 `TAU` less 2π [rad] (1.748 455 6e-7; `TAU` rounds 2π up).
+/// The f32 `TAU` less 2π \[rad] (1.748 455 6e-7; `TAU` rounds 2π up).
 const TAU_EXCESS: f32 = 1.748_455_6e-7;
 
 /// [`wrap_pi`] of an angle more than a turn out of range, or not finite.

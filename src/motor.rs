@@ -8,7 +8,7 @@
 //! J dω_m/dt  = N ψ_f (i_β cos θ_e − i_α sin θ_e) − B ω_m − τ_L,     θ_e = N θ_m
 //! ```
 //!
-//! Horng & Chin's motor constant `K` [V·s/rad] and Ortega's rotor flux `Φ` \[Wb] are the same
+//! Horng & Chin's motor constant `K` \[V·s/rad] and Ortega's rotor flux `Φ` \[Wb] are the same
 //! quantity, the permanent-magnet flux linkage, here `flux_wb`. The torque is `N ψ_f i_q` as
 //! printed in both papers (no 3/2 factor: their αβ model is the machine).
 
@@ -25,9 +25,9 @@ pub struct MotorParams {
     pub l_h: f32,
     /// Permanent-magnet flux linkage `K` = `Φ` [Wb = V·s/rad], > 0.
     pub flux_wb: f32,
-    /// Rotor inertia `H` = `J` [kg·m²], > 0.
+    /// Rotor inertia `H` = `J` \[kg·m²], > 0.
     pub j_kgm2: f32,
-    /// Viscous friction `B` = `f` [N·m·s/rad], ≥ 0.
+    /// Viscous friction `B` = `f` \[N·m·s/rad], ≥ 0.
     pub b_nms: f32,
 }
 
@@ -130,7 +130,7 @@ impl MotorParams {
         self.pole_pairs as f32
     }
 
-    /// Torque constant of the papers' model, `N ψ_f` [N·m/A]: `τ = N ψ_f i_q`.
+    /// Torque constant of the papers' model, `N ψ_f` \[N·m/A]: `τ = N ψ_f i_q`.
     pub fn torque_constant(&self) -> f32 {
         self.n() * self.flux_wb
     }
@@ -143,7 +143,7 @@ pub struct Ratings {
     pub bus_v: f32,
     /// Rated phase current \[A] as printed by the source (see each preset), > 0.
     pub current_a: f32,
-    /// Rated torque [N·m], > 0.
+    /// Rated torque \[N·m], > 0.
     pub torque_nm: f32,
     /// Rated speed [rpm, mechanical], > 0.
     pub speed_rpm: f32,

@@ -133,7 +133,7 @@ pub(crate) fn svpwm_limited(v_ab: AlphaBeta, v_bus: f32) -> Svpwm {
 }
 
 /// Min–max injection: each phase's voltage plus the common mode `−(max + min)/2`, per volt of
-/// bus (`inv_bus` = 1/v_bus), centred on 0; and the phase-voltage span (max − min) [V].
+/// bus (`inv_bus` = 1/v_bus), centred on 0; and the phase-voltage span (max − min) \[V].
 #[inline(always)]
 fn min_max_injection(v_ab: AlphaBeta, inv_bus: f32) -> (Abc, f32) {
     let v = v_ab.to_abc();
@@ -161,7 +161,7 @@ fn unclamped_duties(v_ab: AlphaBeta, v_bus: f32, inv_bus: f32) -> Option<Duties>
     }
 }
 
-/// Bus range [V] `svpwm` accepts.
+/// Bus range \[V] `svpwm` accepts.
 const BUS_MIN_V: f32 = 1e-18;
 const BUS_MAX_V: f32 = 1e19;
 

@@ -448,7 +448,7 @@ fn telemetry_reads_the_state_the_step_left() {
         "{}",
         tel.theta_e_monitor
     );
-    assert!((tel.speed_rpm - 50.0 * 30.0 / std::f32::consts::PI).abs() < 1e-3);
+    assert!((tel.speed_rpm - 50.0 * pmsm_sensorless::units::RPM_PER_RAD_S).abs() < 1e-3);
 }
 
 /// The open-loop frame is kept as the sin/cos of θ_ol, turned by `N ω_ol T` every step: over a
@@ -475,7 +475,7 @@ fn open_loop_frame_turns_at_the_ramp_speed_and_stays_unit_length() {
         if was_open_loop {
             // The open-loop speed ω_ol [rpm], which telemetry reports as the reference.
             let speed_ol_rpm = drive.telemetry(&st).speed_ref_rpm;
-            theta_ref += n * f64::from(speed_ol_rpm) * std::f64::consts::PI / 30.0 * ts;
+            theta_ref += n * f64::from(speed_ol_rpm) * pmsm_host_sim::sim::RAD_S_PER_RPM * ts;
         }
         let theta = f64::from(drive.telemetry(&st).theta_e_control);
         let err = (theta - theta_ref + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)

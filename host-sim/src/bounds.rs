@@ -18,13 +18,13 @@ use std::f64::consts::TAU;
 pub struct OperatingPoint {
     /// Motor (N, R, L, K = ψ, H = J, B).
     pub motor: PlantParams,
-    /// Rotor speed, mechanical [rad/s], ≠ 0.
+    /// Rotor speed, mechanical \[rad/s], ≠ 0.
     pub omega: f64,
-    /// Load torque [N·m].
+    /// Load torque \[N·m].
     pub load_nm: f64,
     /// Electrical angle Nθ at which the frozen-time matrix is built \[rad].
     pub theta_e: f64,
-    /// λθ, λω, λτ [rad/s] (λτ = 0: velocity observer).
+    /// λθ, λω, λτ \[rad/s] (λτ = 0: velocity observer).
     pub lambdas: [f64; 3],
     /// Boundary layer ε \[A].
     pub epsilon: f64,
@@ -64,7 +64,7 @@ impl OperatingPoint {
         (-i_q * s, i_q * c)
     }
 
-    /// The matrix of eqs (46)-(50) at sliding gain `ks` [A/s]: 5×5 for the torque observer,
+    /// The matrix of eqs (46)-(50) at sliding gain `ks` \[A/s]: 5×5 for the torque observer,
     /// 4×4 `(S_a, S_b, e_θ, e_ω)` for the velocity observer.
     pub fn error_matrix(&self, ks: f64) -> DMatrix<f64> {
         let PlantParams {
@@ -200,7 +200,7 @@ pub fn stable(op: &OperatingPoint, ks: f64, ts: f64) -> bool {
         .all(|&p| delta_margin(p, ts) < 0.0)
 }
 
-/// `(K_s,max)_T` [A/s]: the upper end of the first stable K_s interval found by scanning
+/// `(K_s,max)_T` \[A/s]: the upper end of the first stable K_s interval found by scanning
 /// `(0, ks_scan_max]` in steps of `ks_step`, refined by bisection to `tol`. `None` when no
 /// scanned K_s is stable; `Some(ks_scan_max)` if still stable there.
 pub fn ks_max_t(
@@ -236,15 +236,15 @@ pub fn ks_max_t(
 /// The answer of `pmsm-sim bounds`.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct BoundsReport {
-    /// `(K_s,max)_E2 = (√2·K·N·ω − R·ε)/L` [A/s] (core closed form).
+    /// `(K_s,max)_E2 = (√2·K·N·ω − R·ε)/L` \[A/s] (core closed form).
     pub ks_max_e2: f64,
-    /// `(K_s,max)_T` [A/s], `null` if no K_s up to the scan limit is stable.
+    /// `(K_s,max)_T` \[A/s], `null` if no K_s up to the scan limit is stable.
     pub ks_max_t: Option<f64>,
-    /// Eigenvalues `[re, im]` [1/s] at `(K_s,max)_T`.
+    /// Eigenvalues `[re, im]` \[1/s] at `(K_s,max)_T`.
     pub eigenvalues_at_ks_max_t: Vec<[f64; 2]>,
 }
 
-/// Scan limit and resolution of the `(K_s,max)_T` search [A/s].
+/// Scan limit and resolution of the `(K_s,max)_T` search \[A/s].
 pub const KS_SCAN_MAX: f64 = 1.0e6;
 const KS_SCAN_STEP: f64 = 10.0;
 const KS_TOL: f64 = 1e-3;

@@ -25,7 +25,7 @@ pub struct HeldDuties<'a> {
     pub inverter: &'a Inverter,
     /// Duties held over the period.
     pub duties: [f64; 3],
-    /// The αβ voltage without dead time (constant over the period) [V].
+    /// The αβ voltage without dead time (constant over the period) \[V].
     v_ab_ideal: (f64, f64),
 }
 

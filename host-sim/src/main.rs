@@ -220,7 +220,7 @@ struct BoundsArgs {
     /// Sample rate of the observer \[Hz].
     #[arg(long)]
     rate_hz: f64,
-    /// Load torque [N·m].
+    /// Load torque \[N·m].
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     load_nm: f64,
     /// sliding-torque (5 states, the paper's analysis) or sliding-velocity (4 states).
@@ -247,7 +247,7 @@ struct RunArgs {
     /// Motor TOML file replacing the scenario's motor.
     #[arg(long, value_name = "FILE.toml")]
     motor_file: Option<PathBuf>,
-    /// Load torque level [N·m] replacing the scenario's.
+    /// Load torque level \[N·m] replacing the scenario's.
     #[arg(long, allow_negative_numbers = true)]
     load_nm: Option<f64>,
     /// DC bus voltage \[V] (default: the motor's).

@@ -17,9 +17,9 @@ use pmsm_sensorless::observer::{Observer, ReadOut, Rotor};
 pub struct Estimate {
     /// Electrical angle \[rad].
     pub theta_e: f32,
-    /// Mechanical speed [rad/s].
+    /// Mechanical speed \[rad/s].
     pub omega_m: f32,
-    /// Load torque [N·m], for observers that estimate it.
+    /// Load torque \[N·m], for observers that estimate it.
     pub load_nm: Option<f32>,
     /// Sliding-observer internals, for the paper's figures.
     pub sliding: Option<SlidingDiag>,
@@ -30,7 +30,7 @@ pub struct Estimate {
 pub struct SlidingDiag {
     /// Sliding variable `S = î − i` \[A].
     pub s_ab: AlphaBeta,
-    /// Sliding gain in use [A/s].
+    /// Sliding gain in use \[A/s].
     pub ks: f32,
 }
 
@@ -273,9 +273,9 @@ pub struct BareInput {
     pub v_ab_last: AlphaBeta,
     /// The true rotor state (ideal encoder), load unknown (0).
     pub truth: Rotor,
-    /// Speed command [rad/s].
+    /// Speed command \[rad/s].
     pub omega_m_ref: f32,
-    /// From this |true speed| on the observer runs on its own [rad/s].
+    /// From this |true speed| on the observer runs on its own \[rad/s].
     pub sensorless_from: f32,
 }
 

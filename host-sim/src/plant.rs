@@ -23,9 +23,9 @@ pub struct PlantParams {
     pub l: f64,
     /// Flux linkage ψ = K = Φ \[Wb].
     pub flux: f64,
-    /// Inertia [kg·m²].
+    /// Inertia \[kg·m²].
     pub j: f64,
-    /// Viscous friction [N·m·s/rad].
+    /// Viscous friction \[N·m·s/rad].
     pub b: f64,
 }
 
@@ -51,7 +51,7 @@ pub struct PlantState {
     pub i_beta: f64,
     /// Rotor angle, mechanical, not wrapped \[rad].
     pub theta_m: f64,
-    /// Rotor speed, mechanical [rad/s].
+    /// Rotor speed, mechanical \[rad/s].
     pub omega_m: f64,
     /// ∫ v·i dt: electrical energy in.
     pub e_in: f64,
@@ -61,7 +61,7 @@ pub struct PlantState {
     pub e_friction: f64,
     /// ∫ τ_L ω dt: energy delivered to the load.
     pub e_load: f64,
-    /// ∫ i_q dt [A·s], for exact time averages of the torque current.
+    /// ∫ i_q dt \[A·s], for exact time averages of the torque current.
     pub iq_dt: f64,
 }
 
@@ -110,7 +110,7 @@ impl PlantState {
         )
     }
 
-    /// Electromagnetic torque `N ψ (i_β cos Nθ − i_α sin Nθ)` [N·m] (Ortega (2)).
+    /// Electromagnetic torque `N ψ (i_β cos Nθ − i_α sin Nθ)` \[N·m] (Ortega (2)).
     pub fn torque(&self, p: &PlantParams) -> f64 {
         p.n * p.flux * self.i_dq(p).1
     }
@@ -140,7 +140,7 @@ impl Supply for OpenCircuit {
     }
 }
 
-/// Load torque [N·m] as a function of time from the start of the period \[s] and of speed
+/// Load torque \[N·m] as a function of time from the start of the period \[s] and of speed
 /// [rad/s, mechanical].
 pub trait Load: Fn(f64, f64) -> f64 {}
 impl<F: Fn(f64, f64) -> f64> Load for F {}
@@ -175,7 +175,7 @@ pub struct Plant {
 
 impl Plant {
     /// A plant with zero current, rotor at `theta_m0` [rad, mechanical] turning at
-    /// `omega_m0` [rad/s].
+    /// `omega_m0` \[rad/s].
     pub fn new(params: PlantParams, theta_m0: f64, omega_m0: f64) -> Self {
         Self {
             params,

@@ -2,7 +2,7 @@
 
 use serde::Serialize;
 
-/// A piecewise-linear function of time given by breakpoints `(t [s], value)`, sorted by time.
+/// A piecewise-linear function of time given by breakpoints `(t \[s], value)`, sorted by time.
 /// Two breakpoints at the same time make a step. Before the first and after the last
 /// breakpoint the value is held.
 #[derive(Clone, Debug, PartialEq, Serialize)]

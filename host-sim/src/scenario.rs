@@ -38,7 +38,7 @@ pub struct Scenario {
     pub speed_cmd_rpm: Pwl,
     /// Load torque shape, scaled by `load_nm` \[dimensionless].
     pub load_shape: Pwl,
-    /// Load torque level [N·m] (positive opposes positive rotation).
+    /// Load torque level \[N·m] (positive opposes positive rotation).
     pub load_nm: f64,
     /// Metric windows.
     pub windows: Vec<Window>,
@@ -130,13 +130,13 @@ impl Scenario {
 }
 
 impl Scenario {
-    /// Load torque at `t` and speed `omega_m` [rad/s] [N·m].
+    /// Load torque at `t` and speed `omega_m` \[rad/s] \[N·m].
     pub fn load_at(&self, t: f64, omega_m: f64) -> f64 {
         let level = self.load_nm * self.load_shape.at(t);
         match self.load_kind {
             LoadKind::Active => level,
             LoadKind::Brake { sat_rpm } => {
-                let x = omega_m / (sat_rpm * std::f64::consts::PI / 30.0);
+                let x = omega_m / (sat_rpm * crate::sim::RAD_S_PER_RPM);
                 level * x.clamp(-1.0, 1.0)
             }
         }

@@ -106,7 +106,7 @@ pub struct SimConfig {
     /// Start the observer from its own zero state instead of the encoder's (a wrong initial
     /// estimate), sensorless from t = 0.
     pub cold_start: bool,
-    /// Flux-observer γ replacing the recommended one [1/(Wb²·s)].
+    /// Flux-observer γ replacing the recommended one \[1/(Wb²·s)].
     pub gamma: Option<f32>,
 }
 
@@ -160,16 +160,16 @@ pub struct Row {
     pub v_alpha: f64,
     /// Applied β voltage \[V].
     pub v_beta: f64,
-    /// Load torque [N·m].
+    /// Load torque \[N·m].
     pub load_nm: f64,
-    /// Estimated load torque [N·m], if the observer has one.
+    /// Estimated load torque \[N·m], if the observer has one.
     pub load_hat_nm: Option<f64>,
     /// Sliding observers: `S_a = î_a − i_a` \[A] (Horng Figs 9, 10).
     pub s_a: Option<f64>,
-    /// Sliding observers: the sliding gain in use [A/s].
+    /// Sliding observers: the sliding gain in use \[A/s].
     pub ks: Option<f64>,
     /// Sliding observers: the lower bound K_s,min of eq (28) from the true and estimated
-    /// states [A/s] (Horng Figs 7, 8).
+    /// states \[A/s] (Horng Figs 7, 8).
     pub ks_min: Option<f64>,
     /// Drive scenarios: the drive's mode.
     pub mode: Option<Mode>,
@@ -242,7 +242,7 @@ trait SimDrive {
     fn step(&mut self, input: &DriveInput, cmd: &Command) -> DriveOutput;
     /// [`Drive::telemetry`].
     fn telemetry(&self) -> Telemetry;
-    /// The voltage the last step's duties apply [V].
+    /// The voltage the last step's duties apply \[V].
     fn v_ab_applied(&self) -> AlphaBeta;
 }
 

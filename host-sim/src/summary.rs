@@ -28,9 +28,9 @@ pub struct WindowMetrics {
     pub theta_err_mean_abs_deg_e: f64,
     /// Largest `|θ̂_e − θ_e|` [deg, electrical].
     pub theta_err_max_abs_deg_e: f64,
-    /// Mean estimated load torque [N·m], `null` without a torque estimate.
+    /// Mean estimated load torque \[N·m], `null` without a torque estimate.
     pub torque_hat_mean_nm: Option<f64>,
-    /// Largest K_s,min of Horng & Chin eq (28) [A/s], `null` for non-sliding observers.
+    /// Largest K_s,min of Horng & Chin eq (28) \[A/s], `null` for non-sliding observers.
     pub ks_min_max: Option<f64>,
 }
 

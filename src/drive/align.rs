@@ -7,7 +7,7 @@ use crate::frames::{Dq, SinCos};
 /// Align's per-step coefficients.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Settings {
-    /// d-axis current [A].
+    /// d-axis current \[A].
     pub(super) current_a: f32,
     /// Steps to hold it.
     pub(super) steps: u32,

@@ -20,7 +20,7 @@ use crate::units::{RAD_PER_DEG, RAD_S_PER_RPM};
 /// half a period of rotation: the middle of the period the voltage is held over.
 const ADVANCE_PERIODS: f32 = 0.5;
 
-/// Natural frequency [Hz] and damping of the PLL on the flux observer's angle.
+/// Natural frequency \[Hz] and damping of the PLL on the flux observer's angle.
 const PLL_BANDWIDTH_HZ: f32 = 50.0;
 const PLL_DAMPING: f32 = 1.0;
 
@@ -48,7 +48,7 @@ pub struct StartConfig {
     pub align_time_s: f32,
     /// Magnitude of the open-loop (I/f) current \[A].
     pub open_loop_current_a: f32,
-    /// Speed-reference slew rate, also the open-loop frequency ramp [rpm/s].
+    /// Speed-reference slew rate, also the open-loop frequency ramp \[rpm/s].
     pub accel_rpm_per_s: f32,
     /// Hand-over to the observer is allowed above this |speed| \[rpm].
     pub handover_rpm: f32,
@@ -260,6 +260,7 @@ impl DriveConfig {
             primary,
             monitor,
             foc,
+            slew_per_slot_cycle_rpm: s.accel_rpm_per_s * ts * SLOTS as f32,
             limits: l,
             align: align::Settings {
                 current_a: s.align_current_a,
@@ -268,7 +269,6 @@ impl DriveConfig {
             open_loop: open_loop::Settings {
                 current_a: s.open_loop_current_a,
                 n_ts: m.n() * ts,
-                accel_per_slot_cycle: s.accel_rpm_per_s * ts * SLOTS as f32,
                 handover_rpm: s.handover_rpm,
             },
             supervision: supervision::Settings {

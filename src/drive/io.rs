@@ -123,7 +123,7 @@ pub struct Telemetry {
     pub i_d: f32,
     /// Measured q current (the observers' last sample) in the controller's frame \[A].
     pub i_q: f32,
-    /// The primary observer's load-torque estimate [N·m], if it has one.
+    /// The primary observer's load-torque estimate \[N·m], if it has one.
     pub load_nm: Option<f32>,
     /// Health: |θ̂_primary − θ̂_monitor| [deg, electrical].
     pub disagreement_deg: f32,

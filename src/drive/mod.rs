@@ -56,6 +56,9 @@ pub struct Drive<P, M> {
     primary: P,
     monitor: M,
     foc: Foc,
+    /// Speed-reference slew per slot cycle (the speed loop's period), also the open-loop
+    /// frequency ramp \[rpm].
+    slew_per_slot_cycle_rpm: f32,
     limits: Limits,
     align: align::Settings,
     open_loop: open_loop::Settings,
@@ -73,9 +76,9 @@ pub struct DriveState<PS, MS> {
     slot: Slot,
     obs: ObserverStates<PS, MS>,
     current: CurrentLoopState,
-    /// The currents of the last sample the observers took [A].
+    /// The currents of the last sample the observers took \[A].
     i_ab_last: AlphaBeta,
-    /// Voltage applied over the period that just ended [V].
+    /// Voltage applied over the period that just ended \[V].
     v_ab_last: AlphaBeta,
     /// False after a fault is cleared until the enable command has been seen low.
     armed: bool,
@@ -436,7 +439,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     }
 
     /// Restarts both observers at a known rotor state (`sc`: sin/cos of θ_e, `omega_m`
-    /// [rad/s]).
+    /// \[rad/s]).
     // Out of line, like the other mode changes: rare, kept off the every-step path.
     #[inline(never)]
     fn reset_observers(

@@ -18,13 +18,11 @@ use core::hint::cold_path;
 /// Open loop's per-step coefficients.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Settings {
-    /// Magnitude of the I/f current [A].
+    /// Magnitude of the I/f current \[A].
     pub(super) current_a: f32,
-    /// N·T [s]: θ_ol's advance per step per rad/s of ω_ol.
+    /// N·T \[s]: θ_ol's advance per step per rad/s of ω_ol.
     pub(super) n_ts: f32,
-    /// Speed slew per slot cycle (the ramp's and the speed loop's period) [rpm].
-    pub(super) accel_per_slot_cycle: f32,
-    /// The hand-over speed [rpm]: the observers restart at half of it.
+    /// The hand-over speed \[rpm]: the observers restart at half of it.
     pub(super) handover_rpm: f32,
 }
 
@@ -68,7 +66,7 @@ impl OpenLoop {
 }
 
 impl<P: Observer, M: Observer> Drive<P, M> {
-    /// The open loop at θ_ol = angle of `frame` and ω_ol = `omega_m` [rad/s] (the hand-back).
+    /// The open loop at θ_ol = angle of `frame` and ω_ol = `omega_m` \[rad/s] (the hand-back).
     // Out of line, like the other mode changes: rare, kept off the every-step path.
     #[inline(never)]
     pub(super) fn open_loop_at(&self, frame: SinCos, omega_m: f32) -> OpenLoop {
@@ -107,7 +105,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         // N ω_ol T every step, as the rotation `step_rot` of its sin/cos.
         let before = ol.speed_rpm;
         if slot == Slot::SpeedLoop {
-            ol.speed_rpm = slew(before, cmd_rpm, s.accel_per_slot_cycle);
+            ol.speed_rpm = slew(before, cmd_rpm, self.slew_per_slot_cycle_rpm);
             self.set_open_loop_speed(ol);
         }
         let omega_m = ol.speed_rpm * RAD_S_PER_RPM;
@@ -160,7 +158,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     }
 
     /// The hand-over: the speed loop starts from the torque the open-loop current makes in the
-    /// primary's frame, the reference from its speed `omega_m` [rad/s].
+    /// primary's frame, the reference from its speed `omega_m` \[rad/s].
     // Out of line, like the other mode changes: rare, kept off the every-step path.
     #[inline(never)]
     fn enter_sensorless(

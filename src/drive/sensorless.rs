@@ -17,9 +17,9 @@ use crate::units::RAD_S_PER_RPM;
 pub(super) struct Sensorless {
     /// Slewed speed reference [rpm, mechanical].
     speed_ref_rpm: f32,
-    /// The speed PI's integrator [A].
+    /// The speed PI's integrator \[A].
     speed_pi: PiState,
-    /// The speed loop's i_q command [A].
+    /// The speed loop's i_q command \[A].
     i_q_ref: f32,
     /// sin/cos of the output angle's lead at the primary's speed (`Foc::output_rotation`),
     /// renewed in [`Slot::Pll`] (the speed read-outs move at 1 kHz).
@@ -30,7 +30,7 @@ pub(super) struct Sensorless {
 
 impl Sensorless {
     /// Sensorless control from the reference `speed_ref_rpm`, with the speed loop's integrator
-    /// (and command) at `i_q_a` [A] and the output lead `out_rot`.
+    /// (and command) at `i_q_a` \[A] and the output lead `out_rot`.
     pub(super) fn new(speed_ref_rpm: f32, i_q_a: f32, out_rot: SinCos) -> Self {
         Self {
             speed_ref_rpm,
@@ -41,7 +41,7 @@ impl Sensorless {
         }
     }
 
-    /// Slewed speed reference [rpm].
+    /// Slewed speed reference \[rpm].
     pub(super) fn speed_ref_rpm(&self) -> f32 {
         self.speed_ref_rpm
     }
@@ -68,11 +68,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         let mut next = None;
         match slot {
             Slot::SpeedLoop => {
-                s.speed_ref_rpm = slew(
-                    s.speed_ref_rpm,
-                    cmd_rpm,
-                    self.open_loop.accel_per_slot_cycle,
-                );
+                s.speed_ref_rpm = slew(s.speed_ref_rpm, cmd_rpm, self.slew_per_slot_cycle_rpm);
                 let omega_m_ref = s.speed_ref_rpm * RAD_S_PER_RPM;
                 let ff = self.primary.load_nm(&obs.primary).unwrap_or(0.0);
                 s.i_q_ref = self

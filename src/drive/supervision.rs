@@ -9,7 +9,7 @@ use core::hint::cold_path;
 /// Supervision's thresholds, in the units and counts the checks use.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Settings {
-    /// Hand-over is allowed above this |open-loop speed| [rpm].
+    /// Hand-over is allowed above this |open-loop speed| \[rpm].
     pub(super) handover_rpm: f32,
     /// cos of the hand-over angle tolerance.
     pub(super) handover_cos: f32,
@@ -17,17 +17,17 @@ pub(super) struct Settings {
     pub(super) handover_checks: u32,
     /// Checks above the hand-over speed before a stall.
     pub(super) handover_timeout_checks: u32,
-    /// Back to open loop below this |speed| and |reference| [rpm].
+    /// Back to open loop below this |speed| and |reference| \[rpm].
     pub(super) handback_rpm: f32,
     /// Largest tolerated angle disagreement [rad, electrical].
     pub(super) max_disagreement: f32,
-    /// Largest tolerated speed disagreement [rpm].
+    /// Largest tolerated speed disagreement \[rpm].
     pub(super) max_speed_disagreement_rpm: f32,
     /// Checks of disagreement before an observer loss.
     pub(super) loss_checks: u32,
     /// Checks of collapsed speed before a stall.
     pub(super) stall_checks: u32,
-    /// |i_q command| at or above this is the speed loop at its limit [A].
+    /// |i_q command| at or above this is the speed loop at its limit \[A].
     pub(super) i_limit_a: f32,
 }
 
@@ -47,7 +47,7 @@ impl Views {
         wrap_pi(self.theta_primary - self.theta_monitor).abs()
     }
 
-    /// |ω̂_primary − ω̂_monitor| [rpm].
+    /// |ω̂_primary − ω̂_monitor| \[rpm].
     pub(super) fn speed_disagreement_rpm(&self) -> f32 {
         (self.omega_primary - self.omega_monitor).abs() * RPM_PER_RAD_S
     }

@@ -23,7 +23,7 @@ use crate::math::{all_finite, atan2, is_normal_positive, rsqrt_normal};
 use crate::motor::{positive, MotorParams, ParamError};
 use core::hint::cold_path;
 
-/// Largest γ [1/(Wb²·s)] for which the forward-Euler gradient step of eq (9) is stable:
+/// Largest γ \[1/(Wb²·s)] for which the forward-Euler gradient step of eq (9) is stable:
 /// `γΦ²T < 2`, i.e. `γ < 2·rate_hz/Φ²`. Above it a radial error of `x̂ − L i` grows by
 /// `|1 − γΦ²T| > 1` each sample.
 pub fn gamma_max_discrete(flux_wb: f32, rate_hz: f32) -> f32 {
@@ -61,7 +61,7 @@ pub struct FluxConfig {
     pub motor: MotorParams,
     /// Update rate \[Hz].
     pub rate_hz: f32,
-    /// Gradient gain γ [1/(Wb²·s)], in `(0, gamma_max_discrete)`.
+    /// Gradient gain γ \[1/(Wb²·s)], in `(0, gamma_max_discrete)`.
     pub gamma: f32,
 }
 

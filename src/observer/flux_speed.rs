@@ -94,7 +94,7 @@ pub struct FluxIi {
     pub flux: FluxObserver,
     /// The I&I observer, built for the rate [`ReadOut::Speed`] is run at.
     pub ii: IiObserver,
-    /// N ψ_f [N·m/A].
+    /// N ψ_f \[N·m/A].
     torque_constant: f32,
 }
 
@@ -105,13 +105,13 @@ pub struct FluxIiState {
     pub flux: FluxState,
     /// The I&I observer's state.
     pub ii: IiState,
-    /// Electromagnetic torque `N ψ_f i_q` at the previous speed update [N·m]: forward Euler
+    /// Electromagnetic torque `N ψ_f i_q` at the previous speed update \[N·m]: forward Euler
     /// over the period that ends at the next one uses the torque at its start.
     pub torque_last_nm: f32,
 }
 
 impl FluxIi {
-    /// The two blocks; `torque_constant` = N ψ_f [N·m/A].
+    /// The two blocks; `torque_constant` = N ψ_f \[N·m/A].
     pub fn new(flux: FluxObserver, ii: IiObserver, torque_constant: f32) -> Self {
         Self {
             flux,

@@ -131,7 +131,7 @@ pub struct IiObserver {
     n: f32,
     /// `1/J'` = N/J: τ/J' per N·m.
     torque_over_j: f32,
-    /// f'/J' = B/J [1/s].
+    /// f'/J' = B/J \[1/s].
     f_over_j: f32,
     /// J' = J/N, to turn η2 into a torque.
     j_over_n: f32,
@@ -177,7 +177,7 @@ impl Default for IiState {
 pub struct IiEstimate {
     /// ω̂_m [rad/s, mechanical].
     pub omega_m: f32,
-    /// τ̂_L [N·m].
+    /// τ̂_L \[N·m].
     pub load_nm: f32,
 }
 
@@ -201,7 +201,7 @@ impl IiObserver {
     }
 
     /// One sample: `sin_cos_theta_e` = (sin, cos) of the angle estimate now; `torque_nm` the
-    /// electromagnetic torque `N Φ i_q` over the period that just ended [N·m]. Returns false
+    /// electromagnetic torque `N Φ i_q` over the period that just ended \[N·m]. Returns false
     /// and leaves the state untouched on non-finite input or output.
     pub fn update(&self, st: &mut IiState, sin_cos_theta_e: (f32, f32), torque_nm: f32) -> bool {
         let h_new = [sin_cos_theta_e.0, sin_cos_theta_e.1];
@@ -260,7 +260,7 @@ impl IiObserver {
         ok
     }
 
-    /// Starts at a known speed [rad/s mechanical] and load [N·m], angle `sin_cos_theta_e`.
+    /// Starts at a known speed [rad/s mechanical] and load \[N·m], angle `sin_cos_theta_e`.
     pub fn reset(&self, st: &mut IiState, sin_cos_theta_e: (f32, f32), omega_m: f32, load_nm: f32) {
         *st = IiState {
             h: [sin_cos_theta_e.0, sin_cos_theta_e.1],

@@ -31,9 +31,9 @@ pub enum ReadOut {
 pub struct Rotor {
     /// Electrical angle θ_e \[rad].
     pub theta_e: f32,
-    /// Mechanical speed ω_m [rad/s].
+    /// Mechanical speed ω_m \[rad/s].
     pub omega_m: f32,
-    /// Load torque τ_L [N·m] (used by the observers that estimate it).
+    /// Load torque τ_L \[N·m] (used by the observers that estimate it).
     pub load_nm: f32,
 }
 
@@ -69,10 +69,10 @@ pub trait Observer {
         frame.rotated(lead)
     }
 
-    /// ω̂_m [rad/s].
+    /// ω̂_m \[rad/s].
     fn omega_m(&self, st: &Self::State) -> f32;
 
-    /// τ̂_L [N·m], for the observers that estimate the load torque.
+    /// τ̂_L \[N·m], for the observers that estimate the load torque.
     fn load_nm(&self, _st: &Self::State) -> Option<f32> {
         None
     }

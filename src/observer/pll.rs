@@ -6,7 +6,7 @@
 //! The error `e = θ̂ − z1` obeys `ë + Kp ė + Ki e = θ̈̂`, so `Kp = 2ζω_n`, `Ki = ω_n²` give a
 //! second-order loop of natural frequency ω_n and damping ζ. The angle difference is wrapped
 //! to (−π, π], so the estimator lives on the circle. Forward Euler at the control rate; the
-//! integral state is kept as `Ki·z2` [rad/s].
+//! integral state is kept as `Ki·z2` \[rad/s].
 
 use crate::math::{all_finite, wrap_pi};
 use crate::motor::{positive, ParamError};
@@ -37,9 +37,9 @@ pub struct Pll {
 pub struct PllState {
     /// Tracked angle z1 \[rad], in (−π, π].
     pub z1: f32,
-    /// Integral term `Ki·z2` [rad/s].
+    /// Integral term `Ki·z2` \[rad/s].
     pub integral: f32,
-    /// Speed estimate ω̂ [rad/s] of the tracked angle (electrical if the input is).
+    /// Speed estimate ω̂ \[rad/s] of the tracked angle (electrical if the input is).
     pub omega: f32,
 }
 
@@ -66,7 +66,7 @@ impl PllConfig {
 }
 
 impl Pll {
-    /// One sample of the input angle `theta` \[rad]; returns ω̂ [rad/s]. A non-finite input
+    /// One sample of the input angle `theta` \[rad]; returns ω̂ \[rad/s]. A non-finite input
     /// leaves the state untouched.
     // Inlined: the 4 kHz step compiles to one function (see `drive`).
     #[inline(always)]

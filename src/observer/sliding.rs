@@ -29,16 +29,16 @@ use crate::observer::{Observer, Rotor};
 use core::f32::consts::TAU;
 use core::hint::cold_path;
 
-/// How the sliding gain `K_s` [A/s] is chosen each step.
+/// How the sliding gain `K_s` \[A/s] is chosen each step.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum SlidingGain {
-    /// A fixed `K_s` [A/s]. The paper's experiment uses 1000π.
+    /// A fixed `K_s` \[A/s]. The paper's experiment uses 1000π.
     Constant(f32),
     /// `K_s = per_rad_s · |ω̂|`, not below `min` (Sec 5: `K_s = 30·ω`).
     PerSpeed {
         /// Slope [A/s per rad/s].
         per_rad_s: f32,
-        /// Floor [A/s], > 0.
+        /// Floor \[A/s], > 0.
         min: f32,
     },
 }
@@ -60,7 +60,7 @@ pub struct SlidingConfig {
     pub epsilon_a: f32,
     /// Sliding gain K_s.
     pub ks: SlidingGain,
-    /// `|ω̂|` below this is replaced by it in the gains [rad/s], > 0 (paper: 1).
+    /// `|ω̂|` below this is replaced by it in the gains \[rad/s], > 0 (paper: 1).
     pub omega_low_rad_s: f32,
     /// The back-EMF angle is advanced by this many periods of rotation (0.5: middle of the
     /// period, matching a voltage held over the period; 0: the plain start-of-period Euler).
@@ -146,7 +146,7 @@ pub struct SlidingObserver {
     inv_epsilon: f32,
     ks: SlidingGain,
     omega_low: f32,
-    /// a·T·N [s]: the EMF angle leads θ̂_e by this times ω̂ [rad].
+    /// a·T·N \[s]: the EMF angle leads θ̂_e by this times ω̂ \[rad].
     emf_advance_s: f32,
 }
 
@@ -154,19 +154,19 @@ pub struct SlidingObserver {
 /// which both [`SlidingObserver::gains`] and the Euler step's coefficients are formed.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct GainFactors {
-    /// K1 = λθ + λω + λτ [rad/s].
+    /// K1 = λθ + λω + λτ \[rad/s].
     k1: f32,
-    /// K2 = λθλω + λωλτ + λτλθ [rad²/s²].
+    /// K2 = λθλω + λωλτ + λτλθ \[rad²/s²].
     k2: f32,
-    /// K3 = λθλωλτ [rad³/s³] (0 for the velocity observer).
+    /// K3 = λθλωλτ \[rad³/s³] (0 for the velocity observer).
     k3: f32,
-    /// B/H [1/s].
+    /// B/H \[1/s].
     b_over_h: f32,
     /// L/H.
     l_over_h: f32,
     /// L/(K N²).
     l_over_kn2: f32,
-    /// H [kg·m²].
+    /// H \[kg·m²].
     h: f32,
 }
 
@@ -183,17 +183,17 @@ impl GainFactors {
 struct EulerStep {
     /// 1 − T R/L.
     a_i: f32,
-    /// T K N/L [A/(rad/s)].
+    /// T K N/L \[A/(rad/s)].
     t_kn_over_l: f32,
-    /// T/L [A/V].
+    /// T/L \[A/V].
     t_inv_l: f32,
-    /// T N [s]: θ̂_e advance per rad/s of ω̂.
+    /// T N \[s]: θ̂_e advance per rad/s of ω̂.
     tn: f32,
     /// 1 − T B/H.
     a_omega: f32,
-    /// T K N/H [rad/(s·A)].
+    /// T K N/H \[rad/(s·A)].
     t_kn_over_h: f32,
-    /// T/H [rad/(s·N·m)].
+    /// T/H \[rad/(s·N·m)].
     t_inv_h: f32,
     /// T L/H.
     t_l_over_h: f32,
@@ -236,11 +236,11 @@ pub struct SlidingState {
     pub i_hat: AlphaBeta,
     /// Electrical angle estimate θ̂_e = N θ̂, in (−π, π] \[rad].
     pub theta_e: f32,
-    /// Mechanical speed estimate ω̂ [rad/s].
+    /// Mechanical speed estimate ω̂ \[rad/s].
     pub omega_m: f32,
-    /// Load torque estimate τ̂_L [N·m] (0 for the velocity observer).
+    /// Load torque estimate τ̂_L \[N·m] (0 for the velocity observer).
     pub load_nm: f32,
-    /// Innovation `w = K_s sat(S/ε)` of the last sample [A/s].
+    /// Innovation `w = K_s sat(S/ε)` of the last sample \[A/s].
     pub w: AlphaBeta,
     /// Sliding variable `S = î − i` of the last sample \[A].
     pub s: AlphaBeta,
@@ -314,7 +314,7 @@ impl SlidingObserver {
         }
     }
 
-    /// Sliding gain `K_s` [A/s] at speed estimate `omega_m`.
+    /// Sliding gain `K_s` \[A/s] at speed estimate `omega_m`.
     pub fn sliding_gain(&self, omega_m: f32) -> f32 {
         match self.ks {
             SlidingGain::Constant(k) => k,
