@@ -1,9 +1,11 @@
-//! How the core is driven: build the FOC from a motor preset, then call `step` once per
-//! 250 µs control period with the sampled currents, bus voltage and rotor estimate.
+//! How the core is driven, on the host: the FOC block alone (one call per 250 µs period with
+//! the sampled currents, bus voltage and a rotor estimate), then the whole drive, whose
+//! `Drive::step` is what a firmware's control interrupt calls (the emulated Cortex-M4F in
+//! `examples/qemu-m4f/`, the B-G431B-ESC1 board under `examples/`).
 //!
-//! `cargo run --example foc_quickstart` (host). The firmware binaries for the B-G431B-ESC1 and
-//! the emulated Cortex-M4F come with the firmware issue; they call the same `step`.
+//! `cargo run --example foc_quickstart`
 
+use pmsm_sensorless::drive::{Command, DriveConfig, DriveInput, DriveState};
 use pmsm_sensorless::foc::{FocConfig, FocInput, FocState};
 use pmsm_sensorless::frames::Abc;
 use pmsm_sensorless::motor::HORNG_SINANO;
@@ -42,4 +44,24 @@ fn main() {
     if let Err(e) = wrong.build() {
         println!("5 kHz current loop at 4 kHz -> error: {e}");
     }
+
+    // The drive: enabled with a speed command it starts with the alignment; every mode change
+    // comes back as a transition, the log record is read when wanted.
+    let drive = DriveConfig::new(&motor)
+        .build_sliding_primary()
+        .expect("preset parameters are valid");
+    let mut st = DriveState::default();
+    let sample = DriveInput {
+        i_abc: Abc::default(),
+        v_bus: 48.0,
+        overrun: false,
+    };
+    let run = Command {
+        enable: true,
+        speed_rpm: 500.0,
+        clear_fault: false,
+    };
+    let out = drive.step(&mut st, &sample, &run);
+    println!("drive: {:?}, duties {:?}", out.transition, out.duties);
+    println!("telemetry: {:?}", drive.telemetry(&st));
 }
