@@ -70,9 +70,9 @@ mod firmware {
     const STEPS: u32 = 64;
 
     /// One control step as the board firmware's interrupt runs it (`Control::step` in
-    /// `examples/b_g431b_esc1.rs`): `Drive::step` inlined into a function of its own, so the
-    /// count includes that function's register saves and returns, and none of the bench
-    /// loop's own register pressure.
+    /// `examples/b-g431b-esc1/src/control.rs`): `Drive::step` inlined into a function of its
+    /// own, so the count includes that function's register saves and returns, and none of the
+    /// bench loop's own register pressure.
     #[inline(never)]
     fn control_step(
         drive: &Drive,
