@@ -220,15 +220,16 @@ fn init_adcs(common: &pac::ADC12_COMMON, adc1: &pac::ADC1, adc2: &pac::ADC2) {
         .modify(|_, w| w.smp1().cycles247_5().smp3().cycles6_5());
     adc1.smpr2().modify(|_, w| w.smp12().cycles6_5());
     adc2.smpr1().modify(|_, w| w.smp3().cycles6_5());
+    // Both sequences start on TIM1_TRGO's rising edge.
+    fn on_tim1_trgo(w: &mut pac::adc1::jsqr::W) -> &mut pac::adc1::jsqr::W {
+        w.jextsel().tim1_trgo().jexten().rising_edge()
+    }
     // SAFETY: JSQx are 5-bit channel numbers; 3, 12 and 1 are ADC1 inputs IN3 (PA2),
     // IN12 (PB1) and IN1 (PA0) and 3 is ADC2's IN3 (PA6) (DS12589 pin table).
     adc1.jsqr().write(|w| unsafe {
-        w.jl()
+        on_tim1_trgo(w)
+            .jl()
             .set(2)
-            .jextsel()
-            .tim1_trgo()
-            .jexten()
-            .rising_edge()
             .jsq1()
             .bits(3)
             .jsq2()
@@ -237,16 +238,8 @@ fn init_adcs(common: &pac::ADC12_COMMON, adc1: &pac::ADC1, adc2: &pac::ADC2) {
             .bits(1)
     });
     // SAFETY: as above.
-    adc2.jsqr().write(|w| unsafe {
-        w.jl()
-            .set(0)
-            .jextsel()
-            .tim1_trgo()
-            .jexten()
-            .rising_edge()
-            .jsq1()
-            .bits(3)
-    });
+    adc2.jsqr()
+        .write(|w| unsafe { on_tim1_trgo(w).jl().set(0).jsq1().bits(3) });
     adc1.ier().write(|w| w.jeosie().enabled());
     for adc in both {
         acknowledge(adc);
