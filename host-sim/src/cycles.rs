@@ -365,12 +365,14 @@ pub fn measure(root: &Path) -> anyhow::Result<CyclesReport> {
         "building the bench (thumbv7em)",
     )?;
     let bench = root.join("examples/qemu-m4f/target/thumbv7em-none-eabihf/release/bench");
+    let board_manifest = root.join("examples/b-g431b-esc1/Cargo.toml");
     cargo_build(
         root,
-        &["--example", "b_g431b_esc1", "--features", "board"],
+        &["--manifest-path", &board_manifest.to_string_lossy()],
         "building the board firmware (thumbv7em)",
     )?;
-    let board = root.join("target/thumbv7em-none-eabihf/release/examples/b_g431b_esc1");
+    let board =
+        root.join("examples/b-g431b-esc1/target/thumbv7em-none-eabihf/release/b-g431b-esc1");
     let dir = std::env::temp_dir().join(format!("pmsm-cycles-{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
     let trace_path = dir.join("trace.log");

@@ -88,7 +88,7 @@ impl<PS: Default, MS: Default> Default for DriveState<PS, MS> {
     fn default() -> Self {
         Self {
             mode: ModeState::Idle,
-            slot: Slot::MonitorAngle,
+            slot: Slot::AngleReadOut,
             obs: ObserverStates::default(),
             current: CurrentLoopState::default(),
             i_ab_last: AlphaBeta::default(),
@@ -168,11 +168,11 @@ enum ModeState {
 struct ObserverStates<PS, MS> {
     primary: PS,
     monitor: MS,
-    /// The angles of the last [`Slot::MonitorAngle`] step's sample.
+    /// The angles of the last [`Slot::AngleReadOut`] step's sample.
     sample: AngleSample,
 }
 
-/// The angles the 1 kHz comparisons take, all of one sample (the [`Slot::MonitorAngle`]
+/// The angles the 1 kHz comparisons take, all of one sample (the [`Slot::AngleReadOut`]
 /// step's) [rad, electrical].
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 struct AngleSample {
@@ -357,7 +357,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         let ok_p = self.primary.update(&mut obs.primary, i_ab, v);
         let ok_m = self.monitor.update(&mut obs.monitor, i_ab, v);
         match st.slot {
-            Slot::MonitorAngle => {
+            Slot::AngleReadOut => {
                 self.primary.read_out(&mut obs.primary, ReadOut::Angle);
                 self.monitor.read_out(&mut obs.monitor, ReadOut::Angle);
                 obs.sample = AngleSample {
@@ -365,7 +365,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                     theta_monitor: self.monitor.theta_e(&obs.monitor),
                 };
             }
-            Slot::Pll => {
+            Slot::SpeedReadOut => {
                 self.primary.read_out(&mut obs.primary, ReadOut::Speed);
                 self.monitor.read_out(&mut obs.monitor, ReadOut::Speed);
             }
@@ -426,7 +426,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         (Some(out.duties), reason)
     }
 
-    /// The observers' estimates: the angles of the last [`Slot::MonitorAngle`] sample and the
+    /// The observers' estimates: the angles of the last [`Slot::AngleReadOut`] sample and the
     /// speeds now.
     #[inline(always)]
     fn sample_views(&self, obs: &ObserverStates<P::State, M::State>) -> Views {

@@ -37,7 +37,7 @@ pub(super) struct OpenLoop {
     out_rot: SinCos,
     /// ω_ol [rpm, mechanical].
     speed_rpm: f32,
-    /// cos(θ̂_primary − θ_ol) at the last [`Slot::MonitorAngle`] sample.
+    /// cos(θ̂_primary − θ_ol) at the last [`Slot::AngleReadOut`] sample.
     ol_cos: f32,
     /// The hand-over's counts.
     hand_over: HandOverCount,
@@ -124,7 +124,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 }
             }
             // The primary's angle against θ_ol, at the sample the angles are kept at.
-            Slot::MonitorAngle => {
+            Slot::AngleReadOut => {
                 let p = self.primary.sin_cos(&obs.primary);
                 ol.ol_cos = p.cos * ol.frame.cos + p.sin * ol.frame.sin;
             }
@@ -143,7 +143,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 }
             }
             // The four rotations since the last time moved its length by a few 1e-7.
-            Slot::Pll => ol.frame = ol.frame.renormalized(),
+            Slot::SpeedReadOut => ol.frame = ol.frame.renormalized(),
         }
         let request = Request {
             frame: ol.frame,

@@ -14,13 +14,13 @@ pub enum Slot {
     /// the angles of one sample for the comparisons of the next slot; in open loop also the
     /// primary's angle against the open-loop angle.
     #[default]
-    MonitorAngle,
+    AngleReadOut,
     /// Supervision: in sensorless control observer health, stall and the hand-back; in open
     /// loop the hand-over check.
     Supervision,
     /// The observers' speed read-outs (the PLL, the I&I observer) and the output-angle lead
     /// at the new speed; in open loop the renormalisation of its frame.
-    Pll,
+    SpeedReadOut,
     /// Speed-reference slew and the speed PI; in open loop the I/f frequency ramp.
     SpeedLoop,
 }
@@ -29,9 +29,9 @@ impl Slot {
     /// The slot of the next step: the discriminant plus one, modulo four (an add and a mask).
     pub(super) fn next(self) -> Self {
         match (self as u8 + 1) % SLOTS as u8 {
-            0 => Slot::MonitorAngle,
+            0 => Slot::AngleReadOut,
             1 => Slot::Supervision,
-            2 => Slot::Pll,
+            2 => Slot::SpeedReadOut,
             _ => Slot::SpeedLoop,
         }
     }

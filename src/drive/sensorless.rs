@@ -22,7 +22,7 @@ pub(super) struct Sensorless {
     /// The speed loop's i_q command \[A].
     i_q_ref: f32,
     /// sin/cos of the output angle's lead at the primary's speed (`Foc::output_rotation`),
-    /// renewed in [`Slot::Pll`] (the speed read-outs move at 1 kHz).
+    /// renewed in [`Slot::SpeedReadOut`] (the speed read-outs move at 1 kHz).
     out_rot: SinCos,
     /// The health counts.
     health: HealthCount,
@@ -49,7 +49,7 @@ impl Sensorless {
 
 impl<P: Observer, M: Observer> Drive<P, M> {
     /// One sensorless step: the speed loop (in [`Slot::SpeedLoop`]), supervision (in
-    /// [`Slot::Supervision`]), the output lead at the new speed (in [`Slot::Pll`]); the
+    /// [`Slot::Supervision`]), the output lead at the new speed (in [`Slot::SpeedReadOut`]); the
     /// request is the speed loop's i_q in the primary's frame. An observer that could not
     /// update (`observers_ok` false) is an observer loss.
     #[inline(always)]
@@ -91,8 +91,8 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                     }
                 }
             }
-            Slot::Pll => s.out_rot = self.foc.output_rotation(omega_m),
-            Slot::MonitorAngle => {}
+            Slot::SpeedReadOut => s.out_rot = self.foc.output_rotation(omega_m),
+            Slot::AngleReadOut => {}
         }
         let frame = self.primary.sin_cos(&obs.primary);
         let request = Request {

@@ -73,9 +73,9 @@ mod firmware {
     const STEPS: u32 = 64;
 
     /// One control step as the board firmware's interrupt runs it (`Control::step` in
-    /// `examples/b_g431b_esc1.rs`): `Drive::step` inlined into a function of its own, so the
-    /// count includes that function's register saves and returns, and none of the bench
-    /// loop's own register pressure.
+    /// `examples/b-g431b-esc1/src/control.rs`): `Drive::step` inlined into a function of its
+    /// own, so the count includes that function's register saves and returns, and none of the
+    /// bench loop's own register pressure.
     #[inline(never)]
     fn control_step<P: Observer, M: Observer>(
         drive: &Drive<P, M>,
@@ -201,11 +201,11 @@ mod firmware {
         }
         let per_slot = |slot: Slot| -> (extern "C" fn(), extern "C" fn()) {
             match slot {
-                Slot::MonitorAngle => {
+                Slot::AngleReadOut => {
                     (bench_begin_step_monitor_angle, bench_end_step_monitor_angle)
                 }
                 Slot::Supervision => (bench_begin_step_supervision, bench_end_step_supervision),
-                Slot::Pll => (bench_begin_step_pll, bench_end_step_pll),
+                Slot::SpeedReadOut => (bench_begin_step_pll, bench_end_step_pll),
                 Slot::SpeedLoop => (bench_begin_step_speed_loop, bench_end_step_speed_loop),
             }
         };

@@ -1,0 +1,235 @@
+//! Firmware for ST's B-G431B-ESC1 Discovery kit (STM32G431CBU6, Cortex-M4F at 170 MHz):
+//! the drive's `Drive::step` at 4 kHz on the board's three half-bridges.
+//!
+//! Build and flash (runner `probe-rs run --chip STM32G431CBUx` in the repository's
+//! `.cargo/config.toml`; aliases there), from the repository root:
+//!
+//! ```text
+//! cargo fw            # build --release --manifest-path examples/b-g431b-esc1/Cargo.toml --target thumbv7em-none-eabihf
+//! cargo flash-esc1    # the same with `run`: flash with probe-rs, print the defmt log
+//! ```
+//!
+//! # Use
+//!
+//! The motor is the constant `control::MOTOR` (edit it for yours), the speed command the
+//! constant `control::SPEED_CMD_RPM`. The user button toggles `enable`; pressed while the drive
+//! is in `Fault` it clears the fault and leaves the drive disabled (press again to restart).
+//! The log (defmt over RTT) shows every mode transition and a telemetry record at 10 Hz.
+//!
+//! # Modules
+//!
+//! `clocks` (170 MHz, peripheral clocks), `pwm` (TIM1: timing, dead time, duties), `adc`
+//! (OPAMPs, ADCs, offsets, scaling), `power_stage` (the core's `PowerStage` on those two),
+//! `control` (the drive: settings, building it, the control step; the only user of the drive's
+//! API), `protection` (watchdog, HardFault, debug halt, the board's bus limit), `telemetry`
+//! (the interrupt → main-loop queue and the defmt log). This file: start-up, the control
+//! interrupt, the button.
+//!
+//! # Hardware map
+//!
+//! References: UM2516 (B-G431B-ESC1 user manual), RM0440 (STM32G4 reference manual),
+//! DS12589 (STM32G431xx datasheet). The pin assignment below is the one published by the
+//! board's NuttX port (`boards/arm/stm32/b-g431b-esc1`, which follows UM2516's pin table) and
+//! by ST's stm32duino variant for this board; the alternate-function numbers are the
+//! datasheet's (DS12589 alternate-function table, as generated into stm32duino's
+//! `PeripheralPins.c` for STM32G431CBUx). UM2516 itself was not at hand when this was
+//! written, so the board-level facts marked "UNVERIFIED" must be checked against its
+//! schematic. Nor was RM0440: §6.1.5 and §7.2.7 are the sections named for the clock switch,
+//! the chapter numbers (§21 ADC, §25 OPAMP, §28 TIM1/TIM8/TIM20) are Rev 8's from memory,
+//! and subsections are cited by title; check them against your copy.
+//!
+//! | Function (UM2516)        | Pin  | Peripheral                                  |
+//! |--------------------------|------|---------------------------------------------|
+//! | Phase U high / low side  | PA8 / PC13 | TIM1_CH1 (AF6) / TIM1_CH1N (AF4)      |
+//! | Phase V high / low side  | PA9 / PA12 | TIM1_CH2 (AF6) / TIM1_CH2N (AF6)      |
+//! | Phase W high / low side  | PA10 / PB15 | TIM1_CH3 (AF6) / TIM1_CH3N (AF4)     |
+//! | Shunt U (+ / −), output  | PA1 / PA3, PA2 | OPAMP1 VINP0 / VINM0, VOUT = ADC1_IN3 |
+//! | Shunt V (+ / −), output  | PA7 / PA5, PA6 | OPAMP2 VINP0 / VINM0, VOUT = ADC2_IN3 |
+//! | Shunt W (+ / −), output  | PB0 / PB2, PB1 | OPAMP3 VINP0 / VINM0, VOUT = ADC1_IN12 |
+//! | Bus voltage divider      | PA0  | ADC1_IN1                                    |
+//! | User button              | PC10 | GPIO input                                  |
+//!
+//! Timing: TIM1 centre-aligned at 20 kHz, the repetition counter makes one update event
+//! (UEV) every 5 PWM periods = 4 kHz, at the counter peak where all low-side switches
+//! conduct (should the silicon put the UEV on the valley instead, start-up detects it and
+//! switches to PWM mode 2, which puts the low-side interval there). TRGO = UEV starts the
+//! injected conversions of ADC1 (U, W, bus) and ADC2 (V) at that instant; ADC1's
+//! end-of-injected-sequence interrupt runs the drive step and writes CCR1..3. PWM outputs stay
+//! off (MOE = 0) until the drive returns duties, and MOE is cleared in the same step in which
+//! it returns `None`.
+//!
+//! Safety nets: see `protection` (software trip only; watchdog fed by the control interrupt;
+//! MOE cleared on HardFault and panic; outputs inactive on debug halt).
+#![cfg_attr(target_os = "none", no_std, no_main)]
+
+#[cfg(not(target_os = "none"))]
+fn main() {
+    println!(
+        "b-g431b-esc1 is firmware: build it with `cargo fw` (thumbv7em-none-eabihf), flash it with `cargo flash-esc1`"
+    );
+}
+
+#[cfg(target_os = "none")]
+mod adc;
+#[cfg(target_os = "none")]
+mod clocks;
+#[cfg(target_os = "none")]
+mod control;
+#[cfg(target_os = "none")]
+mod power_stage;
+#[cfg(target_os = "none")]
+mod protection;
+#[cfg(target_os = "none")]
+mod pwm;
+#[cfg(target_os = "none")]
+mod telemetry;
+
+#[cfg(target_os = "none")]
+mod firmware {
+    use core::cell::RefCell;
+    use core::sync::atomic::Ordering;
+
+    use cortex_m::interrupt::Mutex;
+    use cortex_m::peripheral::NVIC;
+    use cortex_m_rt::entry;
+    use panic_probe as _;
+    use stm32g4::stm32g431::{self as pac, interrupt, Interrupt};
+
+    use crate::control::{self, Control, CLEAR_FAULT, ENABLE, STEPS};
+    use crate::power_stage::Esc1;
+    use crate::{adc, clocks, protection, pwm, telemetry};
+
+    /// The button is sampled every this many steps (40 steps = 10 ms, longer than contact
+    /// bounce).
+    const BUTTON_POLL_STEPS: u32 = 40;
+
+    /// The control context, handed from `main` to the interrupt once.
+    static CONTROL: Mutex<RefCell<Option<Control>>> = Mutex::new(RefCell::new(None));
+
+    /// The control interrupt: ADC1 end of injected sequence (ADC1 and ADC2 share the vector).
+    /// [`Control::step`]: read the ADC, step the drive, write the compare registers, push
+    /// telemetry.
+    #[interrupt]
+    fn ADC1_2() {
+        static mut CTX: Option<Control> = None;
+        let ctl = match CTX {
+            Some(ctl) => ctl,
+            None => match cortex_m::interrupt::free(|cs| CONTROL.borrow(cs).borrow_mut().take()) {
+                Some(ctl) => CTX.insert(ctl),
+                // Cannot happen (main installs the context before unmasking); never spin.
+                None => {
+                    NVIC::mask(Interrupt::ADC1_2);
+                    return;
+                }
+            },
+        };
+        ctl.step();
+    }
+
+    /// Copies the control path (`.ramfunc`, placed by `ramfunc.x`) from its load image in
+    /// flash to CCM SRAM. Must run before anything in it is called.
+    fn load_ramfunc() {
+        extern "C" {
+            static mut __sramfunc: u32;
+            static mut __eramfunc: u32;
+            static __siramfunc: u32;
+        }
+        // SAFETY: the three symbols come from ramfunc.x: a word-aligned region of CCM SRAM
+        // that nothing else uses and its image in flash, of the same length. Nothing in the
+        // region runs before this copy (it is the first thing `main` does; no interrupt is
+        // enabled).
+        unsafe {
+            let dst = core::ptr::addr_of_mut!(__sramfunc);
+            let end = core::ptr::addr_of_mut!(__eramfunc);
+            let src = core::ptr::addr_of!(__siramfunc);
+            let words = (end as usize - dst as usize) / 4;
+            core::ptr::copy_nonoverlapping(src, dst, words);
+        }
+        // The copied words are code: finish the writes before any is fetched.
+        cortex_m::asm::dsb();
+        cortex_m::asm::isb();
+    }
+
+    #[entry]
+    fn main() -> ! {
+        load_ramfunc();
+        let Some(dp) = pac::Peripherals::take() else {
+            defmt::panic!("peripherals taken twice");
+        };
+
+        // Core and PWR clocks first: the voltage range is in PWR.
+        dp.RCC.apb1enr1().modify(|_, w| w.pwren().set_bit());
+        let clock = clocks::init(&dp.RCC, &dp.PWR, &dp.FLASH);
+        defmt::info!("B-G431B-ESC1: SYSCLK 170 MHz from {}", clock);
+
+        protection::freeze_on_debug_halt(&dp.DBGMCU);
+        clocks::enable_peripherals(&dp.RCC);
+        pwm::release_dead_battery_pins(&dp.PWR);
+
+        pwm::init_tim1(&dp.TIM1);
+        pwm::init_pins(&dp.GPIOA, &dp.GPIOB, &dp.GPIOC);
+        adc::init_pins(&dp.GPIOA, &dp.GPIOB);
+        init_button(&dp.GPIOC);
+        adc::init_opamps(&dp.OPAMP);
+
+        // Start the timer (outputs still off: MOE = 0) and find where its update lands.
+        let pwm = pwm::start(dp.TIM1);
+        let adc = adc::init(&dp.ADC12_COMMON, dp.ADC1, dp.ADC2);
+        let drive = control::build_drive();
+        let (sender, mut receiver) = telemetry::queue();
+
+        let watchdog = protection::Watchdog::start(dp.IWDG);
+        let stage = Esc1::new(pwm, adc);
+        // Drop any sequence that completed since the calibration, so the first step starts on
+        // a fresh sample (a stale one could make the first step look like an overrun).
+        stage.discard_samples();
+        cortex_m::interrupt::free(|cs| {
+            CONTROL
+                .borrow(cs)
+                .replace(Some(Control::new(drive, stage, watchdog, sender)));
+        });
+        NVIC::unpend(Interrupt::ADC1_2);
+        // SAFETY: the handler's context is installed above; unmasking cannot break a
+        // critical section (none is active here) and ADC1_2 is the only interrupt enabled.
+        unsafe { NVIC::unmask(Interrupt::ADC1_2) };
+
+        let gpioc = dp.GPIOC;
+        let button_idle = gpioc.idr().read().idr(10).bit();
+        let mut was_pressed = false;
+        let mut last_poll = 0u32;
+        let mut faulted = false;
+        defmt::info!("running; press the user button (PC10) to enable/disable");
+
+        loop {
+            receiver.log(|ev| faulted = ev.faulted());
+
+            // The button's idle level was read at boot, so its polarity does not matter.
+            let now = STEPS.load(Ordering::Relaxed);
+            if now.wrapping_sub(last_poll) >= BUTTON_POLL_STEPS {
+                last_poll = now;
+                let pressed = gpioc.idr().read().idr(10).bit() != button_idle;
+                if pressed && !was_pressed {
+                    if faulted {
+                        ENABLE.store(false, Ordering::Relaxed);
+                        CLEAR_FAULT.store(true, Ordering::Relaxed);
+                        defmt::info!("button: clear fault (drive stays disabled)");
+                    } else {
+                        let enable = !ENABLE.load(Ordering::Relaxed);
+                        ENABLE.store(enable, Ordering::Relaxed);
+                        defmt::info!("button: enable = {=bool}", enable);
+                    }
+                }
+                was_pressed = pressed;
+            }
+            // Woken by the next control interrupt at the latest.
+            cortex_m::asm::wfi();
+        }
+    }
+
+    /// The user button PC10 as a floating input (the board provides its level; NuttX
+    /// configures it floating too).
+    fn init_button(gpioc: &pac::GPIOC) {
+        gpioc.moder().modify(|_, w| w.moder10().input());
+        gpioc.pupdr().modify(|_, w| w.pupdr10().floating());
+    }
+}

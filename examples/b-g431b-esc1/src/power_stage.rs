@@ -1,0 +1,66 @@
+//! The board's power stage as the core sees it ([`PowerStage`]): the sample is the injected
+//! conversions ADC1/ADC2 made at TIM1's update, scaled; applying duties loads TIM1's compare
+//! registers and sets MOE, applying `None` clears MOE.
+
+use pmsm_sensorless::drive::DriveInput;
+use pmsm_sensorless::power_stage::PowerStage;
+use pmsm_sensorless::svpwm::Duties;
+
+use crate::adc::Adc;
+use crate::pwm::Pwm;
+
+/// TIM1's three half-bridges with the shunt and bus sensing of the B-G431B-ESC1.
+pub struct Esc1 {
+    pwm: Pwm,
+    adc: Adc,
+    /// The previous step overran its period.
+    overrun: bool,
+}
+
+impl Esc1 {
+    pub fn new(pwm: Pwm, adc: Adc) -> Self {
+        Self {
+            pwm,
+            adc,
+            overrun: false,
+        }
+    }
+
+    /// Drops any sequence that completed before the control interrupt is enabled.
+    pub fn discard_samples(&self) {
+        self.adc.discard();
+    }
+
+    /// Called last in each step: another injected sequence completed while this step ran,
+    /// so it overran its period; the next sample reports it to the drive (it faults with
+    /// `Overrun`).
+    #[inline(always)]
+    pub fn end_step(&mut self) {
+        self.overrun = self.adc.next_sample_ready();
+    }
+}
+
+impl PowerStage for Esc1 {
+    #[inline(always)]
+    fn sample(&mut self) -> DriveInput {
+        let (i_abc, v_bus) = self.adc.read();
+        DriveInput {
+            i_abc,
+            v_bus,
+            overrun: self.overrun,
+        }
+    }
+
+    /// PWM outputs stay off (MOE = 0) until the drive returns duties, and MOE is cleared in
+    /// the same step in which it returns `None`.
+    #[inline(always)]
+    fn apply(&mut self, duties: Option<Duties>) {
+        match duties {
+            Some(d) => {
+                self.pwm.load(d);
+                self.pwm.outputs_on();
+            }
+            None => self.pwm.outputs_off(),
+        }
+    }
+}
