@@ -41,7 +41,7 @@ fn sub_quarter_turns(theta: f32, n: f32) -> f32 {
 /// Non-finite input (NaN, ±inf) yields `(NaN, NaN)`: callers must check.
 /// Cost: no division, no loop.
 // Out of line: one copy for the callers off the hot path (the 4 kHz step's evaluation is
-// `sin_cos_wrapped`, and the B-G431B-ESC1's step must fit its 10 KiB of CCM SRAM).
+// `sin_cos_wrapped`), so the step's own code stays small.
 #[inline(never)]
 pub fn sin_cos(theta: f32) -> (f32, f32) {
     // One compare on the usual path; NaN, ±inf and angles beyond the exact reduction take
@@ -117,8 +117,8 @@ const TABLE_STEPS: usize = 64;
 
 /// `[sin, cos]` of `k·2π/64`, k = 0..63, built at compile time from the first quarter turn by
 /// the quadrant symmetries (exact: swaps and negations).
-/// (A firmware that runs its step from RAM will want it there too: the B-G431B-ESC1's linker
-/// script puts it beside the step in CCM SRAM.)
+/// Read every step: a firmware that runs its step from RAM places it there too (its symbol
+/// name is `SIN_COS_TABLE`).
 static SIN_COS_TABLE: [[f32; 2]; TABLE_STEPS] = sin_cos_table();
 
 /// sin(j·π/32), j = 0..=16: the f32 values nearest to them (`tests/math.rs` checks
