@@ -120,16 +120,8 @@ impl Settings {
         let agrees = ol_cos > self.handover_cos
             && views.disagreement() < 0.5 * self.max_disagreement
             && views.speed_disagreement_rpm() < 0.5 * self.max_speed_disagreement_rpm;
-        c.agree = if fast_enough && agrees {
-            c.agree + 1
-        } else {
-            0
-        };
-        c.waiting = if fast_enough {
-            c.waiting.saturating_add(1)
-        } else {
-            0
-        };
+        c.agree = consecutive(c.agree, fast_enough && agrees);
+        c.waiting = consecutive(c.waiting, fast_enough);
         if c.agree >= self.handover_checks {
             cold_path();
             return HandOver::Go;
@@ -156,11 +148,7 @@ impl Settings {
         let speed = views.omega_primary * RPM_PER_RAD_S;
         let disagree = views.disagreement() > self.max_disagreement
             || views.speed_disagreement_rpm() > self.max_speed_disagreement_rpm;
-        c.disagree = if disagree {
-            c.disagree.saturating_add(1)
-        } else {
-            0
-        };
+        c.disagree = consecutive(c.disagree, disagree);
         if c.disagree >= self.loss_checks {
             cold_path();
             return Health::ObserverLoss;
@@ -171,11 +159,7 @@ impl Settings {
         // Measured along the reference's direction: turning the wrong way counts too.
         let along = if speed_ref_rpm < 0.0 { -speed } else { speed };
         let collapsed = at_limit && along < 0.5 * speed_ref_rpm.abs();
-        c.collapse = if collapsed {
-            c.collapse.saturating_add(1)
-        } else {
-            0
-        };
+        c.collapse = consecutive(c.collapse, collapsed);
         if c.collapse >= self.stall_checks {
             cold_path();
             return Health::Stall;
@@ -185,5 +169,15 @@ impl Settings {
             return Health::HandBack;
         }
         Health::Good
+    }
+}
+
+/// A count of consecutive checks in which a condition held: one more if it holds, else 0.
+#[inline(always)]
+fn consecutive(count: u32, holds: bool) -> u32 {
+    if holds {
+        count.saturating_add(1)
+    } else {
+        0
     }
 }
