@@ -12,8 +12,8 @@ use pmsm_sensorless::observer::flux::{FluxConfig, FluxObserver, FluxState};
 /// A motor held at `rpm` by the sensored controller, no load.
 fn constant_speed(motor: Motor, rpm: f64, duration_s: f64) -> Scenario {
     Scenario {
-        name: "test-constant-speed",
-        description: "constant speed, sensored",
+        name: "test-constant-speed".into(),
+        description: "constant speed, sensored".into(),
         motor_name: motor.name.to_string(),
         motor,
         duration_s,
@@ -24,9 +24,10 @@ fn constant_speed(motor: Motor, rpm: f64, duration_s: f64) -> Scenario {
         initial_speed_rpm: rpm,
         min_speed_rpm: rpm,
         i_max_a: None,
-        figures: "",
+        figures: String::new(),
         load_kind: scenario::LoadKind::Active,
         drive: None,
+        speed_tolerance: 0.02,
     }
 }
 

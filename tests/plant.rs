@@ -42,8 +42,8 @@ fn power_balance_within_0p1_percent() {
 /// A constant-speed scenario with a constant load, to read the steady state.
 fn hold(speed_rpm: f64, load_nm: f64) -> Scenario {
     Scenario {
-        name: "test-hold",
-        description: "ramp to a speed, hold under constant load",
+        name: "test-hold".into(),
+        description: "ramp to a speed, hold under constant load".into(),
         speed_cmd_rpm: Pwl::ramp(0.0, 0.0, 0.5, speed_rpm),
         load_shape: Pwl::step(0.6, 1.0),
         load_nm,

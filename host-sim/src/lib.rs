@@ -15,3 +15,4 @@ pub mod profile;
 pub mod scenario;
 pub mod sim;
 pub mod summary;
+pub mod sweep;

@@ -17,7 +17,6 @@ macro_rules! outln {
     }};
 }
 use std::process::ExitCode;
-use std::time::Instant;
 
 #[derive(Parser)]
 #[command(
@@ -34,14 +33,77 @@ struct Cli {
 enum Command {
     /// List scenarios, motors and observers.
     List,
-    /// Run a scenario; writes run.csv and run.png into the output directory.
+    /// Run a scenario and give its verdict (exit 3 when it fails); with --out, write
+    /// run.csv and run.png.
     Run(Box<RunArgs>),
+    /// A matrix of runs in parallel (every key of the matrix's `[axes]` is a run flag); exit 1
+    /// when a cell fails.
+    Sweep(SweepArgs),
     /// Sliding-gain bounds of Horng & Chin Sec 4 at an operating point.
     Bounds(BoundsArgs),
     /// Limits on the flux observer's gain γ (Ortega et al. eq (9), Proposition 4).
     Gamma(GammaArgs),
     /// Instruction and cycle counts of the core on the emulated Cortex-M4F, firmware size.
     Cycles(CyclesArgs),
+}
+
+#[derive(clap::Args)]
+struct SweepArgs {
+    /// Matrix TOML file (format: host-sim/src/sweep.rs; host-sim/matrices/).
+    #[arg(long, value_name = "M.toml")]
+    matrix: PathBuf,
+    /// Print the cells as JSON on stdout instead of the table.
+    #[arg(long)]
+    json: bool,
+    /// Write sweep.csv, sweep.json and heatmap.png into this directory.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Threads (default: every core).
+    #[arg(long)]
+    jobs: Option<usize>,
+}
+
+/// `sweep`: the table (or JSON) and whether every cell passed.
+fn sweep(args: SweepArgs) -> anyhow::Result<(String, bool)> {
+    use pmsm_host_sim::sweep::{self, Matrix};
+    let matrix = Matrix::load(&args.matrix)?;
+    if let Some(j) = args.jobs {
+        anyhow::ensure!(j > 0, "--jobs must be at least 1");
+    }
+    let report = sweep::run(&matrix, args.jobs, |cell| {
+        let cli = Cli::try_parse_from(
+            ["pmsm-sim", "run"]
+                .into_iter()
+                .map(String::from)
+                .chain(cell.iter().cloned()),
+        )
+        .map_err(|e| anyhow::anyhow!("{}", e.to_string().lines().next().unwrap_or("")))?;
+        let Command::Run(args) = cli.command else {
+            anyhow::bail!("not a run");
+        };
+        anyhow::ensure!(args.out.is_none(), "a sweep cell writes no files (--out)");
+        Ok(Summary::of(&sim::run(prepare(&args)?)?))
+    })?;
+    let mut out = if args.json {
+        serde_json::to_string(&report)? + "\n"
+    } else {
+        report.table(&matrix)
+    };
+    if let Some(dir) = &args.out {
+        let title = format!(
+            "{}: {} of {} cells passed",
+            args.matrix.display(),
+            report.passed,
+            report.total
+        );
+        let files = report.write(&matrix, dir, &title)?;
+        if !args.json {
+            for f in files {
+                outln!(out, "{}", f.display());
+            }
+        }
+    }
+    Ok((out, report.passed == report.total))
 }
 
 #[derive(clap::Args)]
@@ -131,10 +193,10 @@ struct GammaArgs {
     /// Motor preset.
     #[arg(long)]
     motor: String,
-    /// Observer update rate \[Hz].
+    /// Observer update rate (Hz).
     #[arg(long)]
     rate_hz: f64,
-    /// Lowest operating speed \[rpm].
+    /// Lowest operating speed (rpm).
     #[arg(long)]
     min_speed_rpm: f64,
     /// Print JSON.
@@ -214,13 +276,13 @@ struct BoundsArgs {
     /// Motor preset.
     #[arg(long, default_value = "sinano")]
     motor: String,
-    /// Speed [rpm, mechanical], not 0.
+    /// Speed (rpm, mechanical), not 0.
     #[arg(long, allow_negative_numbers = true)]
     speed_rpm: f64,
-    /// Sample rate of the observer \[Hz].
+    /// Sample rate of the observer (Hz).
     #[arg(long)]
     rate_hz: f64,
-    /// Load torque \[N·m].
+    /// Load torque (N·m).
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     load_nm: f64,
     /// sliding-torque (5 states, the paper's analysis) or sliding-velocity (4 states).
@@ -236,8 +298,16 @@ struct BoundsArgs {
 
 #[derive(clap::Args)]
 struct RunArgs {
-    /// Scenario name (see `pmsm-sim list`).
-    scenario: String,
+    /// Built-in scenario (see `pmsm-sim list`).
+    #[arg(
+        required_unless_present = "scenario_file",
+        conflicts_with = "scenario_file"
+    )]
+    scenario: Option<String>,
+    /// Scenario TOML file (format: `host-sim/src/scenario.rs`, examples in
+    /// `host-sim/scenarios/`).
+    #[arg(long, value_name = "FILE.toml")]
+    scenario_file: Option<PathBuf>,
     /// What gives the controller θ̂_e and ω̂_m.
     #[arg(long, default_value = "encoder")]
     observer: String,
@@ -247,19 +317,29 @@ struct RunArgs {
     /// Motor TOML file replacing the scenario's motor.
     #[arg(long, value_name = "FILE.toml")]
     motor_file: Option<PathBuf>,
-    /// Load torque level \[N·m] replacing the scenario's.
+    /// Load torque level (N·m) replacing the scenario's.
     #[arg(long, allow_negative_numbers = true)]
     load_nm: Option<f64>,
-    /// DC bus voltage \[V] (default: the motor's).
+    /// DC bus voltage (V) (default: the motor's).
     #[arg(long, allow_negative_numbers = true)]
     bus_v: Option<f64>,
-    /// Current-sensor noise, standard deviation per phase \[A].
+    /// DC bus voltage in % of the motor's rated bus (instead of --bus-v).
+    #[arg(long, conflicts_with = "bus_v", allow_negative_numbers = true)]
+    bus_pct: Option<f64>,
+    /// Current-sensor noise, standard deviation per phase (A).
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     noise_a: f64,
-    /// Current-sensor offsets per phase \[A], `a,b,c`.
+    /// Current-sensor noise in % of the motor's rated current (adds to --noise-a).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    noise_pct: f64,
+    /// Current-sensor offsets per phase (A), `a,b,c`.
     #[arg(long, value_parser = parse_offsets, default_value = "0,0,0", allow_negative_numbers = true)]
     offset_a: [f64; 3],
-    /// ADC quantisation step of the current measurement \[A] (0 = none).
+    /// Current-sensor offsets per phase in % of the motor's rated current, `a,b,c` (add to
+    /// --offset-a).
+    #[arg(long, value_parser = parse_offsets, default_value = "0,0,0", allow_negative_numbers = true)]
+    offset_pct: [f64; 3],
+    /// ADC quantisation step of the current measurement (A) (0 = none).
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     adc_lsb_a: f64,
     /// Noise seed.
@@ -268,17 +348,17 @@ struct RunArgs {
     /// Controller parameter factors, e.g. `r=1.2,l=0.9` (keys r, l, flux, j, b).
     #[arg(long, value_parser = parse_mismatch, default_value = "")]
     mismatch: Mismatch,
-    /// Inverter dead time \[µs].
+    /// Inverter dead time (µs).
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     dead_time_us: f64,
-    /// Control (current-loop and observer) rate \[Hz]; the speed loop runs at a quarter of it.
+    /// Control (current-loop and observer) rate (Hz); the speed loop runs at a quarter of it.
     #[arg(long, default_value_t = 4000.0)]
     rate_hz: f64,
-    /// Run on the encoder until this speed \[rpm], then sensorless (a stand-in for a start-up
+    /// Run on the encoder until this speed (rpm), then sensorless (a stand-in for a start-up
     /// sequence; default: sensorless from t = 0).
     #[arg(long)]
     sensorless_from_rpm: Option<f64>,
-    /// Output directory (default: out/SCENARIO-OBSERVER).
+    /// Write run.csv and run.png into this directory (nothing is written without it).
     #[arg(long)]
     out: Option<PathBuf>,
     /// Print the JSON summary on stdout.
@@ -326,11 +406,11 @@ fn parse_offsets(s: &str) -> Result<[f64; 3], String> {
     }
 }
 
-fn list() -> String {
+fn list() -> anyhow::Result<String> {
     let mut out = String::new();
-    outln!(out, "scenarios:");
-    for s in scenario::all() {
-        outln!(out, "  {:<20} {}", s.name, s.description);
+    outln!(out, "scenarios (host-sim/scenarios/*.toml):");
+    for s in scenario::Spec::all_built_in()? {
+        outln!(out, "  {:<22} {}", s.name, s.description());
     }
     outln!(out, "motors:");
     for m in motor::PRESETS {
@@ -352,33 +432,53 @@ fn list() -> String {
     for o in ObserverKind::ALL {
         outln!(out, "  {:<20} {}", o.name(), o.description());
     }
-    out
+    Ok(out)
 }
 
-fn run(args: RunArgs) -> anyhow::Result<String> {
-    let mut out = String::new();
-    let mut sc = scenario::by_name(&args.scenario)?;
+/// What `run` simulates: the scenario on the chosen motor, with every flag applied and
+/// checked (errors name the flag and the allowed values).
+fn prepare(args: &RunArgs) -> anyhow::Result<SimConfig> {
+    let spec = match (&args.scenario, &args.scenario_file) {
+        (_, Some(path)) => scenario::Spec::load(path)?,
+        (Some(name), None) => scenario::Spec::built_in(name)?,
+        (None, None) => anyhow::bail!("give a scenario name or --scenario-file"),
+    };
     let observer = ObserverKind::from_name(&args.observer)?;
-    if let Some(name) = &args.motor {
-        let m = preset(name)?;
-        sc.motor_name = m.name.to_string();
-        sc.motor = m;
-    }
-    if let Some(path) = &args.motor_file {
-        let (name, m) = motor_file::load(path)?;
-        sc.motor_name = name;
-        sc.motor = m;
-    }
+    let (motor_name, m) = match (&args.motor, &args.motor_file) {
+        (Some(name), _) => {
+            let m = preset(name)?;
+            (m.name.to_string(), m)
+        }
+        (None, Some(path)) => motor_file::load(path)?,
+        (None, None) => {
+            let m = spec.default_motor()?;
+            (m.name.to_string(), m)
+        }
+    };
+    let mut sc = spec.build(&motor_name, m)?;
     if let Some(x) = args.load_nm {
         anyhow::ensure!(x.is_finite(), "--load-nm must be a finite number");
         sc.load_nm = x;
     }
+    let rated_a = f64::from(m.ratings.current_a);
     let mut cfg = SimConfig::new(sc, observer);
     if let Some(v) = args.bus_v {
         cfg.bus_v = v;
     }
-    cfg.noise_sigma_a = args.noise_a;
-    cfg.offset_a = args.offset_a;
+    if let Some(p) = args.bus_pct {
+        anyhow::ensure!(
+            p.is_finite() && p > 0.0,
+            "--bus-pct = {p}: must be a finite percentage > 0"
+        );
+        cfg.bus_v = 0.01 * p * f64::from(m.ratings.bus_v);
+    }
+    anyhow::ensure!(
+        args.noise_pct.is_finite() && args.noise_pct >= 0.0,
+        "--noise-pct = {}: must be a finite percentage >= 0",
+        args.noise_pct
+    );
+    cfg.noise_sigma_a = args.noise_a + 0.01 * args.noise_pct * rated_a;
+    cfg.offset_a = std::array::from_fn(|k| args.offset_a[k] + 0.01 * args.offset_pct[k] * rated_a);
     cfg.adc_lsb_a = args.adc_lsb_a;
     cfg.seed = args.seed;
     cfg.mismatch = args.mismatch;
@@ -391,6 +491,10 @@ fn run(args: RunArgs) -> anyhow::Result<String> {
     cfg.substeps = (1e5 / args.rate_hz).ceil() as usize;
     if let Some(x) = args.sensorless_from_rpm {
         anyhow::ensure!(
+            cfg.scenario.drive.is_none(),
+            "--sensorless-from-rpm is for bare-observer scenarios; the drive starts itself"
+        );
+        anyhow::ensure!(
             x.is_finite() && x >= 0.0,
             "--sensorless-from-rpm must be a finite number >= 0"
         );
@@ -401,18 +505,21 @@ fn run(args: RunArgs) -> anyhow::Result<String> {
         "--dead-time-us must be a finite number >= 0"
     );
     cfg.dead_time_s = args.dead_time_us * 1e-6;
-    let out_dir = args.out.clone().unwrap_or_else(|| {
-        PathBuf::from("out").join(format!("{}-{}", args.scenario, args.observer))
-    });
-    let wall = Instant::now();
-    let run = sim::run(cfg)?;
-    let wall_s = wall.elapsed().as_secs_f64();
+    Ok(cfg)
+}
+
+/// `run`: the text (or JSON) to print, and whether the run passed.
+fn run(args: RunArgs) -> anyhow::Result<(String, bool)> {
+    let mut out = String::new();
+    let run = sim::run(prepare(&args)?)?;
     let summary = Summary::of(&run);
-    let (csv, png) = output::write_all(&run, &out_dir)?;
+    let files = match &args.out {
+        Some(dir) => Some(output::write_all(&run, dir)?),
+        None => None,
+    };
     if args.json {
-        return Ok(serde_json::to_string(&summary)? + "\n");
+        return Ok((serde_json::to_string(&summary)? + "\n", summary.pass));
     }
-    let sim_s = run.rows.len() as f64 / run.config.rate_hz;
     outln!(
         out,
         "{} | motor {} | observer {} | {} Hz | lost lock: {} | fault: {}",
@@ -420,7 +527,9 @@ fn run(args: RunArgs) -> anyhow::Result<String> {
         summary.motor,
         summary.observer,
         summary.rate_hz,
-        summary.lost_lock,
+        summary
+            .lost_lock_at_s
+            .map_or("no".to_string(), |t| format!("at {t:.4} s")),
         summary.fault.as_deref().unwrap_or("none")
     );
     outln!(
@@ -468,13 +577,26 @@ fn run(args: RunArgs) -> anyhow::Result<String> {
     if let Some(v) = summary.lowest_sensorless_rpm {
         outln!(out, "lowest sensorless speed {v:.1} rpm");
     }
-    outln!(out, "plot: {}", png.display());
-    outln!(out, "csv:  {}", csv.display());
-    outln!(out,
-        "simulated {sim_s:.2} s in {wall_s:.3} s wall ({:.0}× real time; output files not included)",
-        sim_s / wall_s
+    if let Some((csv, png)) = files {
+        outln!(out, "plot: {}", png.display());
+        outln!(out, "csv:  {}", csv.display());
+    }
+    outln!(
+        out,
+        "simulated {:.2} s in {:.3} s wall ({:.0}× real time; output files not included)",
+        run.rows.len() as f64 / run.config.rate_hz,
+        run.wall_s,
+        summary.real_time_factor
     );
-    Ok(out)
+    if summary.pass {
+        outln!(out, "PASS");
+    } else {
+        outln!(out, "FAIL");
+        for r in &summary.reasons {
+            outln!(out, "  {r}");
+        }
+    }
+    Ok((out, summary.pass))
 }
 
 fn bounds(args: BoundsArgs) -> anyhow::Result<String> {
@@ -567,8 +689,23 @@ fn main() -> ExitCode {
         }
     };
     let result = match cli.command {
-        Command::List => Ok(list()),
-        Command::Run(args) => run(*args),
+        Command::List => list(),
+        Command::Run(args) => match run(*args) {
+            // A run that faults, loses lock or misses a window exits 3 after its output.
+            Ok((text, false)) => {
+                let _ = std::io::stdout().write_all(text.as_bytes());
+                return ExitCode::from(3);
+            }
+            r => r.map(|(text, _)| text),
+        },
+        Command::Sweep(args) => match sweep(args) {
+            // A sweep with a failed cell exits 1 after its output.
+            Ok((text, false)) => {
+                let _ = std::io::stdout().write_all(text.as_bytes());
+                return ExitCode::FAILURE;
+            }
+            r => r.map(|(text, _)| text),
+        },
         Command::Bounds(args) => bounds(args),
         Command::Gamma(args) => gamma(args),
         Command::Cycles(args) => cycles(args),

@@ -23,6 +23,8 @@ pub struct Estimate {
     pub load_nm: Option<f32>,
     /// Sliding-observer internals, for the paper's figures.
     pub sliding: Option<SlidingDiag>,
+    /// The estimate is the observer's own (not a seed from the true state).
+    pub sensorless: bool,
 }
 
 /// What a sliding observer shows of itself each sample.
@@ -295,7 +297,8 @@ impl<O: Diagnostics> BareLoop<O> {
     fn step(&mut self, input: &BareInput) -> (pmsm_sensorless::foc::FocOutput, Estimate) {
         let o = &self.observer;
         let i_ab = input.i_abc.to_alpha_beta();
-        if self.sensorless {
+        let sensorless = self.sensorless;
+        if sensorless {
             o.update(&mut self.state, i_ab, input.v_ab_last);
             o.read_out(&mut self.state, ReadOut::Angle);
             o.read_out(&mut self.state, ReadOut::Speed);
@@ -309,6 +312,7 @@ impl<O: Diagnostics> BareLoop<O> {
             omega_m: o.omega_m(st),
             load_nm: o.load_nm(st),
             sliding: o.sliding_diag(st),
+            sensorless,
         };
         // The papers' controller takes θ̂ itself: sin/cos of it by the core's polynomial (an
         // observer's own sin/cos of θ̂ differs from it by rounding, which a run that has lost

@@ -175,6 +175,9 @@ pub struct Row {
     pub mode: Option<Mode>,
     /// Drive scenarios: the monitor observer's angle [deg, electrical, wrapped].
     pub theta_e_monitor_deg: Option<f64>,
+    /// The controller ran on its observer's estimate (the drive in `Sensorless`; a bare run
+    /// after its hand-over from the encoder; never for the encoder itself).
+    pub sensorless: bool,
 }
 
 impl Row {
@@ -223,6 +226,10 @@ pub struct Run {
     pub transitions: Vec<(f64, Transition)>,
     /// Drive scenarios: steps from the fault's cause to PWM off.
     pub fault_step: Option<usize>,
+    /// Drive scenarios: the drive's latched fault, if any.
+    pub drive_fault: Option<Fault>,
+    /// Wall-clock time of the simulation \[s] (a measurement, for the real-time factor).
+    pub wall_s: f64,
 }
 
 /// What computes the duties.
@@ -463,7 +470,7 @@ impl Sim {
             Controller::Drive { drive, limits } => {
                 let script = self.config.scenario.drive.as_ref();
                 let cmd = Command {
-                    enable: script.is_some_and(|d| t + 0.5 * self.ts >= d.enable_s),
+                    enable: script.is_some_and(|d| d.enable_at(t + 0.5 * self.ts)),
                     speed_rpm: speed_cmd_rpm as f32,
                     clear_fault: false,
                 };
@@ -495,6 +502,7 @@ impl Sim {
                     omega_m: tel.speed_rpm * pmsm_sensorless::units::RAD_S_PER_RPM,
                     load_nm: tel.load_nm,
                     sliding: None,
+                    sensorless: tel.mode == Mode::Sensorless,
                 };
                 self.v_ab_last = drive.v_ab_applied();
                 let monitor = (tel.theta_e_monitor as f64).to_degrees();
@@ -534,6 +542,7 @@ impl Sim {
             }),
             mode,
             theta_e_monitor_deg: monitor,
+            sensorless: est.sensorless,
         };
         let n_sub = self.config.substeps;
         let h = self.ts / n_sub as f64;
@@ -595,6 +604,7 @@ pub fn fault_name(f: Fault) -> &'static str {
 
 /// Runs the closed loop for the scenario's duration.
 pub fn run(config: SimConfig) -> anyhow::Result<Run> {
+    let wall = std::time::Instant::now();
     let mut sim = Sim::new(config)?;
     let steps = (sim.config.scenario.duration_s * sim.config.rate_hz).round() as usize;
     let mut rows = Vec::with_capacity(steps);
@@ -609,13 +619,16 @@ pub fn run(config: SimConfig) -> anyhow::Result<Run> {
         }
     }
     let fault_step = sim.fault_step();
-    let fault = fault.or_else(|| sim.drive_fault().map(|f| fault_name(f).to_string()));
+    let drive_fault = sim.drive_fault();
+    let fault = fault.or_else(|| drive_fault.map(|f| fault_name(f).to_string()));
     Ok(Run {
         rows,
         plant: sim.plant,
         fault,
         transitions: sim.transitions,
         fault_step,
+        drive_fault,
+        wall_s: wall.elapsed().as_secs_f64(),
         config: sim.config,
     })
 }

@@ -1,13 +1,23 @@
-//! Metrics over a run's windows and the JSON summary of `pmsm-sim run --json`.
+//! Metrics over a run's windows, the verdict, and the JSON summary of `pmsm-sim run --json`.
+//!
+//! The verdict is honest: a run fails on any fault the scenario does not expect (or when the
+//! fault it expects does not come), on loss of lock anywhere while the controller runs on an
+//! observer (|θ̂_e − θ_e| > 90° electrical: a positive i_q then brakes instead of driving), and
+//! on a window whose mean speed error is beyond the scenario's tolerance of
+//! max(|command|, 5 % of rated speed).
 
-use crate::sim::{Row, Run};
+use crate::sim::{fault_name, Row, Run};
 use indexmap::IndexMap;
-use pmsm_sensorless::drive::{Mode, Reason};
+use pmsm_sensorless::drive::{Fault, Mode, Reason};
 use serde::Serialize;
 
 /// Angle error beyond which the controller's `i_q` no longer produces torque in the intended
-/// direction: a run whose metric windows see it has lost lock [deg, electrical].
+/// direction: a run that sees it while sensorless has lost lock [deg, electrical].
 pub const LOST_LOCK_DEG_E: f64 = 90.0;
+
+/// The speed below which a window's speed error is judged against this fraction of rated
+/// speed instead of its command.
+pub const SPEED_ERROR_FLOOR: f64 = 0.05;
 
 /// Metrics of one window.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -45,8 +55,20 @@ pub struct Summary {
     pub observer: String,
     /// Control rate \[Hz].
     pub rate_hz: f64,
-    /// Some window saw `|θ̂_e − θ_e| > 90°` electrical.
+    /// The verdict: no unexpected fault, no loss of lock, every window within tolerance.
+    pub pass: bool,
+    /// Why the run failed, one line each (empty when it passed).
+    pub reasons: Vec<String>,
+    /// `|θ̂_e − θ_e| > 90°` electrical while sensorless, anywhere in the run.
     pub lost_lock: bool,
+    /// When lock was first lost \[s].
+    pub lost_lock_at_s: Option<f64>,
+    /// The largest window mean speed error, in % of max(|command|, 5 % of rated speed).
+    pub worst_speed_err_pct: Option<f64>,
+    /// The largest `|θ̂_e − θ_e|` in the windows [deg, electrical].
+    pub theta_err_max_deg_e: Option<f64>,
+    /// Simulated time over wall-clock time.
+    pub real_time_factor: f64,
     /// Why the run stopped or faulted, if it did.
     pub fault: Option<String>,
     /// Metrics per window, in the scenario's order (`null` for a window the run never reached).
@@ -111,28 +133,110 @@ pub fn window_metrics(rows: &[Row], t0: f64, t1: f64) -> Option<WindowMetrics> {
 }
 
 impl Summary {
-    /// Summarises a finished run.
+    /// Summarises a finished run and gives its verdict.
     pub fn of(run: &Run) -> Self {
         let sc = &run.config.scenario;
+        let rated_rpm = f64::from(sc.motor.ratings.speed_rpm);
+        let mut reasons = Vec::new();
+        // Faults: the drive's, or the plant's state leaving the finite numbers.
+        let expected = sc.drive.as_ref().and_then(|d| d.expect_fault);
+        let fault_time = |f: Fault| {
+            run.transitions
+                .iter()
+                .find(|(_, tr)| tr.reason == Reason::Fault(f))
+                .map_or(f64::NAN, |(t, _)| *t)
+        };
+        match (run.drive_fault, expected) {
+            (Some(f), Some(e)) if f == e => {}
+            (Some(f), e) => reasons.push(format!(
+                "fault {} at t = {:.4} s{}",
+                fault_name(f),
+                fault_time(f),
+                e.map(|e| format!(" (expected {})", fault_name(e)))
+                    .unwrap_or_default()
+            )),
+            (None, Some(e)) => reasons.push(format!(
+                "the expected fault {} did not happen",
+                fault_name(e)
+            )),
+            (None, None) => {}
+        }
+        if run.drive_fault.is_none() {
+            if let Some(f) = &run.fault {
+                reasons.push(f.clone());
+            }
+        }
+        // Loss of lock while sensorless; in a run whose expected fault came, what follows its
+        // injected cause is that fault's business.
+        let lock_until = match (expected, run.drive_fault) {
+            (Some(e), Some(f)) if e == f => sc
+                .drive
+                .as_ref()
+                .and_then(|d| d.injection)
+                .map_or(f64::INFINITY, |i| i.t()),
+            _ => f64::INFINITY,
+        };
+        let lost = run.rows.iter().find(|r| {
+            let e = r.theta_err_deg().abs();
+            r.sensorless && r.t < lock_until && (e.is_nan() || e > LOST_LOCK_DEG_E)
+        });
+        if let Some(r) = lost {
+            reasons.push(format!(
+                "lost lock at t = {:.4} s: |θ̂_e − θ_e| = {:.1}° electrical while sensorless",
+                r.t,
+                r.theta_err_deg().abs()
+            ));
+        }
         let mut windows = IndexMap::new();
-        let mut lost_lock = false;
+        let (mut worst_pct, mut theta_max) = (None::<f64>, None::<f64>);
         for w in &sc.windows {
             let m = window_metrics(&run.rows, w.t0, w.t1);
-            if let Some(m) = &m {
-                let e = m.theta_err_max_abs_deg_e;
-                lost_lock |= e.is_nan() || e > LOST_LOCK_DEG_E;
+            match &m {
+                Some(m) => {
+                    let scale = m
+                        .speed_cmd_mean_rpm
+                        .abs()
+                        .max(SPEED_ERROR_FLOOR * rated_rpm);
+                    let pct = 100.0 * m.speed_err_mean_rpm.abs() / scale;
+                    // NaN propagates: a window of non-finite speeds is the worst.
+                    worst_pct =
+                        Some(
+                            worst_pct.map_or(pct, |w| if pct.is_nan() { pct } else { w.max(pct) }),
+                        );
+                    theta_max = Some(theta_max.map_or(m.theta_err_max_abs_deg_e, |x| {
+                        x.max(m.theta_err_max_abs_deg_e)
+                    }));
+                    // NaN fails too.
+                    let within = pct <= 100.0 * sc.speed_tolerance;
+                    if !within {
+                        reasons.push(format!(
+                            "window {}: mean speed error {:+.3} rpm is {:.2} % of {:.1} rpm (limit {} %)",
+                            w.name,
+                            m.speed_err_mean_rpm,
+                            pct,
+                            scale,
+                            100.0 * sc.speed_tolerance
+                        ));
+                    }
+                }
+                None => reasons.push(format!("window {}: not reached", w.name)),
             }
             windows.insert(w.name.to_string(), m);
         }
-        let expected = (sc.duration_s * run.config.rate_hz).round() as usize;
-        let stopped_early = run.rows.len() < expected;
+        let sim_s = run.rows.len() as f64 / run.config.rate_hz;
         let sensorless = run.rows.iter().filter(|r| r.mode == Some(Mode::Sensorless));
         Summary {
             scenario: sc.name.to_string(),
             motor: sc.motor_name.clone(),
             observer: run.config.observer.name().to_string(),
             rate_hz: run.config.rate_hz,
-            lost_lock: lost_lock || stopped_early,
+            pass: reasons.is_empty(),
+            reasons,
+            lost_lock: lost.is_some(),
+            lost_lock_at_s: lost.map(|r| r.t),
+            worst_speed_err_pct: worst_pct,
+            theta_err_max_deg_e: theta_max,
+            real_time_factor: sim_s / run.wall_s,
             fault: run.fault.clone(),
             windows,
             fault_step: run.fault_step,
