@@ -407,32 +407,49 @@ fn parse_offsets(s: &str) -> Result<[f64; 3], String> {
 }
 
 fn list() -> anyhow::Result<String> {
-    let mut out = String::new();
-    outln!(out, "scenarios (host-sim/scenarios/*.toml):");
+    let table = |header: &[&str]| {
+        let mut t = comfy_table::Table::new();
+        t.load_style(comfy_table::presets::UTF8_FULL_CONDENSED);
+        t.set_header(header.to_vec());
+        t
+    };
+    let mut scenarios = table(&["scenario (host-sim/scenarios/)", "what it does"]);
     for s in scenario::Spec::all_built_in()? {
-        outln!(out, "  {:<22} {}", s.name, s.description());
+        scenarios.add_row([s.name.as_str(), s.description()]);
     }
-    outln!(out, "motors:");
+    let mut motors = table(&[
+        "motor",
+        "N",
+        "R Ω",
+        "L H",
+        "ψ_f Wb",
+        "J kg·m²",
+        "B N·m·s/rad",
+        "bus V",
+        "rated",
+    ]);
     for m in motor::PRESETS {
-        let p = m.params;
-        outln!(
-            out,
-            "  {:<20} N={} R={} Ω L={} H ψ={} Wb J={} kg·m² B={} N·m·s/rad, {} V bus",
-            m.name,
-            p.pole_pairs,
-            p.r_ohm,
-            p.l_h,
-            p.flux_wb,
-            p.j_kgm2,
-            p.b_nms,
-            m.ratings.bus_v
-        );
+        let (p, r) = (m.params, m.ratings);
+        motors.add_row([
+            m.name.to_string(),
+            p.pole_pairs.to_string(),
+            p.r_ohm.to_string(),
+            p.l_h.to_string(),
+            p.flux_wb.to_string(),
+            p.j_kgm2.to_string(),
+            p.b_nms.to_string(),
+            r.bus_v.to_string(),
+            format!(
+                "{} N·m, {} rpm, {} A",
+                r.torque_nm, r.speed_rpm, r.current_a
+            ),
+        ]);
     }
-    outln!(out, "observers:");
+    let mut observers = table(&["observer", "what it is"]);
     for o in ObserverKind::ALL {
-        outln!(out, "  {:<20} {}", o.name(), o.description());
+        observers.add_row([o.name(), o.description()]);
     }
-    Ok(out)
+    Ok(format!("{scenarios}\n{motors}\n{observers}\n"))
 }
 
 /// What `run` simulates: the scenario on the chosen motor, with every flag applied and
@@ -532,35 +549,38 @@ fn run(args: RunArgs) -> anyhow::Result<(String, bool)> {
             .map_or("no".to_string(), |t| format!("at {t:.4} s")),
         summary.fault.as_deref().unwrap_or("none")
     );
-    outln!(
-        out,
-        "{:<12} {:>9} {:>12} {:>12} {:>12} {:>12} {:>10}",
+    let mut table = comfy_table::Table::new();
+    table.load_style(comfy_table::presets::UTF8_FULL_CONDENSED);
+    table.set_header([
         "window",
         "cmd rpm",
         "err mean rpm",
         "err max rpm",
-        "θerr mean°e",
-        "θerr max°e",
-        "τ̂ N·m"
-    );
+        "θ err mean °e",
+        "θ err max °e",
+        "τ̂ N·m",
+    ]);
     for (name, m) in &summary.windows {
         match m {
-            Some(m) => outln!(
-                out,
-                "{:<12} {:>9.1} {:>12.4} {:>12.3} {:>12.3} {:>12.3} {:>10}",
-                name,
-                m.speed_cmd_mean_rpm,
-                m.speed_err_mean_rpm,
-                m.speed_err_max_abs_rpm,
-                m.theta_err_mean_deg_e,
-                m.theta_err_max_abs_deg_e,
+            Some(m) => table.add_row([
+                name.clone(),
+                format!("{:.1}", m.speed_cmd_mean_rpm),
+                format!("{:.4}", m.speed_err_mean_rpm),
+                format!("{:.3}", m.speed_err_max_abs_rpm),
+                format!("{:.3}", m.theta_err_mean_deg_e),
+                format!("{:.3}", m.theta_err_max_abs_deg_e),
                 m.torque_hat_mean_nm
-                    .map(|x| format!("{x:.4}"))
-                    .unwrap_or_else(|| "-".into())
-            ),
-            None => outln!(out, "{name:<12} (not reached)"),
+                    .map_or_else(|| "-".into(), |x| format!("{x:.4}")),
+            ]),
+            None => table.add_row([name.as_str(), "not reached"]),
+        };
+    }
+    for k in 1..7 {
+        if let Some(c) = table.column_mut(k) {
+            c.set_cell_alignment(comfy_table::CellAlignment::Right);
         }
     }
+    outln!(out, "{table}");
     for tr in &summary.transitions {
         outln!(
             out,

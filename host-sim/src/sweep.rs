@@ -362,6 +362,11 @@ impl Report {
                 ]);
             }
         }
+        for k in 2..5 {
+            if let Some(c) = t.column_mut(k) {
+                c.set_cell_alignment(comfy_table::CellAlignment::Right);
+            }
+        }
         format!("{t}\n{} of {} cells passed\n", self.passed, self.total)
     }
 
