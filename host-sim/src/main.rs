@@ -317,7 +317,7 @@ struct RunArgs {
     /// Motor TOML file replacing the scenario's motor.
     #[arg(long, value_name = "FILE.toml")]
     motor_file: Option<PathBuf>,
-    /// Load torque level (N·m) replacing the scenario's.
+    /// Load level (N·m): the scenario's load profile scaled so that its largest value is this.
     #[arg(long, allow_negative_numbers = true)]
     load_nm: Option<f64>,
     /// DC bus voltage (V) (default: the motor's).
