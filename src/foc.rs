@@ -13,7 +13,8 @@
 
 use crate::frames::{Abc, AlphaBeta, Dq, SinCos};
 use crate::math::{all_finite, INV_SQRT3};
-use crate::motor::{positive, MotorParams, ParamError};
+use crate::motor::MotorParams;
+use crate::param::{positive, Allowed, ParamError};
 use crate::pi::{Pi, PiConfig, PiState};
 use crate::svpwm::{svpwm_limited, Duties, Svpwm};
 use core::f32::consts::TAU;
@@ -56,39 +57,49 @@ impl FocConfig {
         }
     }
 
+    /// The PI gains (module doc): current `kp = L ω_c` \[V/A], `ki = R ω_c` \[V/(A·s)]; speed
+    /// `kp = J ω_s/(N ψ_f)` \[A·s/rad], `ki = kp ω_s/4` \[A/rad]. Unvalidated: [`FocConfig::build`]
+    /// checks the settings first.
+    pub fn gains(&self) -> FocGains {
+        let m = &self.motor;
+        let w_c = TAU * self.current_bandwidth_hz;
+        let w_s = TAU * self.speed_bandwidth_hz;
+        let speed_kp = m.j_kgm2 * w_s / m.torque_constant();
+        FocGains {
+            current_kp: m.l_h * w_c,
+            current_ki: m.r_ohm * w_c,
+            speed_kp,
+            speed_ki: speed_kp * w_s / 4.0,
+        }
+    }
+
     /// Validates and turns the settings into per-sample coefficients.
     pub fn build(&self) -> Result<Foc, ParamError> {
         let motor = self.motor.validate()?;
         let rate = positive("current_rate_hz", self.current_rate_hz)?;
         let ts = 1.0 / rate;
-        let w_c = TAU * positive("current_bandwidth_hz", self.current_bandwidth_hz)?;
-        if w_c * ts > 1.0 {
-            return Err(ParamError::OutOfRange("current_bandwidth_hz"));
-        }
-        if self.speed_divider == 0 {
-            return Err(ParamError::NotPositive("speed_divider"));
-        }
-        let w_s = TAU * positive("speed_bandwidth_hz", self.speed_bandwidth_hz)?;
-        if 5.0 * w_s > w_c {
-            return Err(ParamError::OutOfRange("speed_bandwidth_hz"));
-        }
+        let current_bandwidth_hz = Allowed::above_up_to(0.0, rate / TAU)
+            .because("2*pi*bandwidth/rate at most 1")
+            .check("current_bandwidth_hz", self.current_bandwidth_hz)?;
+        Allowed::between(1.0, 1000.0).check("speed_divider", self.speed_divider as f32)?;
+        Allowed::above_up_to(0.0, current_bandwidth_hz / 5.0)
+            .because("a fifth of current_bandwidth_hz")
+            .check("speed_bandwidth_hz", self.speed_bandwidth_hz)?;
         let i_max = positive("i_max_a", self.i_max_a)?;
-        if !self.angle_advance_periods.is_finite() {
-            return Err(ParamError::NotFinite("angle_advance_periods"));
-        }
+        Allowed::FINITE.check("angle_advance_periods", self.angle_advance_periods)?;
         let kt = motor.torque_constant();
-        let speed_kp = motor.j_kgm2 * w_s / kt;
+        let g = self.gains();
         let speed = PiConfig {
-            kp: speed_kp,
-            ki: speed_kp * w_s / 4.0,
+            kp: g.speed_kp,
+            ki: g.speed_ki,
             out_min: -i_max,
             out_max: i_max,
         }
         .build(ts * self.speed_divider as f32)?;
         Ok(Foc {
             current: CurrentLoop {
-                kp: motor.l_h * w_c,
-                ki_ts: motor.r_ohm * w_c * ts,
+                kp: g.current_kp,
+                ki_ts: g.current_ki * ts,
                 l_h: motor.l_h,
                 flux_wb: motor.flux_wb,
             },
@@ -99,6 +110,19 @@ impl FocConfig {
             advance_s: self.angle_advance_periods * ts,
         })
     }
+}
+
+/// The PI gains [`FocConfig::gains`] derives.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FocGains {
+    /// Current PI proportional gain `L ω_c` \[V/A].
+    pub current_kp: f32,
+    /// Current PI integral gain `R ω_c` \[V/(A·s)].
+    pub current_ki: f32,
+    /// Speed PI proportional gain `J ω_s/(N ψ_f)` \[A·s/rad].
+    pub speed_kp: f32,
+    /// Speed PI integral gain `kp ω_s/4` \[A/rad].
+    pub speed_ki: f32,
 }
 
 /// d/q current PIs with decoupling, back-EMF feed-forward and voltage-vector saturation.

@@ -17,6 +17,7 @@ pub mod frames;
 pub mod math;
 pub mod motor;
 pub mod observer;
+pub mod param;
 pub mod pi;
 pub mod power_stage;
 pub mod svpwm;

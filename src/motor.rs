@@ -12,7 +12,9 @@
 //! quantity, the permanent-magnet flux linkage, here `flux_wb`. The torque is `N ψ_f i_q` as
 //! printed in both papers (no 3/2 factor: their αβ model is the machine).
 
-use core::fmt;
+use crate::math::INV_SQRT3;
+use crate::param::{Allowed, ParamError};
+use crate::units::RAD_S_PER_RPM;
 
 /// Electrical and mechanical parameters of a surface-mounted PMSM (SI units).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -31,67 +33,21 @@ pub struct MotorParams {
     pub b_nms: f32,
 }
 
-/// Which parameter a validation error is about.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ParamError {
-    /// The named field is NaN or infinite.
-    NotFinite(&'static str),
-    /// The named field must be strictly positive.
-    NotPositive(&'static str),
-    /// The named field must not be negative.
-    Negative(&'static str),
-    /// The named field is outside the range its documentation gives (e.g. a bandwidth too
-    /// high for the sample rate).
-    OutOfRange(&'static str),
-}
-
-impl ParamError {
-    /// Name of the offending field.
-    pub fn field(&self) -> &'static str {
-        match *self {
-            ParamError::NotFinite(f)
-            | ParamError::NotPositive(f)
-            | ParamError::Negative(f)
-            | ParamError::OutOfRange(f) => f,
-        }
-    }
-}
-
-impl fmt::Display for ParamError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match *self {
-            ParamError::NotFinite(x) => write!(f, "{x}: must be a finite number"),
-            ParamError::NotPositive(x) => write!(f, "{x}: must be greater than zero"),
-            ParamError::Negative(x) => write!(f, "{x}: must not be negative"),
-            ParamError::OutOfRange(x) => write!(f, "{x}: outside its documented range"),
-        }
-    }
-}
-
-/// `Ok(v)` if `v` is finite and `> 0`, else the error naming `field`.
-pub(crate) fn positive(field: &'static str, v: f32) -> Result<f32, ParamError> {
-    if !v.is_finite() {
-        Err(ParamError::NotFinite(field))
-    } else if v <= 0.0 {
-        Err(ParamError::NotPositive(field))
-    } else {
-        Ok(v)
-    }
-}
-
-/// `Ok(v)` if `v` is finite and `≥ 0`, else the error naming `field`.
-pub(crate) fn non_negative(field: &'static str, v: f32) -> Result<f32, ParamError> {
-    if !v.is_finite() {
-        Err(ParamError::NotFinite(field))
-    } else if v < 0.0 {
-        Err(ParamError::Negative(field))
-    } else {
-        Ok(v)
-    }
-}
-
 impl MotorParams {
-    /// Validated parameters; the error names the first bad field.
+    /// Pole pairs accepted: 1 to 64.
+    pub const POLE_PAIRS: Allowed = Allowed::between(1.0, 64.0);
+    /// Phase resistance accepted \[Ω]: 0.1 mΩ (a 40 kW machine has tens of mΩ) to 1 kΩ.
+    pub const R_OHM: Allowed = Allowed::between(1e-4, 1e3);
+    /// Phase inductance accepted \[H]: 0.1 µH to 10 H.
+    pub const L_H: Allowed = Allowed::between(1e-7, 10.0);
+    /// Flux linkage accepted \[Wb]: 10 µWb (a 0.1 mN·m/A hobby motor) to 10 Wb.
+    pub const FLUX_WB: Allowed = Allowed::between(1e-5, 10.0);
+    /// Inertia accepted \[kg·m²]: 10⁻⁹ (a micro motor's rotor) to 10³.
+    pub const J_KGM2: Allowed = Allowed::between(1e-9, 1e3);
+    /// Viscous friction accepted \[N·m·s/rad]: 0 to 10³.
+    pub const B_NMS: Allowed = Allowed::between(0.0, 1e3);
+
+    /// Validated parameters; the error names the first bad field, its value and its range.
     pub fn new(
         pole_pairs: u32,
         r_ohm: f32,
@@ -100,16 +56,14 @@ impl MotorParams {
         j_kgm2: f32,
         b_nms: f32,
     ) -> Result<Self, ParamError> {
-        if pole_pairs == 0 {
-            return Err(ParamError::NotPositive("pole_pairs"));
-        }
+        Self::POLE_PAIRS.check("pole_pairs", pole_pairs as f32)?;
         Ok(Self {
             pole_pairs,
-            r_ohm: positive("r_ohm", r_ohm)?,
-            l_h: positive("l_h", l_h)?,
-            flux_wb: positive("flux_wb", flux_wb)?,
-            j_kgm2: positive("j_kgm2", j_kgm2)?,
-            b_nms: non_negative("b_nms", b_nms)?,
+            r_ohm: Self::R_OHM.check("r_ohm", r_ohm)?,
+            l_h: Self::L_H.check("l_h", l_h)?,
+            flux_wb: Self::FLUX_WB.check("flux_wb", flux_wb)?,
+            j_kgm2: Self::J_KGM2.check("j_kgm2", j_kgm2)?,
+            b_nms: Self::B_NMS.check("b_nms", b_nms)?,
         })
     }
 
@@ -152,13 +106,24 @@ pub struct Ratings {
 }
 
 impl Ratings {
-    /// Validated ratings; the error names the first bad field.
+    /// Bus voltage accepted \[V].
+    pub const BUS_V: Allowed = Allowed::between(1.0, 1500.0);
+    /// Rated current accepted \[A].
+    pub const CURRENT_A: Allowed = Allowed::above_up_to(0.0, 5000.0);
+    /// Rated torque accepted \[N·m].
+    pub const TORQUE_NM: Allowed = Allowed::above_up_to(0.0, 1e5);
+    /// Rated speed accepted \[rpm].
+    pub const SPEED_RPM: Allowed = Allowed::above_up_to(0.0, 2e5);
+    /// Rated power accepted \[W].
+    pub const POWER_W: Allowed = Allowed::above_up_to(0.0, 1e7);
+
+    /// Validated ratings; the error names the first bad field, its value and its range.
     pub fn validate(self) -> Result<Self, ParamError> {
-        positive("bus_v", self.bus_v)?;
-        positive("current_a", self.current_a)?;
-        positive("torque_nm", self.torque_nm)?;
-        positive("speed_rpm", self.speed_rpm)?;
-        positive("power_w", self.power_w)?;
+        Self::BUS_V.check("ratings.bus_v", self.bus_v)?;
+        Self::CURRENT_A.check("ratings.current_a", self.current_a)?;
+        Self::TORQUE_NM.check("ratings.torque_nm", self.torque_nm)?;
+        Self::SPEED_RPM.check("ratings.speed_rpm", self.speed_rpm)?;
+        Self::POWER_W.check("ratings.power_w", self.power_w)?;
         Ok(self)
     }
 }
@@ -175,6 +140,36 @@ pub struct Motor {
 }
 
 impl Motor {
+    /// Parameters and ratings validated, and the ratings checked against the parameters (each
+    /// bound in the papers' model, `τ = N ψ_f i`, peak phase amplitudes):
+    /// - the rated torque is what the rated current makes, `N ψ_f I`, within −50 %..+10 %
+    ///   (a datasheet's rms current or a 3/2 torque convention is off by √2 or 3/2);
+    /// - the bus drives the rated speed: back-EMF `N ψ_f ω_m ≤ V_bus/√3` (the largest phase
+    ///   voltage of SVPWM);
+    /// - the bus drives the rated torque's current at standstill: `R τ/(N ψ_f) ≤ V_bus/√3`;
+    /// - the rated power is rated torque times rated speed within a factor 1.5.
+    pub fn validate(self) -> Result<Self, ParamError> {
+        let p = self.params.validate()?;
+        let r = self.ratings.validate()?;
+        let kt = p.torque_constant();
+        let v_max = r.bus_v * INV_SQRT3;
+        let torque_of_current = kt * r.current_a;
+        Allowed::between(0.5 * torque_of_current, 1.1 * torque_of_current)
+            .because("0.5 to 1.1 x pole_pairs*flux_wb*current_a, the torque of the rated current")
+            .check("ratings.torque_nm", r.torque_nm)?;
+        Allowed::above_up_to(0.0, v_max / kt / RAD_S_PER_RPM)
+            .because("back-EMF pole_pairs*flux_wb*omega_m within bus_v/sqrt(3)")
+            .check("ratings.speed_rpm", r.speed_rpm)?;
+        Allowed::above_up_to(0.0, v_max / p.r_ohm * kt)
+            .because("r_ohm*torque/(pole_pairs*flux_wb) within bus_v/sqrt(3) at standstill")
+            .check("ratings.torque_nm", r.torque_nm)?;
+        let mech_power = r.torque_nm * r.speed_rpm * RAD_S_PER_RPM;
+        Allowed::between(mech_power / 1.5, 1.5 * mech_power)
+            .because("torque_nm x rated speed within a factor 1.5")
+            .check("ratings.power_w", r.power_w)?;
+        Ok(self)
+    }
+
     /// The `i_q` that makes rated torque in the papers' model, `τ_rated/(N ψ_f)` \[A]: the
     /// current limit of the speed loop.
     pub fn rated_torque_current_a(&self) -> f32 {
@@ -209,7 +204,10 @@ pub const HORNG_SINANO: Motor = Motor {
 
 /// Ortega et al. Table I, first column: the 40 kW simulation motor.
 ///
-/// Electrical data and ratings are the table's. The table gives no inertia or friction;
+/// Electrical data and ratings are the table's except the current: Table I's 216 A is, like
+/// the test motor's, an rms current of a (3/2)·n_P·Φ·i torque convention
+/// (1.5·3·0.146·216·√2 = 200 N·m ≈ 180 N·m); in the papers' model the rated 180 N·m takes
+/// 180/(3·0.146) = 411 A, the rating given here. The table gives no inertia or friction;
 /// assumed: J = 0.1 kg·m² (rotor of a 180 N·m industrial PMSM, order of catalogue values) and
 /// f = 0.01 N·m·s/rad (friction torque 2.3 N·m = 1.3 % of rated torque at rated speed).
 pub const ORTEGA_SIM_40KW: Motor = Motor {
@@ -224,7 +222,7 @@ pub const ORTEGA_SIM_40KW: Motor = Motor {
     },
     ratings: Ratings {
         bus_v: 240.0,
-        current_a: 216.0,
+        current_a: 411.0,
         torque_nm: 180.0,
         speed_rpm: 2200.0,
         power_w: 40.0e3,
@@ -236,7 +234,7 @@ pub const ORTEGA_SIM_40KW: Motor = Motor {
 /// Electrical data and ratings are the table's. Note: Table I's currents are consistent with
 /// a three-phase machine of torque (3/2)·n_P·Φ·i_q and rms ratings (1.5·4·0.11·3·√2 = 2.8 N·m
 /// ≈ 3.0 N·m); in the papers' model (torque n_P·Φ·i_q, peak amplitudes) the rated 3 N·m takes
-/// 6.8 A. Assumed (the table gives none):
+/// 3/(4·0.11) = 6.8 A, the rating given here (Table I: 3 A). Assumed (the table gives none):
 /// J = 1.0e-3 kg·m² (test rotor plus the coupled dynamo rotor of the bench, catalogue order
 /// of magnitude for 3 N·m and 8 N·m servo motors) and f = 1.0e-3 N·m·s/rad (0.1 N·m, 3.5 % of
 /// rated torque, at rated speed).
@@ -252,7 +250,7 @@ pub const ORTEGA_TEST_0P3KW: Motor = Motor {
     },
     ratings: Ratings {
         bus_v: 200.0,
-        current_a: 3.0,
+        current_a: 6.82,
         torque_nm: 3.0,
         speed_rpm: 1000.0,
         power_w: 300.0,
@@ -261,8 +259,9 @@ pub const ORTEGA_TEST_0P3KW: Motor = Motor {
 
 /// Ortega et al. Table I, third column: the 1.0 kW dynamo motor.
 ///
-/// Electrical data and ratings are the table's. Assumed (the table gives none):
-/// J = 1.0e-3 kg·m² and f = 1.0e-3 N·m·s/rad, as for the test motor it is coupled to.
+/// Electrical data and ratings are the table's except the current, converted to the papers'
+/// model as for the test motor: the rated 8.3 N·m takes 8.3/(4·0.099) = 21.0 A (Table I:
+/// 10.7 A). Assumed (the table gives none): J = 1.0e-3 kg·m² and f = 1.0e-3 N·m·s/rad, as for the test motor it is coupled to.
 pub const ORTEGA_DYNAMO_1KW: Motor = Motor {
     name: "ortega-dynamo-1kw",
     params: MotorParams {
@@ -275,7 +274,7 @@ pub const ORTEGA_DYNAMO_1KW: Motor = Motor {
     },
     ratings: Ratings {
         bus_v: 200.0,
-        current_a: 10.7,
+        current_a: 21.0,
         torque_nm: 8.3,
         speed_rpm: 1500.0,
         power_w: 1.0e3,

@@ -1,7 +1,7 @@
 //! Discrete PI controller with output clamp and clamping (conditional-integration) anti-windup.
 
 use crate::math::{all_finite, clamp};
-use crate::motor::{non_negative, positive, ParamError};
+use crate::param::{non_negative, positive, Allowed, ParamError};
 use core::hint::cold_path;
 
 /// PI settings in SI units: `u = kp·e + ki·∫e dt`, clamped to `[out_min, out_max]`.
@@ -39,13 +39,10 @@ impl PiConfig {
         let ts = positive("ts_s", ts_s)?;
         non_negative("kp", self.kp)?;
         non_negative("ki", self.ki)?;
-        if !self.out_min.is_finite() {
-            return Err(ParamError::NotFinite("out_min"));
-        }
-        if !self.out_max.is_finite() {
-            return Err(ParamError::NotFinite("out_max"));
-        }
-        positive("out_max - out_min", self.out_max - self.out_min)?;
+        Allowed::FINITE.check("out_min", self.out_min)?;
+        Allowed::above_up_to(self.out_min, f32::INFINITY)
+            .because("above out_min")
+            .check("out_max", self.out_max)?;
         Ok(Pi {
             kp: self.kp,
             ki_ts: self.ki * ts,

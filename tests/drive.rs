@@ -7,7 +7,7 @@ use pmsm_host_sim::sim::{run, SimConfig};
 use pmsm_host_sim::summary::Summary;
 use pmsm_sensorless::drive::{Command, Drive, DriveConfig, DriveInput, DriveState, Mode, StateOf};
 use pmsm_sensorless::frames::Abc;
-use pmsm_sensorless::motor::{ParamError, HORNG_SINANO};
+use pmsm_sensorless::motor::HORNG_SINANO;
 use pmsm_sensorless::observer::flux_speed::FluxPll;
 use pmsm_sensorless::observer::sliding::SlidingObserver;
 use pmsm_sensorless::observer::Observer;
@@ -180,40 +180,109 @@ fn a_speed_collapse_under_load_is_a_stall() {
     assert_eq!(s.fault.as_deref(), Some("stall"));
 }
 
+/// The error of `c`: its field and value as given, and a range that excludes that value.
+fn refused(c: DriveConfig, field: &str, value: f32) -> String {
+    let e = c.build_flux_primary().unwrap_err();
+    assert_eq!(e.field, field, "{e}");
+    assert_eq!(e.value.to_bits(), value.to_bits(), "{e}");
+    assert!(!e.allowed.contains(value), "{e}");
+    e.to_string()
+}
+
 #[test]
-fn impossible_settings_name_the_field() {
+fn impossible_settings_name_the_field_value_and_range() {
     let base = DriveConfig::new(&HORNG_SINANO);
     assert!(base.build_flux_primary().is_ok());
+    assert!(base.build_sliding_primary().is_ok());
+    let i_max = base.limits.i_max_a;
+    type Case = (fn(&mut DriveConfig), &'static str, f32);
+    let cases: [Case; 5] = [
+        (
+            |c| c.limits.i_trip_a = 0.5 * c.limits.i_max_a,
+            "limits.i_trip_a",
+            0.5 * i_max,
+        ),
+        (|c| c.start.handover_rpm = 10.0, "start.handover_rpm", 10.0),
+        // Longer than the 1 s timeout: hand-over could never happen.
+        (
+            |c| c.start.handover_hold_s = 2.0,
+            "start.handover_hold_s",
+            2.0,
+        ),
+        (|c| c.motor.l_h = f32::NAN, "l_h", f32::NAN),
+        (|c| c.rate_hz = 0.0, "rate_hz", 0.0),
+    ];
+    for (mutate, field, value) in cases {
+        let mut c = base;
+        mutate(&mut c);
+        refused(c, field, value);
+    }
+    // K_s = 1000π above (K_s,max)_E2 = 2456 A/s at a rated speed of 500 rpm (and the rated
+    // power with it, 0.695 N·m × 500 rpm).
     let mut c = base;
-    c.limits.i_trip_a = 0.5 * c.limits.i_max_a;
+    c.ratings.speed_rpm = 500.0;
+    c.ratings.power_w = 36.0;
+    let msg = refused(c, "ks", 1000.0 * core::f32::consts::PI);
+    assert!(msg.contains("(K_s,max)_E2"), "{msg}");
+    assert!(msg.contains("2456"), "{msg}");
+}
+
+#[test]
+fn a_protection_cannot_be_switched_off_by_a_value() {
+    let base = DriveConfig::new(&HORNG_SINANO);
+    type Case = (fn(&mut DriveConfig), &'static str);
+    let cases: [Case; 7] = [
+        (
+            |c| c.health.max_disagreement_deg = 1e30,
+            "health.max_disagreement_deg",
+        ),
+        (|c| c.health.loss_time_s = 1e30, "health.loss_time_s"),
+        (|c| c.health.stall_time_s = 1e30, "health.stall_time_s"),
+        (
+            |c| c.health.max_speed_disagreement_rpm = 1e30,
+            "health.max_speed_disagreement_rpm",
+        ),
+        (|c| c.limits.bus_max_v = 1e30, "limits.bus_max_v"),
+        (|c| c.limits.i_trip_a = 1e30, "limits.i_trip_a"),
+        (
+            |c| c.start.handover_timeout_s = 1e30,
+            "start.handover_timeout_s",
+        ),
+    ];
+    for (mutate, field) in cases {
+        let mut c = base;
+        mutate(&mut c);
+        let msg = refused(c, field, 1e30);
+        assert!(
+            msg.starts_with(&format!("{field} = 1e30: allowed ")),
+            "{msg}"
+        );
+    }
+}
+
+#[test]
+fn ratings_the_bus_cannot_drive_are_refused() {
+    // 5000 rpm on 48 V: the back-EMF 4·0.05795·524 = 121 V is above 48/√3 = 27.7 V.
+    let mut fast = HORNG_SINANO;
+    fast.ratings.speed_rpm = 5000.0;
+    fast.ratings.power_w = 364.0;
+    let e = fast.validate().unwrap_err();
+    assert_eq!(e.field, "ratings.speed_rpm", "{e}");
+    assert!((e.allowed.max - 1142.0).abs() < 1.0, "{e}");
+    // 50 N·m: 2.5 Ω × 50/(4·0.05795) A = 539 V at standstill.
+    let mut strong = HORNG_SINANO;
+    strong.ratings.torque_nm = 50.0;
+    strong.ratings.current_a = 216.0;
+    strong.ratings.power_w = 5236.0;
+    let e = strong.validate().unwrap_err();
+    assert_eq!(e.field, "ratings.torque_nm", "{e}");
+    assert!(e.to_string().contains("standstill"), "{e}");
+    // The drive's configuration refuses the same motor.
+    let mut c = DriveConfig::new(&HORNG_SINANO);
+    c.ratings = fast.ratings;
     assert_eq!(
-        c.build_flux_primary().unwrap_err(),
-        ParamError::NotPositive("i_trip_a - i_max_a")
-    );
-    let mut c = base;
-    c.start.handover_rpm = 10.0;
-    assert_eq!(
-        c.build_flux_primary().unwrap_err(),
-        ParamError::NotPositive("handover_rpm - handback_rpm")
-    );
-    let mut c = base;
-    // K_s = 1000π above (K_s,max)_E2 = 2456 A/s at a rated speed of 500 rpm.
-    c.rated_speed_rpm = 500.0;
-    assert_eq!(
-        c.build_flux_primary().unwrap_err(),
-        ParamError::OutOfRange("ks")
-    );
-    let mut c = base;
-    c.start.handover_hold_s = 2.0; // longer than the 1 s timeout: hand-over could never happen
-    assert_eq!(
-        c.build_flux_primary().unwrap_err(),
-        ParamError::NotPositive("handover_timeout_s - handover_hold_s")
-    );
-    let mut c = base;
-    c.motor.l_h = f32::NAN;
-    assert_eq!(
-        c.build_flux_primary().unwrap_err(),
-        ParamError::NotFinite("l_h")
+        c.build_flux_primary().unwrap_err().field,
+        "ratings.speed_rpm"
     );
 }
 

@@ -16,3 +16,14 @@ pub mod scenario;
 pub mod sim;
 pub mod summary;
 pub mod sweep;
+
+/// A number in a message as an engineer writes it: plain from 0.001 to 10⁶, else in
+/// exponent form (`1e30`, not thirty zeros), the way the core's errors print theirs.
+pub fn number(v: f64) -> String {
+    let a = v.abs();
+    if a == 0.0 || !a.is_finite() || (1e-3..1e6).contains(&a) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}

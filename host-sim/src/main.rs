@@ -4,7 +4,7 @@ use clap::{Parser, Subcommand};
 use pmsm_host_sim::observer::ObserverKind;
 use pmsm_host_sim::sim::{self, Mismatch, SimConfig};
 use pmsm_host_sim::summary::Summary;
-use pmsm_host_sim::{motor_file, output, scenario};
+use pmsm_host_sim::{motor_file, number, output, scenario};
 use pmsm_sensorless::motor;
 use std::fmt::Write as _;
 use std::io::Write as _;
@@ -39,6 +39,9 @@ enum Command {
     /// A matrix of runs in parallel (every key of the matrix's `[axes]` is a run flag); exit 1
     /// when a cell fails.
     Sweep(SweepArgs),
+    /// Every gain and limit the drive derives for a motor, with warnings for what will
+    /// struggle.
+    Gains(GainsArgs),
     /// Sliding-gain bounds of Horng & Chin Sec 4 at an operating point.
     Bounds(BoundsArgs),
     /// Limits on the flux observer's gain γ (Ortega et al. eq (9), Proposition 4).
@@ -189,10 +192,278 @@ fn cycles(args: CyclesArgs) -> anyhow::Result<String> {
 }
 
 #[derive(clap::Args)]
-struct GammaArgs {
-    /// Motor preset.
+struct GainsArgs {
+    #[command(flatten)]
+    motor: MotorArg,
+    /// Control rate (Hz).
+    #[arg(long, default_value_t = 4000.0)]
+    rate_hz: f64,
+    /// Print JSON: `{"motor", "values": [{"name", "value", "unit", "formula"}], "warnings":
+    /// [{"field", "value", "limit", "what"}]}`.
     #[arg(long)]
-    motor: String,
+    json: bool,
+}
+
+#[derive(serde::Serialize)]
+struct GainRow {
+    name: &'static str,
+    value: f64,
+    unit: &'static str,
+    formula: String,
+}
+
+#[derive(serde::Serialize)]
+struct GainWarning {
+    field: &'static str,
+    value: f64,
+    limit: f64,
+    what: &'static str,
+}
+
+/// `v` to six significant digits, in exponent form outside 10⁻³..10⁷.
+fn significant(v: f64) -> String {
+    let a = v.abs();
+    if a != 0.0 && !(1e-3..1e7).contains(&a) {
+        return format!("{v:.5e}");
+    }
+    let digits = if a == 0.0 {
+        0
+    } else {
+        a.log10().floor() as i32
+    };
+    format!("{v:.*}", (5 - digits).max(0) as usize)
+}
+
+/// `gains`: what `DriveConfig::derived` reports for the motor, as a table or JSON, and its
+/// warnings.
+fn gains(args: GainsArgs) -> anyhow::Result<String> {
+    use pmsm_sensorless::drive::DriveConfig;
+    let (name, m) = args.motor.resolve()?;
+    let mut cfg = DriveConfig::new(&m);
+    cfg.rate_hz = args.rate_hz as f32;
+    let d = cfg.derived().map_err(|e| anyhow::anyhow!("{name}: {e}"))?;
+    let p = m.params;
+    let r = m.ratings;
+    let wc = format!("ω_c = 2π·{} Hz", d.current_bandwidth_hz);
+    let ws = format!("ω_s = 2π·{} Hz", d.speed_bandwidth_hz);
+    let kt = format!("N ψ_f = {}·{} N·m/A", p.pole_pairs, p.flux_wb);
+    let rows: Vec<(&'static str, f32, &'static str, String)> = vec![
+        (
+            "current PI kp",
+            d.foc.current_kp,
+            "V/A",
+            format!("L ω_c; L = {} H, {wc}", p.l_h),
+        ),
+        (
+            "current PI ki",
+            d.foc.current_ki,
+            "V/(A·s)",
+            format!("R ω_c; R = {} Ω, {wc}", p.r_ohm),
+        ),
+        (
+            "speed PI kp",
+            d.foc.speed_kp,
+            "A·s/rad",
+            format!("J ω_s/(N ψ_f); J = {} kg·m², {ws}, {kt}", p.j_kgm2),
+        ),
+        (
+            "speed PI ki",
+            d.foc.speed_ki,
+            "A/rad",
+            format!("kp ω_s/4; {ws}"),
+        ),
+        (
+            "K_s",
+            d.ks_a_per_s,
+            "A/s",
+            "Horng & Chin Sec 5 (1000π)".into(),
+        ),
+        (
+            "ε",
+            d.epsilon_a,
+            "A",
+            "boundary layer, Horng & Chin Sec 5".into(),
+        ),
+        (
+            "(K_s,max)_T",
+            d.ks_max_t_a_per_s,
+            "A/s",
+            format!("ε(2/T − R/L); T = 1/{} s", args.rate_hz),
+        ),
+        (
+            "(K_s,max)_E2 at rated speed",
+            d.ks_max_e2_rated_a_per_s,
+            "A/s",
+            format!("(√2 K N ω − R ε)/L; {} rpm", r.speed_rpm),
+        ),
+        (
+            "(K_s,max)_E2 at hand-over",
+            d.ks_max_e2_handover_a_per_s,
+            "A/s",
+            format!("(√2 K N ω − R ε)/L; {} rpm", d.handover_rpm),
+        ),
+        (
+            "K_s = (K_s,max)_E2 at",
+            d.ks_e2_speed_rpm,
+            "rpm",
+            "(K_s L + R ε)/(√2 K N)".into(),
+        ),
+        (
+            "γ",
+            d.gamma,
+            "1/(Wb²·s)",
+            "0.5 × the smaller limit below (Ortega eq (9))".into(),
+        ),
+        (
+            "γ_max, discrete step",
+            d.gamma_max_discrete,
+            "1/(Wb²·s)",
+            format!("2/(Φ² T); Φ = {} Wb", p.flux_wb),
+        ),
+        (
+            "γ_max, one equilibrium",
+            d.gamma_max_single_equilibrium,
+            "1/(Wb²·s)",
+            format!(
+                "4 n_P |ω|/Φ² at hand-back {} rpm (Proposition 4)",
+                d.handback_rpm
+            ),
+        ),
+        (
+            "PLL Kp",
+            d.pll_kp,
+            "1/s",
+            format!(
+                "2ζω_n; ω_n = 2π·{} Hz, ζ = {}",
+                d.pll_bandwidth_hz, d.pll_damping
+            ),
+        ),
+        ("PLL Ki", d.pll_ki, "1/s²", "ω_n²".into()),
+        (
+            "hand-over speed",
+            d.handover_rpm,
+            "rpm",
+            "10 % of rated speed".into(),
+        ),
+        (
+            "hand-back speed",
+            d.handback_rpm,
+            "rpm",
+            "6 % of rated speed".into(),
+        ),
+        (
+            "speed the lowest bus drives",
+            d.bus_limited_rpm,
+            "rpm",
+            format!(
+                "(bus_min_v/√3)/(N ψ_f); bus_min_v = {} V",
+                cfg.limits.bus_min_v
+            ),
+        ),
+        (
+            "rated-torque current",
+            d.rated_torque_current_a,
+            "A",
+            format!("τ/(N ψ_f); τ = {} N·m, {kt}", r.torque_nm),
+        ),
+        (
+            "current command limit i_max",
+            d.i_max_a,
+            "A",
+            "1.5 × rated-torque current".into(),
+        ),
+        ("current trip", d.i_trip_a, "A", "1.5 × i_max".into()),
+        ("sensing range", d.i_sense_max_a, "A", "2 × trip".into()),
+        (
+            "align current",
+            d.align_current_a,
+            "A",
+            "0.5 × rated-torque current".into(),
+        ),
+        (
+            "open-loop current",
+            d.open_loop_current_a,
+            "A",
+            "0.6 × rated-torque current".into(),
+        ),
+        (
+            "largest phase voltage",
+            d.v_max_v,
+            "V",
+            format!("bus_v/√3; bus_v = {} V", r.bus_v),
+        ),
+        (
+            "voltage of rated torque at rated speed",
+            d.v_rated_point_v,
+            "V",
+            "|(R i, −ω_e L i) + (0, ω_e ψ_f)|, dq".into(),
+        ),
+        (
+            "rated torque up to",
+            d.rated_torque_speed_rpm,
+            "rpm",
+            "where that voltage reaches bus_v/√3".into(),
+        ),
+    ];
+    let rows: Vec<GainRow> = rows
+        .into_iter()
+        .map(|(name, value, unit, formula)| GainRow {
+            name,
+            value: f64::from(value),
+            unit,
+            formula,
+        })
+        .collect();
+    let warnings: Vec<GainWarning> = d
+        .warnings
+        .iter()
+        .flatten()
+        .map(|w| GainWarning {
+            field: w.field,
+            value: f64::from(w.value),
+            limit: f64::from(w.limit),
+            what: w.what,
+        })
+        .collect();
+    let mut out = String::new();
+    if args.json {
+        let v = serde_json::json!({ "motor": name, "values": rows, "warnings": warnings });
+        outln!(out, "{v}");
+        return Ok(out);
+    }
+    let mut t = comfy_table::Table::new();
+    t.load_style(comfy_table::presets::UTF8_FULL_CONDENSED);
+    t.set_header(["", "value", "unit", "formula; inputs"]);
+    for row in &rows {
+        t.add_row([
+            row.name.to_string(),
+            significant(row.value),
+            row.unit.to_string(),
+            row.formula.clone(),
+        ]);
+    }
+    if let Some(c) = t.column_mut(1) {
+        c.set_cell_alignment(comfy_table::CellAlignment::Right);
+    }
+    outln!(out, "{name} at {} Hz", args.rate_hz);
+    outln!(out, "{t}");
+    for w in &warnings {
+        outln!(
+            out,
+            "warning: {} = {}: limit {}: {}",
+            w.field,
+            significant(w.value),
+            significant(w.limit),
+            w.what
+        );
+    }
+    Ok(out)
+}
+
+#[derive(clap::Args)]
+struct GammaArgs {
+    #[command(flatten)]
+    motor: MotorArg,
     /// Observer update rate (Hz).
     #[arg(long)]
     rate_hz: f64,
@@ -213,7 +484,7 @@ struct GammaReport {
 
 fn gamma(args: GammaArgs) -> anyhow::Result<String> {
     use pmsm_sensorless::observer::flux::{self, FluxConfig};
-    let motor = preset(&args.motor)?;
+    let (name, motor) = args.motor.resolve()?;
     anyhow::ensure!(
         args.rate_hz.is_finite() && args.rate_hz > 0.0,
         "--rate-hz must be a finite number > 0"
@@ -239,7 +510,7 @@ fn gamma(args: GammaArgs) -> anyhow::Result<String> {
         outln!(
             out,
             "{} at {} Hz, lowest speed {} rpm (Φ = {} Wb, n_P = {})",
-            motor.name,
+            name,
             args.rate_hz,
             args.min_speed_rpm,
             p.flux_wb,
@@ -264,6 +535,34 @@ fn gamma(args: GammaArgs) -> anyhow::Result<String> {
     Ok(out)
 }
 
+/// `--motor NAME | --motor-file F` (default: the Sinano motor).
+#[derive(clap::Args)]
+struct MotorArg {
+    /// Motor preset (see `pmsm-sim list`; default: the scenario's, else sinano).
+    #[arg(long, conflicts_with = "motor_file")]
+    motor: Option<String>,
+    /// Motor TOML file (format: README, host-sim/motors/).
+    #[arg(long, value_name = "FILE.toml")]
+    motor_file: Option<PathBuf>,
+}
+
+impl MotorArg {
+    /// The motor's name and the motor; without either flag, `default`.
+    fn resolve_or(&self, default: motor::Motor) -> anyhow::Result<(String, motor::Motor)> {
+        let m = match (&self.motor, &self.motor_file) {
+            (_, Some(path)) => return motor_file::load(path),
+            (Some(name), None) => preset(name)?,
+            (None, None) => default,
+        };
+        Ok((m.name.to_string(), m))
+    }
+
+    /// As [`MotorArg::resolve_or`], the Sinano motor by default.
+    fn resolve(&self) -> anyhow::Result<(String, motor::Motor)> {
+        self.resolve_or(motor::HORNG_SINANO)
+    }
+}
+
 fn preset(name: &str) -> anyhow::Result<motor::Motor> {
     motor::preset(name).ok_or_else(|| {
         let names: Vec<_> = motor::PRESETS.iter().map(|m| m.name).collect();
@@ -273,9 +572,8 @@ fn preset(name: &str) -> anyhow::Result<motor::Motor> {
 
 #[derive(clap::Args)]
 struct BoundsArgs {
-    /// Motor preset.
-    #[arg(long, default_value = "sinano")]
-    motor: String,
+    #[command(flatten)]
+    motor: MotorArg,
     /// Speed (rpm, mechanical), not 0.
     #[arg(long, allow_negative_numbers = true)]
     speed_rpm: f64,
@@ -311,12 +609,9 @@ struct RunArgs {
     /// What gives the controller θ̂_e and ω̂_m.
     #[arg(long, default_value = "encoder")]
     observer: String,
-    /// Motor preset replacing the scenario's motor.
-    #[arg(long, conflicts_with = "motor_file")]
-    motor: Option<String>,
-    /// Motor TOML file replacing the scenario's motor.
-    #[arg(long, value_name = "FILE.toml")]
-    motor_file: Option<PathBuf>,
+    /// The motor replacing the scenario's.
+    #[command(flatten)]
+    motor: MotorArg,
     /// Load level (N·m): the scenario's load profile scaled so that its largest value is this.
     #[arg(long, allow_negative_numbers = true)]
     load_nm: Option<f64>,
@@ -461,33 +756,38 @@ fn prepare(args: &RunArgs) -> anyhow::Result<SimConfig> {
         (None, None) => anyhow::bail!("give a scenario name or --scenario-file"),
     };
     let observer = ObserverKind::from_name(&args.observer)?;
-    let (motor_name, m) = match (&args.motor, &args.motor_file) {
-        (Some(name), _) => {
-            let m = preset(name)?;
-            (m.name.to_string(), m)
-        }
-        (None, Some(path)) => motor_file::load(path)?,
-        (None, None) => {
-            let m = spec.default_motor()?;
-            (m.name.to_string(), m)
-        }
-    };
+    let (motor_name, m) = args.motor.resolve_or(spec.default_motor()?)?;
     let mut sc = spec.build(&motor_name, m)?;
+    // The plant's own settings stay within what a test of this motor means: a load up to
+    // 10 times its rated torque, a bus up to twice its rated bus.
+    let rated_bus = f64::from(m.ratings.bus_v);
     if let Some(x) = args.load_nm {
-        anyhow::ensure!(x.is_finite(), "--load-nm must be a finite number");
+        let max = 10.0 * m.ratings.torque_nm;
+        anyhow::ensure!(
+            x.is_finite() && x.abs() <= f64::from(max),
+            "--load-nm = {}: load allowed [-{max}, {max}] N·m (10 x the motor's rated torque)",
+            number(x)
+        );
         sc.load_nm = x;
     }
     let rated_a = f64::from(m.ratings.current_a);
     let mut cfg = SimConfig::new(sc, observer);
     if let Some(v) = args.bus_v {
+        let max = 2.0 * m.ratings.bus_v;
+        anyhow::ensure!(
+            v.is_finite() && v > 0.0 && v <= f64::from(max),
+            "--bus-v = {}: bus voltage allowed (0, {max}] V (2 x the motor's rated bus)",
+            number(v)
+        );
         cfg.bus_v = v;
     }
     if let Some(p) = args.bus_pct {
         anyhow::ensure!(
-            p.is_finite() && p > 0.0,
-            "--bus-pct = {p}: must be a finite percentage > 0"
+            p.is_finite() && p > 0.0 && p <= 200.0,
+            "--bus-pct = {}: bus voltage allowed (0, 200] % of the motor's rated bus",
+            number(p)
         );
-        cfg.bus_v = 0.01 * p * f64::from(m.ratings.bus_v);
+        cfg.bus_v = 0.01 * p * rated_bus;
     }
     anyhow::ensure!(
         args.noise_pct.is_finite() && args.noise_pct >= 0.0,
@@ -620,14 +920,7 @@ fn run(args: RunArgs) -> anyhow::Result<(String, bool)> {
 }
 
 fn bounds(args: BoundsArgs) -> anyhow::Result<String> {
-    let motor = motor::preset(&args.motor).ok_or_else(|| {
-        let names: Vec<_> = motor::PRESETS.iter().map(|m| m.name).collect();
-        anyhow::anyhow!(
-            "unknown motor '{}' (known: {})",
-            args.motor,
-            names.join(", ")
-        )
-    })?;
+    let (name, motor) = args.motor.resolve()?;
     let torque = match ObserverKind::from_name(&args.observer)? {
         ObserverKind::SlidingTorque => true,
         ObserverKind::SlidingVelocity => false,
@@ -656,7 +949,7 @@ fn bounds(args: BoundsArgs) -> anyhow::Result<String> {
         outln!(
             out,
             "{} at {} rpm, {} N·m, {} observer, {} Hz",
-            motor.name,
+            name,
             args.speed_rpm,
             args.load_nm,
             args.observer,
@@ -726,6 +1019,7 @@ fn main() -> ExitCode {
             }
             r => r.map(|(text, _)| text),
         },
+        Command::Gains(args) => gains(args),
         Command::Bounds(args) => bounds(args),
         Command::Gamma(args) => gamma(args),
         Command::Cycles(args) => cycles(args),

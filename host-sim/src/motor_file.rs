@@ -1,35 +1,56 @@
-//! Motors from TOML files (`--motor-file FILE.toml`), validated by the core.
+//! Motors from TOML files (`--motor-file FILE.toml`), validated by the core, in the papers'
+//! model's terms or straight from a datasheet.
 //!
 //! ```toml
 //! name = "my-motor"
-//! pole_pairs = 4
-//! r_ohm = 2.5
-//! l_h = 5.97e-3
-//! flux_wb = 5.795e-2   # Horng's K = Ortega's Φ
+//! pole_pairs = 4         # or poles = 8 (magnet poles)
+//! r_ohm = 2.5            # phase (wye) resistance, or r_ohm_ll = 5.0 line-to-line
+//! l_h = 5.97e-3          # phase inductance, or l_h_ll = 11.94e-3 line-to-line
+//! flux_wb = 5.795e-2     # Horng's K = Ortega's Φ; or kv_rpm_per_v, or ke_v_per_krpm, with
+//! # ke_form = "ll-peak" | "ll-rms": which voltage the datasheet's Kv or Ke is of
 //! j_kgm2 = 6.45e-5
-//! b_nms = 8.06e-5      # may be 0
+//! b_nms = 8.06e-5        # may be 0; 0 when left out
 //! [ratings]
 //! bus_v = 48.0
-//! current_a = 3.0
-//! torque_nm = 0.695
-//! speed_rpm = 1000.0
-//! power_w = 73.0
+//! current_a = 3.0        # peak phase current of the papers' model (current_a_rms: × √2)
+//! torque_nm = 0.695      # default: the model's torque at current_a, pole_pairs·flux_wb·current_a
+//! speed_rpm = 1000.0     # default: 80 % of the speed whose back-EMF is bus_v/√3
+//! power_w = 73.0         # default: torque_nm × speed
 //! ```
+//!
+//! Conversions (a wye-connected, non-salient motor; the papers' amplitude-invariant αβ model,
+//! phase-peak back-EMF `N ψ_f ω_m`):
+//! - `ψ_f = K_e,ll,peak / (√3 N)`, with `K_e,ll,peak` \[V·s/rad] = `60/(2π Kv)` for Kv in rpm/V
+//!   and = `Ke·60/(2π·1000)` for Ke in V/krpm; an rms Kv or Ke is first made peak (× √2 on
+//!   the voltage: `K_e,peak = √2 K_e,rms`).
+//! - `R = R_ll/2`, `L = L_ll/2`.
+//! - Torque: the papers' model is `τ = N ψ_f i` (no 3/2), `i` the phase-peak current: a real
+//!   three-phase motor makes 3/2 of that torque per amp, so a datasheet's rated torque needs
+//!   1.5× its peak current in the model.
 
+use crate::number;
 use pmsm_sensorless::motor::{Motor, MotorParams, Ratings};
+use pmsm_sensorless::param::{Allowed, ParamError};
 use serde::Deserialize;
+use std::f64::consts::{PI, SQRT_2};
 use std::path::Path;
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct MotorFile {
     name: String,
-    pole_pairs: i64,
-    r_ohm: f64,
-    l_h: f64,
-    flux_wb: f64,
+    pole_pairs: Option<i64>,
+    poles: Option<i64>,
+    r_ohm: Option<f64>,
+    r_ohm_ll: Option<f64>,
+    l_h: Option<f64>,
+    l_h_ll: Option<f64>,
+    flux_wb: Option<f64>,
+    kv_rpm_per_v: Option<f64>,
+    ke_v_per_krpm: Option<f64>,
+    ke_form: Option<String>,
     j_kgm2: f64,
-    b_nms: f64,
+    b_nms: Option<f64>,
     ratings: RatingsFile,
 }
 
@@ -37,13 +58,53 @@ struct MotorFile {
 #[serde(deny_unknown_fields)]
 struct RatingsFile {
     bus_v: f64,
-    current_a: f64,
-    torque_nm: f64,
-    speed_rpm: f64,
-    power_w: f64,
+    current_a: Option<f64>,
+    current_a_rms: Option<f64>,
+    torque_nm: Option<f64>,
+    speed_rpm: Option<f64>,
+    power_w: Option<f64>,
 }
 
-/// Parses and validates a motor file's text; the error is one line naming the bad field.
+/// A value as the file gave it: the key, the value written, and the value in the model's
+/// terms.
+type Given = (&'static str, f64, f64);
+
+/// The one of two alternative keys given: `a` as is, `b` through `convert`.
+fn one_of(
+    (a, va): (&'static str, Option<f64>),
+    (b, vb): (&'static str, Option<f64>),
+    convert: impl Fn(f64) -> f64,
+) -> anyhow::Result<Given> {
+    match (va, vb) {
+        (Some(v), None) => Ok((a, v, v)),
+        (None, Some(v)) => Ok((b, v, convert(v))),
+        (Some(_), Some(_)) => anyhow::bail!("give {a} or {b}, not both"),
+        (None, None) => anyhow::bail!("missing field: {a} (or {b})"),
+    }
+}
+
+/// The error of the core in the file's terms: the key the user wrote and the value as
+/// written (`r_ohm_ll = 1e300: gives r_ohm = inf, ...`, not only the phase value in f32).
+fn in_file_terms(e: ParamError, given: &[(&str, Given)]) -> anyhow::Error {
+    let Some((_, (key, v, _))) = given.iter().find(|(field, _)| *field == e.field) else {
+        return anyhow::anyhow!("{e}");
+    };
+    let range = if v.is_finite() {
+        format!("allowed {}", e.allowed)
+    } else {
+        format!("must be a finite number in {}", e.allowed)
+    };
+    if *key == e.field {
+        anyhow::anyhow!("{key} = {}: {range}", number(*v))
+    } else {
+        let model = e.to_string();
+        let model = model.split_once(": ").map_or(model.as_str(), |(fv, _)| fv);
+        anyhow::anyhow!("{key} = {}: gives {model}, {range}", number(*v))
+    }
+}
+
+/// Parses and validates a motor file's text; the error is one line naming the bad key, its
+/// value and the range allowed.
 pub fn parse(text: &str) -> anyhow::Result<(String, Motor)> {
     let f: MotorFile = toml::from_str(text).map_err(|e| {
         let line = e
@@ -57,37 +118,115 @@ pub fn parse(text: &str) -> anyhow::Result<(String, Motor)> {
             .unwrap_or_default();
         anyhow::anyhow!("{}{line}", e.message().trim())
     })?;
-    let pole_pairs = u32::try_from(f.pole_pairs)
+    let n = match (f.pole_pairs, f.poles) {
+        (Some(n), None) => n,
+        (None, Some(p)) => {
+            anyhow::ensure!(
+                p % 2 == 0,
+                "poles = {p}: must be even (magnets come in pairs)"
+            );
+            p / 2
+        }
+        (Some(_), Some(_)) => anyhow::bail!("give pole_pairs or poles, not both"),
+        (None, None) => anyhow::bail!("missing field: pole_pairs (or poles)"),
+    };
+    let pole_pairs = u32::try_from(n)
         .ok()
-        .filter(|&n| n > 0)
-        .ok_or_else(|| anyhow::anyhow!("pole_pairs: must be a positive integer"))?;
+        .filter(|n| MotorParams::POLE_PAIRS.contains(*n as f32))
+        .ok_or_else(|| anyhow::anyhow!("pole_pairs = {n}: allowed {}", MotorParams::POLE_PAIRS))?;
+    let r = one_of(("r_ohm", f.r_ohm), ("r_ohm_ll", f.r_ohm_ll), |v| v / 2.0)?;
+    let l = one_of(("l_h", f.l_h), ("l_h_ll", f.l_h_ll), |v| v / 2.0)?;
+    let flux = flux_wb(&f, pole_pairs)?;
+    let b_nms = f.b_nms.unwrap_or(0.0);
+    let given = [
+        ("r_ohm", r),
+        ("l_h", l),
+        ("flux_wb", flux),
+        ("j_kgm2", ("j_kgm2", f.j_kgm2, f.j_kgm2)),
+        ("b_nms", ("b_nms", b_nms, b_nms)),
+    ];
     let params = MotorParams::new(
         pole_pairs,
-        f.r_ohm as f32,
-        f.l_h as f32,
-        f.flux_wb as f32,
+        r.2 as f32,
+        l.2 as f32,
+        flux.2 as f32,
         f.j_kgm2 as f32,
-        f.b_nms as f32,
+        b_nms as f32,
     )
-    .map_err(|e| anyhow::anyhow!("{e}"))?;
-    let r = &f.ratings;
-    let ratings = Ratings {
-        bus_v: r.bus_v as f32,
-        current_a: r.current_a as f32,
-        torque_nm: r.torque_nm as f32,
-        speed_rpm: r.speed_rpm as f32,
-        power_w: r.power_w as f32,
-    }
-    .validate()
-    .map_err(|e| anyhow::anyhow!("ratings.{e}"))?;
-    Ok((
-        f.name,
-        Motor {
-            name: "file",
-            params,
-            ratings,
+    .map_err(|e| in_file_terms(e, &given))?;
+    let rf = &f.ratings;
+    let current = one_of(
+        ("ratings.current_a", rf.current_a),
+        ("ratings.current_a_rms", rf.current_a_rms),
+        |v| v * SQRT_2,
+    )?;
+    let kt = f64::from(params.torque_constant());
+    let torque_nm = rf.torque_nm.unwrap_or(kt * current.2);
+    let bus_rpm = rf.bus_v / 3f64.sqrt() / kt * 60.0 / (2.0 * PI);
+    let speed_rpm = rf.speed_rpm.unwrap_or(0.8 * bus_rpm);
+    let power_w = rf
+        .power_w
+        .unwrap_or(torque_nm * speed_rpm * 2.0 * PI / 60.0);
+    let motor = Motor {
+        name: "file",
+        params,
+        ratings: Ratings {
+            bus_v: rf.bus_v as f32,
+            current_a: current.2 as f32,
+            torque_nm: torque_nm as f32,
+            speed_rpm: speed_rpm as f32,
+            power_w: power_w as f32,
         },
-    ))
+    };
+    let given = [
+        ("ratings.bus_v", ("ratings.bus_v", rf.bus_v, rf.bus_v)),
+        ("ratings.current_a", current),
+    ];
+    let motor = motor.validate().map_err(|e| in_file_terms(e, &given))?;
+    Ok((f.name, motor))
+}
+
+/// `flux_wb` from whichever of `flux_wb`, `kv_rpm_per_v`, `ke_v_per_krpm` the file gives
+/// (module doc): the key used and the flux linkage \[Wb].
+fn flux_wb(f: &MotorFile, pole_pairs: u32) -> anyhow::Result<Given> {
+    let given: Vec<_> = [
+        ("flux_wb", f.flux_wb),
+        ("kv_rpm_per_v", f.kv_rpm_per_v),
+        ("ke_v_per_krpm", f.ke_v_per_krpm),
+    ]
+    .into_iter()
+    .filter_map(|(k, v)| v.map(|v| (k, v)))
+    .collect();
+    let (key, v) = match given[..] {
+        [one] => one,
+        [] => anyhow::bail!("missing field: flux_wb (or kv_rpm_per_v, or ke_v_per_krpm)"),
+        _ => anyhow::bail!("give one of flux_wb, kv_rpm_per_v, ke_v_per_krpm"),
+    };
+    if key == "flux_wb" {
+        anyhow::ensure!(
+            f.ke_form.is_none(),
+            "ke_form is for kv_rpm_per_v or ke_v_per_krpm"
+        );
+        return Ok(("flux_wb", v, v));
+    }
+    let peak = match f.ke_form.as_deref() {
+        Some("ll-peak") => 1.0,
+        Some("ll-rms") => SQRT_2,
+        Some(other) => anyhow::bail!("ke_form = \"{other}\": allowed \"ll-peak\" or \"ll-rms\""),
+        None => anyhow::bail!(
+            "{key} needs ke_form = \"ll-peak\" or \"ll-rms\": which line-to-line voltage the datasheet means"
+        ),
+    };
+    Allowed::POSITIVE
+        .check(key, v as f32)
+        .map_err(|e| anyhow::anyhow!("{key} = {}: allowed {}", number(v), e.allowed))?;
+    // Line-to-line back-EMF constant [V·s/rad] as given, then made peak.
+    let ke_ll = if key == "kv_rpm_per_v" {
+        60.0 / (2.0 * PI * v)
+    } else {
+        v * 60.0 / (2.0 * PI * 1000.0)
+    };
+    Ok((key, v, peak * ke_ll / (3f64.sqrt() * f64::from(pole_pairs))))
 }
 
 /// Reads and validates a motor file.

@@ -4,13 +4,14 @@
 
 use pmsm_sensorless::foc::{Foc, FocInput, FocState};
 use pmsm_sensorless::frames::{Abc, AlphaBeta, SinCos};
-use pmsm_sensorless::motor::{MotorParams, ParamError};
+use pmsm_sensorless::motor::MotorParams;
 use pmsm_sensorless::observer::flux::FluxConfig;
 use pmsm_sensorless::observer::flux_speed::{FluxIi, FluxPll};
 use pmsm_sensorless::observer::ii::IiConfig;
 use pmsm_sensorless::observer::pll::PllConfig;
 use pmsm_sensorless::observer::sliding::{SlidingConfig, SlidingObserver};
 use pmsm_sensorless::observer::{Observer, ReadOut, Rotor};
+use pmsm_sensorless::param::ParamError;
 
 /// What the controller used this period.
 #[derive(Clone, Copy, Debug, PartialEq)]

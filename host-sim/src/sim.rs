@@ -17,9 +17,10 @@ use pmsm_sensorless::drive::{
 };
 use pmsm_sensorless::foc::FocConfig;
 use pmsm_sensorless::frames::AlphaBeta;
-use pmsm_sensorless::motor::{Motor, MotorParams, ParamError};
+use pmsm_sensorless::motor::{Motor, MotorParams};
 use pmsm_sensorless::observer::sliding::SlidingConfig;
 use pmsm_sensorless::observer::{Observer, Rotor};
+use pmsm_sensorless::param::ParamError;
 use std::f64::consts::PI;
 
 /// rad/s per rpm.

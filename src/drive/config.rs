@@ -8,12 +8,14 @@ use super::{align, Drive};
 use crate::bounds::{ks_max_e2, ks_max_t};
 use crate::foc::FocConfig;
 use crate::frames::SinCos;
-use crate::motor::{positive, Motor, MotorParams, ParamError};
+use crate::math::INV_SQRT3;
+use crate::motor::{Motor, MotorParams, Ratings};
 use crate::observer::flux::FluxConfig;
 use crate::observer::flux_speed::FluxPll;
 use crate::observer::pll::PllConfig;
 use crate::observer::sliding::{SlidingConfig, SlidingGain, SlidingObserver};
 use crate::observer::Observer;
+use crate::param::{Allowed, ParamError};
 use crate::units::{RAD_PER_DEG, RAD_S_PER_RPM};
 
 /// The sliding observer's back-EMF angle and the controller's output angle lead the sample by
@@ -93,18 +95,19 @@ pub struct DriveConfig {
     pub start: StartConfig,
     /// Health supervision.
     pub health: HealthConfig,
-    /// Rated speed \[rpm]: the sliding gain must stay below (K_s,max)_E2 there.
-    pub rated_speed_rpm: f32,
+    /// The motor's ratings: the ranges of the limits are set from them, and the sliding gain
+    /// must stay below (K_s,max)_E2 at the rated speed.
+    pub ratings: Ratings,
 }
 
 impl DriveConfig {
     /// Defaults from the motor's ratings: current command limit 1.5× the current of rated
     /// torque, trip at 1.5× that, sensing range 2× the trip; bus trips at 0.75 and 1.25 of the
     /// rated bus; align and open-loop currents 0.5 and 0.6 of the rated-torque current for
-    /// 0.2 s and up the ramp; ramp 1000 rpm/s; hand-over above 10 % of rated speed when the
-    /// angle agrees within 30° for 20 ms; hand-back below 6 %; observer loss after 30° or
-    /// 10 % of rated speed disagreement for 20 ms; stall after 1 s without hand-over or
-    /// 0.1 s at the current limit below half the speed reference.
+    /// 0.2 s and up the ramp; the ramp climbs the rated speed in a second; hand-over above
+    /// 10 % of rated speed when the angle agrees within 30° for 20 ms; hand-back below 6 %;
+    /// observer loss after 30° or 10 % of rated speed disagreement for 20 ms; stall after 1 s
+    /// without hand-over or 0.1 s at the current limit below half the speed reference.
     pub fn new(motor: &Motor) -> Self {
         let i_rated = motor.rated_torque_current_a();
         let i_max = 1.5 * i_rated;
@@ -127,7 +130,7 @@ impl DriveConfig {
                 align_current_a: 0.5 * i_rated,
                 align_time_s: 0.2,
                 open_loop_current_a: 0.6 * i_rated,
-                accel_rpm_per_s: 1000.0,
+                accel_rpm_per_s: speed,
                 handover_rpm: 0.1 * speed,
                 handover_tol_deg: 30.0,
                 handover_hold_s: 0.02,
@@ -140,48 +143,74 @@ impl DriveConfig {
                 loss_time_s: 0.02,
                 stall_time_s: 0.1,
             },
-            rated_speed_rpm: speed,
+            ratings: motor.ratings,
         }
     }
 
-    /// The settings validated: the error names the bad field.
-    fn validate(&self) -> Result<MotorParams, ParamError> {
-        let m = self.motor.validate()?;
-        let rate = positive("rate_hz", self.rate_hz)?;
-        let l = self.limits;
-        let s = self.start;
-        let h = self.health;
-        positive("i_max_a", l.i_max_a)?;
-        positive("i_trip_a - i_max_a", l.i_trip_a - l.i_max_a)?;
-        positive("i_sense_max_a - i_trip_a", l.i_sense_max_a - l.i_trip_a)?;
-        positive("bus_min_v", l.bus_min_v)?;
-        positive("bus_max_v - bus_min_v", l.bus_max_v - l.bus_min_v)?;
-        positive("align_current_a", s.align_current_a)?;
-        positive("align_time_s", s.align_time_s)?;
-        positive("open_loop_current_a", s.open_loop_current_a)?;
-        if s.align_current_a > l.i_max_a || s.open_loop_current_a > l.i_max_a {
-            return Err(ParamError::OutOfRange("open_loop_current_a"));
+    /// The settings validated: the error names the bad field, its value and the range
+    /// allowed. The ranges keep every protection on (no trip level, disagreement or time so
+    /// large that it never acts) and the start-up within what the bus can drive.
+    pub(super) fn validate(&self) -> Result<MotorParams, ParamError> {
+        let m = Motor {
+            name: "",
+            params: self.motor,
+            ratings: self.ratings,
         }
-        positive("accel_rpm_per_s", s.accel_rpm_per_s)?;
-        positive("handback_rpm", s.handback_rpm)?;
-        positive(
-            "handover_rpm - handback_rpm",
-            s.handover_rpm - s.handback_rpm,
-        )?;
-        positive("handover_tol_deg", s.handover_tol_deg)?;
-        positive("handover_hold_s", s.handover_hold_s)?;
-        positive(
-            "handover_timeout_s - handover_hold_s",
-            s.handover_timeout_s - s.handover_hold_s,
-        )?;
-        if s.align_time_s * rate < 2.0 {
-            return Err(ParamError::OutOfRange("align_time_s"));
-        }
-        positive("rated_speed_rpm", self.rated_speed_rpm)?;
-        positive("max_disagreement_deg", h.max_disagreement_deg)?;
-        positive("max_speed_disagreement_rpm", h.max_speed_disagreement_rpm)?;
-        positive("loss_time_s", h.loss_time_s)?;
-        positive("stall_time_s", h.stall_time_s)?;
+        .validate()?
+        .params;
+        let rated = self.ratings;
+        let rate = Allowed::between(1000.0, 100_000.0).check("rate_hz", self.rate_hz)?;
+        let (l, s, h) = (self.limits, self.start, self.health);
+        let i_rated = rated.torque_nm / m.torque_constant();
+        Allowed::above_up_to(0.0, 3.0 * i_rated)
+            .because("3 x the rated torque's current")
+            .check("limits.i_max_a", l.i_max_a)?;
+        Allowed::above_up_to(l.i_max_a, 4.0 * l.i_max_a)
+            .because("above i_max_a, at most 4 x it")
+            .check("limits.i_trip_a", l.i_trip_a)?;
+        Allowed::above_up_to(l.i_trip_a, 10.0 * l.i_trip_a)
+            .because("above i_trip_a, at most 10 x it")
+            .check("limits.i_sense_max_a", l.i_sense_max_a)?;
+        Allowed::from_below(0.25 * rated.bus_v, rated.bus_v)
+            .because("0.25 to 1 x ratings.bus_v")
+            .check("limits.bus_min_v", l.bus_min_v)?;
+        Allowed::strictly_between(l.bus_min_v, 1.5 * rated.bus_v)
+            .because("above bus_min_v, below 1.5 x ratings.bus_v")
+            .check("limits.bus_max_v", l.bus_max_v)?;
+        let start_current = Allowed::above_up_to(0.0, l.i_max_a).because("at most i_max_a");
+        start_current.check("start.align_current_a", s.align_current_a)?;
+        Allowed::between(2.0 / rate, 10.0)
+            .because("2 steps to 10 s")
+            .check("start.align_time_s", s.align_time_s)?;
+        start_current.check("start.open_loop_current_a", s.open_loop_current_a)?;
+        Allowed::above_up_to(0.0, 100.0 * rated.speed_rpm)
+            .because("rated speed in 10 ms at most")
+            .check("start.accel_rpm_per_s", s.accel_rpm_per_s)?;
+        // The open loop must reach the hand-over speed on the lowest bus: back-EMF within
+        // bus_min_v/√3.
+        let bus_rpm = l.bus_min_v * INV_SQRT3 / m.torque_constant() / RAD_S_PER_RPM;
+        Allowed::strictly_between(0.0, 0.5 * rated.speed_rpm)
+            .because("below half the rated speed")
+            .check("start.handback_rpm", s.handback_rpm)?;
+        Allowed::above_up_to(s.handback_rpm, (0.5 * rated.speed_rpm).min(bus_rpm))
+            .because("above handback_rpm, at most half the rated speed and the back-EMF within bus_min_v/sqrt(3)")
+            .check("start.handover_rpm", s.handover_rpm)?;
+        Allowed::strictly_between(0.0, 90.0).check("start.handover_tol_deg", s.handover_tol_deg)?;
+        Allowed::above_up_to(0.0, 1.0).check("start.handover_hold_s", s.handover_hold_s)?;
+        Allowed::above_up_to(s.handover_hold_s, 60.0)
+            .because("above handover_hold_s, at most 60 s")
+            .check("start.handover_timeout_s", s.handover_timeout_s)?;
+        Allowed::above_up_to(0.0, 90.0)
+            .because("the angle error of a lost lock")
+            .check("health.max_disagreement_deg", h.max_disagreement_deg)?;
+        Allowed::above_up_to(0.0, 0.5 * rated.speed_rpm)
+            .because("at most half the rated speed")
+            .check(
+                "health.max_speed_disagreement_rpm",
+                h.max_speed_disagreement_rpm,
+            )?;
+        Allowed::above_up_to(0.0, 1.0).check("health.loss_time_s", h.loss_time_s)?;
+        Allowed::above_up_to(0.0, 5.0).check("health.stall_time_s", h.stall_time_s)?;
         Ok(m)
     }
 
@@ -192,17 +221,17 @@ impl DriveConfig {
     /// the (always unstable) second equilibrium exists, as in the paper's own experiment.
     pub fn sliding_torque(&self) -> Result<SlidingObserver, ParamError> {
         let m = self.validate()?;
-        let cfg = SlidingConfig {
-            rate_hz: self.rate_hz,
-            emf_advance_periods: ADVANCE_PERIODS,
-            ..SlidingConfig::torque(m)
-        };
+        let cfg = self.sliding_config();
         if let SlidingGain::Constant(ks) = cfg.ks {
             let eps = cfg.epsilon_a;
-            let rated = self.rated_speed_rpm * RAD_S_PER_RPM;
-            if ks >= ks_max_t(&m, self.rate_hz, eps) || ks > ks_max_e2(&m, rated, eps) {
-                return Err(ParamError::OutOfRange("ks"));
-            }
+            let rated = self.ratings.speed_rpm * RAD_S_PER_RPM;
+            let e2 = ks_max_e2(&m, rated, eps);
+            Allowed::strictly_between(0.0, ks_max_t(&m, self.rate_hz, eps))
+                .because("below (K_s,max)_T, Horng & Chin Sec 4")
+                .check("ks", ks)?;
+            Allowed::above_up_to(0.0, e2)
+                .because("at most (K_s,max)_E2 at the rated speed, Horng & Chin Sec 4")
+                .check("ks", ks)?;
         }
         cfg.build()
     }
@@ -212,14 +241,44 @@ impl DriveConfig {
     /// loop's rate (1 kHz).
     pub fn flux_pll(&self) -> Result<FluxPll, ParamError> {
         let m = self.validate()?;
-        let flux = FluxConfig::new(m, self.rate_hz, self.start.handback_rpm).build()?;
-        let pll = PllConfig {
+        let flux = self.flux_config().build()?;
+        let pll = self.pll_config().build()?;
+        Ok(FluxPll::new(flux, pll, m.n()))
+    }
+
+    /// The sliding torque observer's settings (unvalidated).
+    pub(super) fn sliding_config(&self) -> SlidingConfig {
+        SlidingConfig {
+            rate_hz: self.rate_hz,
+            emf_advance_periods: ADVANCE_PERIODS,
+            ..SlidingConfig::torque(self.motor)
+        }
+    }
+
+    /// The flux observer's settings (unvalidated).
+    pub(super) fn flux_config(&self) -> FluxConfig {
+        FluxConfig::new(self.motor, self.rate_hz, self.start.handback_rpm)
+    }
+
+    /// The PLL's settings (unvalidated).
+    pub(super) fn pll_config(&self) -> PllConfig {
+        PllConfig {
             rate_hz: self.rate_hz / SLOTS as f32,
             bandwidth_hz: PLL_BANDWIDTH_HZ,
             damping: PLL_DAMPING,
         }
-        .build()?;
-        Ok(FluxPll::new(flux, pll, m.n()))
+    }
+
+    /// The FOC's settings (unvalidated).
+    pub(super) fn foc_config(&self) -> FocConfig {
+        FocConfig {
+            current_bandwidth_hz: self.current_bandwidth_hz,
+            speed_bandwidth_hz: self.speed_bandwidth_hz,
+            current_rate_hz: self.rate_hz,
+            speed_divider: SLOTS,
+            angle_advance_periods: ADVANCE_PERIODS,
+            ..FocConfig::new(self.motor, self.limits.i_max_a)
+        }
     }
 
     /// The drive with the sliding torque observer feeding the controller and the flux
@@ -244,15 +303,7 @@ impl DriveConfig {
         let m = self.validate()?;
         let rate = self.rate_hz;
         let (l, s, h) = (self.limits, self.start, self.health);
-        let foc = FocConfig {
-            current_bandwidth_hz: self.current_bandwidth_hz,
-            speed_bandwidth_hz: self.speed_bandwidth_hz,
-            current_rate_hz: rate,
-            speed_divider: SLOTS,
-            angle_advance_periods: ADVANCE_PERIODS,
-            ..FocConfig::new(m, l.i_max_a)
-        }
-        .build()?;
+        let foc = self.foc_config().build()?;
         let ts = 1.0 / rate;
         let steps = |t: f32| (t * rate) as u32;
         let slot_cycles = |t: f32| (t * rate / SLOTS as f32) as u32;

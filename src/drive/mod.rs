@@ -29,12 +29,14 @@ mod config;
 mod io;
 mod open_loop;
 mod protection;
+mod report;
 mod schedule;
 mod sensorless;
 mod supervision;
 
 pub use config::{DriveConfig, HealthConfig, Limits, StartConfig};
 pub use io::{Command, DriveInput, DriveOutput, Fault, Mode, Reason, Telemetry, Transition};
+pub use report::{Derived, Warning};
 pub use schedule::{Slot, SLOTS};
 
 use crate::foc::{CurrentLoopState, Foc, Request};

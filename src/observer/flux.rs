@@ -20,7 +20,8 @@
 
 use crate::frames::{AlphaBeta, SinCos};
 use crate::math::{all_finite, atan2, is_normal_positive, rsqrt_normal};
-use crate::motor::{positive, MotorParams, ParamError};
+use crate::motor::MotorParams;
+use crate::param::{positive, Allowed, ParamError};
 use core::hint::cold_path;
 
 /// Largest γ \[1/(Wb²·s)] for which the forward-Euler gradient step of eq (9) is stable:
@@ -80,9 +81,9 @@ impl FluxConfig {
     /// only by [`FluxConfig::build_unchecked_gamma`] (for the tests that show the limit).
     pub fn build(&self) -> Result<FluxObserver, ParamError> {
         let observer = self.build_unchecked_gamma()?;
-        if self.gamma >= gamma_max_discrete(self.motor.flux_wb, self.rate_hz) {
-            return Err(ParamError::OutOfRange("gamma"));
-        }
+        Allowed::strictly_between(0.0, gamma_max_discrete(self.motor.flux_wb, self.rate_hz))
+            .because("gamma*flux_wb^2/rate below 2")
+            .check("gamma", self.gamma)?;
         Ok(observer)
     }
 

@@ -31,7 +31,8 @@
 //!   bounds `r`; the clamp keeps f32 finite if a transient pushes it far).
 
 use crate::math::{clamp, sin_cos};
-use crate::motor::{positive, MotorParams, ParamError};
+use crate::motor::MotorParams;
+use crate::param::{positive, Allowed, ParamError};
 use core::f32::consts::TAU;
 
 /// I&I observer settings.
@@ -70,18 +71,17 @@ impl IiConfig {
         let rate = positive("rate_hz", self.rate_hz)?;
         let ts = 1.0 / rate;
         let p1 = TAU * positive("pole_slow_hz", self.pole_slow_hz)?;
-        let p2 = TAU * positive("pole_fast_hz", self.pole_fast_hz)?;
-        if p2 <= p1 || p2 * ts >= 0.5 {
-            return Err(ParamError::OutOfRange("pole_fast_hz"));
-        }
+        // p2 > p1, a1 = p1 + p2 > 4 (eq (27)) and the fast pole inside the discrete range.
+        let p2_min = self.pole_slow_hz.max(4.0 / TAU - self.pole_slow_hz);
+        let p2 = TAU
+            * Allowed::strictly_between(p2_min, 0.5 * rate / TAU)
+                .because(
+                    "above pole_slow_hz, a1 = 2*pi*(slow + fast) above 4, 2*pi*fast/rate below 0.5",
+                )
+                .check("pole_fast_hz", self.pole_fast_hz)?;
         let k4 = positive("k4", self.k4)?;
-        if !(self.r_max > 1.0 && self.r_max.is_finite()) {
-            return Err(ParamError::OutOfRange("r_max"));
-        }
+        Allowed::above_up_to(1.0, f32::INFINITY).check("r_max", self.r_max)?;
         let (a1, a2) = (p1 + p2, p1 * p2);
-        if a1 <= 4.0 {
-            return Err(ParamError::OutOfRange("pole_fast_hz"));
-        }
         let f_over_j = m.b_nms / m.j_kgm2;
         let delta = [a1 - f_over_j, -a2]; // (26)
         let k1 = p1; // ½(a1 − √(a1² − 4a2)) = the slower pole

@@ -9,7 +9,7 @@
 //! integral state is kept as `Ki·z2` \[rad/s].
 
 use crate::math::{all_finite, wrap_pi};
-use crate::motor::{positive, ParamError};
+use crate::param::{positive, Allowed, ParamError};
 use core::f32::consts::TAU;
 use core::hint::cold_path;
 
@@ -44,23 +44,28 @@ pub struct PllState {
 }
 
 impl PllConfig {
+    /// `(Kp, Ki) = (2ζω_n, ω_n²)` \[1/s, 1/s²], unvalidated.
+    pub fn gains(&self) -> (f32, f32) {
+        let w_n = TAU * self.bandwidth_hz;
+        (2.0 * self.damping * w_n, w_n * w_n)
+    }
+
     /// Validates and precomputes `Kp`, `Ki·T`.
     pub fn build(&self) -> Result<Pll, ParamError> {
         let rate = positive("rate_hz", self.rate_hz)?;
-        let w_n = TAU * positive("bandwidth_hz", self.bandwidth_hz)?;
-        let zeta = positive("damping", self.damping)?;
+        let bandwidth_hz = Allowed::strictly_between(0.0, 0.5 * rate / TAU)
+            .because("2*pi*bandwidth/rate below 0.5")
+            .check("bandwidth_hz", self.bandwidth_hz)?;
         let ts = 1.0 / rate;
-        if w_n * ts >= 0.5 {
-            return Err(ParamError::OutOfRange("bandwidth_hz"));
-        }
         // The proportional step Kp·T must stay below 1 for the discrete loop to be stable.
-        if 2.0 * zeta * w_n * ts >= 1.0 {
-            return Err(ParamError::OutOfRange("damping"));
-        }
+        Allowed::strictly_between(0.0, rate / (2.0 * TAU * bandwidth_hz))
+            .because("2*damping*2*pi*bandwidth/rate below 1")
+            .check("damping", self.damping)?;
+        let (kp, ki) = self.gains();
         Ok(Pll {
             ts,
-            kp: 2.0 * zeta * w_n,
-            ki_ts: w_n * w_n * ts,
+            kp,
+            ki_ts: ki * ts,
         })
     }
 }

@@ -24,8 +24,9 @@
 
 use crate::frames::{AlphaBeta, SinCos};
 use crate::math::{all_finite, clamp, sin_cos_wrapped, wrap_pi};
-use crate::motor::{non_negative, positive, MotorParams, ParamError};
+use crate::motor::MotorParams;
 use crate::observer::{Observer, Rotor};
+use crate::param::{non_negative, positive, Allowed, ParamError};
 use core::f32::consts::TAU;
 use core::hint::cold_path;
 
@@ -107,9 +108,7 @@ impl SlidingConfig {
             },
         };
         let omega_low = positive("omega_low_rad_s", self.omega_low_rad_s)?;
-        if !self.emf_advance_periods.is_finite() {
-            return Err(ParamError::NotFinite("emf_advance_periods"));
-        }
+        Allowed::FINITE.check("emf_advance_periods", self.emf_advance_periods)?;
         let n = m.n();
         let kn = m.flux_wb * n;
         let factors = GainFactors {

@@ -1,0 +1,189 @@
+//! What the drive derives from its configuration, for `pmsm-sim gains` and a board's start-up
+//! log: every gain and limit, from the same functions the drive is built with, and the
+//! warnings of a configuration that builds but will struggle.
+
+use super::DriveConfig;
+use crate::bounds::{ks_max_e2, ks_max_t};
+use crate::foc::FocGains;
+use crate::math::INV_SQRT3;
+use crate::observer::flux::{gamma_max_discrete, gamma_max_single_equilibrium};
+use crate::observer::sliding::SlidingGain;
+use crate::param::ParamError;
+use crate::units::RAD_S_PER_RPM;
+use core::f32::consts::SQRT_2;
+
+/// Every gain and limit of a drive (SI units; speeds mechanical).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Derived {
+    /// Current-loop bandwidth ω_c/2π \[Hz] and the speed loop's ω_s/2π \[Hz]: the PI inputs.
+    pub current_bandwidth_hz: f32,
+    /// Speed-loop bandwidth \[Hz].
+    pub speed_bandwidth_hz: f32,
+    /// The current and speed PI gains.
+    pub foc: FocGains,
+    /// Sliding gain `K_s` \[A/s] (Horng & Chin Sec 5: 1000π).
+    pub ks_a_per_s: f32,
+    /// Boundary layer ε \[A].
+    pub epsilon_a: f32,
+    /// `(K_s,max)_T = ε(2/T − R/L)` \[A/s] at the step rate.
+    pub ks_max_t_a_per_s: f32,
+    /// `(K_s,max)_E2 = (√2 K N |ω| − R ε)/L` \[A/s] at the rated speed.
+    pub ks_max_e2_rated_a_per_s: f32,
+    /// `(K_s,max)_E2` at the hand-over speed \[A/s].
+    pub ks_max_e2_handover_a_per_s: f32,
+    /// The speed above which `K_s ≤ (K_s,max)_E2`: below it the (unstable) second
+    /// equilibrium exists \[rpm].
+    pub ks_e2_speed_rpm: f32,
+    /// Flux observer gain γ \[1/(Wb²·s)] (Ortega et al. eq (9)).
+    pub gamma: f32,
+    /// `γ_max = 2/(Φ² T)` of the discrete step \[1/(Wb²·s)].
+    pub gamma_max_discrete: f32,
+    /// `γ_max = 4 n_P |ω|/Φ²` for one equilibrium at the hand-back speed (Proposition 4)
+    /// \[1/(Wb²·s)].
+    pub gamma_max_single_equilibrium: f32,
+    /// PLL gains `Kp = 2ζω_n` \[1/s] and `Ki = ω_n²` \[1/s²].
+    pub pll_kp: f32,
+    /// See `pll_kp`.
+    pub pll_ki: f32,
+    /// The PLL's natural frequency \[Hz] and damping, the inputs of its gains.
+    pub pll_bandwidth_hz: f32,
+    /// See `pll_bandwidth_hz`.
+    pub pll_damping: f32,
+    /// Hand-over to the observer above this speed \[rpm].
+    pub handover_rpm: f32,
+    /// Back to open loop below this speed \[rpm].
+    pub handback_rpm: f32,
+    /// The speed whose back-EMF `N ψ_f ω` equals `bus_min_v/√3` \[rpm]: the most the lowest
+    /// bus drives.
+    pub bus_limited_rpm: f32,
+    /// The current of rated torque, `τ/(N ψ_f)` \[A].
+    pub rated_torque_current_a: f32,
+    /// The speed loop's current limit, the trip level and the sensing range \[A].
+    pub i_max_a: f32,
+    /// Phase-current trip \[A].
+    pub i_trip_a: f32,
+    /// Sensing range \[A].
+    pub i_sense_max_a: f32,
+    /// Align and open-loop currents \[A].
+    pub align_current_a: f32,
+    /// Open-loop (I/f) current \[A].
+    pub open_loop_current_a: f32,
+    /// The largest phase voltage on the rated bus, `V_bus/√3` \[V].
+    pub v_max_v: f32,
+    /// The voltage rated torque at rated speed needs, `|R i + jω_e(L i) + ω_e ψ_f|` \[V].
+    pub v_rated_point_v: f32,
+    /// The speed up to which the rated bus drives rated torque \[rpm].
+    pub rated_torque_speed_rpm: f32,
+    /// What will struggle, each once.
+    pub warnings: [Option<Warning>; 2],
+}
+
+/// A setting the drive accepts but will struggle with: the setting, its value, the limit it
+/// breaks, and what happens.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Warning {
+    /// The user's field.
+    pub field: &'static str,
+    /// Its value.
+    pub value: f32,
+    /// The limit it breaks.
+    pub limit: f32,
+    /// What happens beyond the limit.
+    pub what: &'static str,
+}
+
+impl DriveConfig {
+    /// Every gain and limit the drive derives; the configuration is validated first (the
+    /// error names the field, its value and its range).
+    pub fn derived(&self) -> Result<Derived, ParamError> {
+        let m = self.validate()?;
+        let (l, s) = (self.limits, self.start);
+        let kt = m.torque_constant();
+        let sliding = self.sliding_config();
+        let ks = match sliding.ks {
+            SlidingGain::Constant(k) => k,
+            SlidingGain::PerSpeed { min, .. } => min,
+        };
+        let eps = sliding.epsilon_a;
+        let rpm = |omega_m: f32| omega_m / RAD_S_PER_RPM;
+        // (K_s,max)_E2 = K_s solved for the speed.
+        let ks_e2_speed_rpm = rpm((ks * m.l_h + m.r_ohm * eps) / (SQRT_2 * kt));
+        let pll = self.pll_config();
+        let (pll_kp, pll_ki) = pll.gains();
+        let i_rated = self.ratings.torque_nm / kt;
+        let v_max = self.ratings.bus_v * INV_SQRT3;
+        let speed_rated = self.ratings.speed_rpm * RAD_S_PER_RPM;
+        let v_rated_point = voltage(&m, i_rated, speed_rated);
+        let rated_torque_speed_rpm = rpm(speed_for_voltage(&m, i_rated, v_max));
+        let warnings = [
+            (s.handover_rpm < ks_e2_speed_rpm).then_some(Warning {
+                field: "start.handover_rpm",
+                value: s.handover_rpm,
+                limit: ks_e2_speed_rpm,
+                what: "below this speed K_s is above (K_s,max)_E2: the sliding observer's \
+                       unstable second equilibrium exists (Horng & Chin Sec 4)",
+            }),
+            (rated_torque_speed_rpm < self.ratings.speed_rpm).then_some(Warning {
+                field: "ratings.speed_rpm",
+                value: self.ratings.speed_rpm,
+                limit: rated_torque_speed_rpm,
+                what: "above this speed rated torque needs more than bus_v/sqrt(3): the \
+                       current loop saturates under full load",
+            }),
+        ];
+        Ok(Derived {
+            current_bandwidth_hz: self.current_bandwidth_hz,
+            speed_bandwidth_hz: self.speed_bandwidth_hz,
+            foc: self.foc_config().gains(),
+            ks_a_per_s: ks,
+            epsilon_a: eps,
+            ks_max_t_a_per_s: ks_max_t(&m, self.rate_hz, eps),
+            ks_max_e2_rated_a_per_s: ks_max_e2(&m, speed_rated, eps),
+            ks_max_e2_handover_a_per_s: ks_max_e2(&m, s.handover_rpm * RAD_S_PER_RPM, eps),
+            ks_e2_speed_rpm,
+            gamma: self.flux_config().gamma,
+            gamma_max_discrete: gamma_max_discrete(m.flux_wb, self.rate_hz),
+            gamma_max_single_equilibrium: gamma_max_single_equilibrium(
+                m.flux_wb,
+                m.n(),
+                s.handback_rpm * RAD_S_PER_RPM,
+            ),
+            pll_kp,
+            pll_ki,
+            pll_bandwidth_hz: pll.bandwidth_hz,
+            pll_damping: pll.damping,
+            handover_rpm: s.handover_rpm,
+            handback_rpm: s.handback_rpm,
+            bus_limited_rpm: rpm(l.bus_min_v * INV_SQRT3 / kt),
+            rated_torque_current_a: i_rated,
+            i_max_a: l.i_max_a,
+            i_trip_a: l.i_trip_a,
+            i_sense_max_a: l.i_sense_max_a,
+            align_current_a: s.align_current_a,
+            open_loop_current_a: s.open_loop_current_a,
+            v_max_v: v_max,
+            v_rated_point_v: v_rated_point,
+            rated_torque_speed_rpm,
+            warnings,
+        })
+    }
+}
+
+/// Steady-state phase voltage \[V] at `i_q` \[A] and mechanical speed `omega_m` \[rad/s], dq
+/// model (Ortega eq (3)) with `i_d = 0`: `v_d = −ω_e L i_q`, `v_q = R i_q + ω_e ψ_f`.
+fn voltage(m: &crate::motor::MotorParams, i_q: f32, omega_m: f32) -> f32 {
+    let w_e = m.n() * omega_m;
+    let v_d = -w_e * m.l_h * i_q;
+    let v_q = m.r_ohm * i_q + w_e * m.flux_wb;
+    libm::sqrtf(v_d * v_d + v_q * v_q)
+}
+
+/// The mechanical speed \[rad/s] at which [`voltage`] reaches `v` \[V] (0 when `R i_q` alone
+/// exceeds it): the positive root of `ω_e²(ψ² + L²i²) + 2 R i ψ ω_e + R²i² − v² = 0`.
+fn speed_for_voltage(m: &crate::motor::MotorParams, i_q: f32, v: f32) -> f32 {
+    let a = m.flux_wb * m.flux_wb + (m.l_h * i_q) * (m.l_h * i_q);
+    let b = m.r_ohm * i_q * m.flux_wb;
+    let c = (m.r_ohm * i_q) * (m.r_ohm * i_q) - v * v;
+    let w_e = (-b + libm::sqrtf((b * b - a * c).max(0.0))) / a;
+    w_e.max(0.0) / m.n()
+}
