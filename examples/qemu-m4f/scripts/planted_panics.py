@@ -1,0 +1,89 @@
+#!/usr/bin/env python3
+"""The no-panic proof proves something: a panic planted in each branch of the drive's step
+fails its link.
+
+For every place below, a copy of the repository gets `if core::hint::black_box(false) {
+panic!() }` as the first statement of that function (a panic the optimiser cannot remove
+unless the function itself is unreachable from the proof binary), and `no-panic` is built;
+the link must fail on the undefined symbol its panic handler calls. A place whose plant still
+links is a branch the proof does not cover (as the flux-primary angle selection was before
+every observer pairing was built): the script exits 1 naming it.
+
+Usage: python3 examples/qemu-m4f/scripts/planted_panics.py   (from the repository root)
+"""
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+
+# (file, the function's signature up to its opening brace, which occurrence, what it is)
+PLACES = [
+    ("src/observer/sliding.rs", "fn update(&self, st: &mut SlidingState, i_ab: AlphaBeta, v_ab: AlphaBeta) -> bool {", 2, "SlidingObserver as an Observer: update"),
+    ("src/observer/sliding.rs", "fn sin_cos_output(&self, st: &SlidingState, _frame: SinCos, _lead: SinCos) -> SinCos {", 1, "SlidingObserver: the controller's angle (sliding primary)"),
+    ("src/observer/mod.rs", "fn sin_cos_output(&self, _st: &Self::State, frame: SinCos, lead: SinCos) -> SinCos {", 1, "Observer default: the controller's angle (flux primary)"),
+    ("src/observer/flux_speed.rs", "fn update(&self, st: &mut FluxPllState, i_ab: AlphaBeta, v_ab: AlphaBeta) -> bool {", 1, "FluxPll: update"),
+    ("src/observer/flux_speed.rs", "fn read_out(&self, st: &mut FluxPllState, part: ReadOut) {", 1, "FluxPll: angle and PLL read-outs"),
+    ("src/observer/flux_speed.rs", "fn update(&self, st: &mut FluxIiState, i_ab: AlphaBeta, v_ab: AlphaBeta) -> bool {", 1, "FluxIi: update"),
+    ("src/observer/flux_speed.rs", "fn read_out(&self, st: &mut FluxIiState, part: ReadOut) {", 1, "FluxIi: I&I speed and load read-outs"),
+    ("src/drive/align.rs", "pub(super) fn step(&self, a: &mut Align) -> (Request, bool) {", 1, "mode Align"),
+    ("src/drive/open_loop.rs", "pub(super) fn open_loop_step(", 1, "mode OpenLoop"),
+    ("src/drive/sensorless.rs", "pub(super) fn sensorless_step(", 1, "mode Sensorless"),
+    ("src/drive/supervision.rs", "pub(super) fn hand_over(", 1, "supervision: hand-over"),
+    ("src/drive/supervision.rs", "pub(super) fn health(", 1, "supervision: health"),
+    ("src/drive/protection.rs", "pub(super) fn check_input(", 1, "protection: input checks"),
+    ("src/drive/mod.rs", "fn observe(&self, st: &mut StateOf<P, M>, i_ab: AlphaBeta) -> bool {", 1, "Drive::observe"),
+    ("src/drive/mod.rs", "fn control(", 1, "Drive::control"),
+    ("src/foc.rs", "pub fn run(", 1, "Foc::run, the one FOC call site"),
+]
+PLANT = '        if core::hint::black_box(false) { panic!("planted") }\n'
+UNDEFINED = "the_drive_step_can_panic"
+
+
+def build(root, target_dir):
+    return subprocess.run(
+        ["cargo", "build", "--release", "--manifest-path", "examples/qemu-m4f/Cargo.toml",
+         "--bin", "no-panic", "--target", "thumbv7em-none-eabihf"],
+        cwd=root, capture_output=True, text=True,
+        env=dict(os.environ, CARGO_TARGET_DIR=target_dir))
+
+
+def main():
+    files = subprocess.run(["git", "ls-files"], capture_output=True, text=True, check=True).stdout.split()
+    with tempfile.TemporaryDirectory() as tmp:
+        root = os.path.join(tmp, "repo")
+        for f in files:
+            if os.path.isfile(f):
+                os.makedirs(os.path.join(root, os.path.dirname(f)), exist_ok=True)
+                shutil.copy2(f, os.path.join(root, f))
+        target = os.path.join(tmp, "target")
+        r = build(root, target)
+        if r.returncode != 0:
+            sys.exit("no-panic does not link unplanted:\n" + r.stderr[-3000:])
+        missed = []
+        for path, signature, which, what in PLACES:
+            full = os.path.join(root, path)
+            original = open(full).read()
+            at = -1
+            for _ in range(which):
+                at = original.find(signature, at + 1)
+                if at < 0:
+                    sys.exit(f"{path}: signature not found (update this script): {signature}")
+            brace = original.index("{\n", at) + 2
+            open(full, "w").write(original[:brace] + PLANT + original[brace:])
+            r = build(root, target)
+            open(full, "w").write(original)
+            if r.returncode != 0 and UNDEFINED in r.stderr:
+                print(f"link fails, panic found: {what} ({path})", flush=True)
+            elif r.returncode != 0:
+                sys.exit(f"{what}: the build failed for another reason:\n{r.stderr[-3000:]}")
+            else:
+                print(f"LINKS, panic NOT found: {what} ({path})", flush=True)
+                missed.append(what)
+        if missed:
+            sys.exit(f"the no-panic proof misses {len(missed)} of {len(PLACES)} places: {missed}")
+        print(f"every one of {len(PLACES)} planted panics fails the link")
+
+
+if __name__ == "__main__":
+    main()
