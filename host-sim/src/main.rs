@@ -2,6 +2,7 @@
 
 use clap::{Parser, Subcommand};
 use pmsm_host_sim::observer::ObserverKind;
+use pmsm_host_sim::scenario::LoadKind;
 use pmsm_host_sim::sim::{self, Mismatch, SimConfig};
 use pmsm_host_sim::summary::Summary;
 use pmsm_host_sim::{motor_file, number, output, scenario};
@@ -643,9 +644,16 @@ struct RunArgs {
     /// Controller parameter factors, e.g. `r=1.2,l=0.9` (keys r, l, flux, j, b).
     #[arg(long, value_parser = parse_mismatch, default_value = "")]
     mismatch: Mismatch,
-    /// Inverter dead time (µs).
+    /// Inverter dead time (µs); its averaged error is sign(i)·t_dead·f_pwm·V_bus per phase.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     dead_time_us: f64,
+    /// PWM frequency (Hz) (default: the B-G431B-ESC1 firmware's).
+    #[arg(long, default_value_t = 20_000.0, allow_negative_numbers = true)]
+    pwm_hz: f64,
+    /// The load's kind, replacing the scenario's `load_kind`: a brake opposes the motion,
+    /// an active load is a signed torque (a hanging mass).
+    #[arg(long, value_enum)]
+    load_kind: Option<LoadKindArg>,
     /// Control (current-loop and observer) rate (Hz); the speed loop runs at a quarter of it.
     #[arg(long, default_value_t = 4000.0)]
     rate_hz: f64,
@@ -659,6 +667,12 @@ struct RunArgs {
     /// Print the JSON summary on stdout.
     #[arg(long)]
     json: bool,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum LoadKindArg {
+    Brake,
+    Active,
 }
 
 fn parse_mismatch(s: &str) -> Result<Mismatch, String> {
@@ -758,6 +772,14 @@ fn prepare(args: &RunArgs) -> anyhow::Result<SimConfig> {
     let observer = ObserverKind::from_name(&args.observer)?;
     let (motor_name, m) = args.motor.resolve_or(spec.default_motor()?)?;
     let mut sc = spec.build(&motor_name, m)?;
+    sc.load_kind = match (args.load_kind, sc.load_kind) {
+        (None, kind) => kind,
+        (Some(LoadKindArg::Active), _) => LoadKind::Active,
+        (Some(LoadKindArg::Brake), LoadKind::Active) => LoadKind::Brake {
+            sat_rpm: scenario::BRAKE_FADE * f64::from(m.ratings.speed_rpm),
+        },
+        (Some(LoadKindArg::Brake), brake) => brake,
+    };
     // The plant's own settings stay within what a test of this motor means: a load up to
     // 10 times its rated torque, a bus up to twice its rated bus.
     let rated_bus = f64::from(m.ratings.bus_v);
@@ -818,8 +840,18 @@ fn prepare(args: &RunArgs) -> anyhow::Result<SimConfig> {
         cfg.sensorless_from_rpm = Some(x);
     }
     anyhow::ensure!(
-        args.dead_time_us.is_finite() && args.dead_time_us >= 0.0,
-        "--dead-time-us must be a finite number >= 0"
+        args.pwm_hz.is_finite() && (1e3..=2e5).contains(&args.pwm_hz),
+        "--pwm-hz = {}: allowed [1000, 200000] Hz",
+        number(args.pwm_hz)
+    );
+    cfg.pwm_hz = args.pwm_hz;
+    // A dead time is a small part of the PWM period: at most a tenth of it.
+    let dead_max_us = 0.1e6 / args.pwm_hz;
+    anyhow::ensure!(
+        args.dead_time_us.is_finite() && (0.0..=dead_max_us).contains(&args.dead_time_us),
+        "--dead-time-us = {}: allowed [0, {dead_max_us}] µs (a tenth of the {} Hz PWM period)",
+        number(args.dead_time_us),
+        args.pwm_hz
     );
     cfg.dead_time_s = args.dead_time_us * 1e-6;
     Ok(cfg)

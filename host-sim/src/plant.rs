@@ -130,13 +130,114 @@ pub trait Supply {
     fn v_alpha_beta(&self, i: (f64, f64), e: (f64, f64)) -> (f64, f64);
 }
 
-/// The inverter with all switches off and the currents at zero: the terminals float at the
-/// back-EMF (`v = −e`), so the currents stay zero and no torque is made.
-pub struct OpenCircuit;
+/// The inverter with every switch off: each phase terminal is held by its freewheeling
+/// diodes (a three-phase diode bridge into a stiff bus). A phase whose current flows into the
+/// motor (`i > 0`) conducts through its low diode, terminal at 0 V; one whose current flows
+/// out (`i < 0`) through its high diode, terminal at `V_bus`; a phase without current floats
+/// at the potential the motor gives it, and starts conducting when that potential leaves
+/// [0, V_bus] (Mohan, Undeland, Robbins, *Power Electronics*, 3rd ed., Sec 5-6, the
+/// three-phase diode rectifier; here the back-EMF is the source). Below the bus the motor
+/// coasts without current; above it the bridge brakes it into the bus.
+///
+/// Within a sub-step the conduction pattern is fixed ([`DiodeBridge::pattern`], from the
+/// currents and back-EMF at its start); after it, a diode whose current has crossed zero
+/// blocks ([`DiodeBridge::block`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DiodeBridge {
+    /// DC bus voltage \[V].
+    pub v_bus: f64,
+}
 
-impl Supply for OpenCircuit {
+/// The terminal voltage of each conducting phase relative to the bus's negative rail \[V]
+/// (0 or `V_bus`); `None`: the phase floats with zero current.
+type Pattern = [Option<f64>; 3];
+
+impl DiodeBridge {
+    /// Which diodes conduct given the phase currents `i_abc` \[A] and the back-EMF term
+    /// `e_abc` \[V] of eqs (16)-(17) per phase.
+    fn pattern(&self, i_abc: [f64; 3], e_abc: [f64; 3]) -> Pattern {
+        let v = self.v_bus;
+        let mut pole: Pattern = i_abc.map(|i| {
+            if i > 0.0 {
+                Some(0.0)
+            } else if i < 0.0 {
+                Some(v)
+            } else {
+                None
+            }
+        });
+        if pole.iter().all(Option::is_none) {
+            // Open circuit, phase voltages −e: the highest terminal reaches the high rail
+            // and the lowest the low rail when their difference exceeds the bus.
+            let w = e_abc.map(|e| -e);
+            let hi = (0..3).fold(0, |m, k| if w[k] > w[m] { k } else { m });
+            let lo = (0..3).fold(0, |m, k| if w[k] < w[m] { k } else { m });
+            if w[hi] - w[lo] > v {
+                pole[hi] = Some(v);
+                pole[lo] = Some(0.0);
+            }
+        }
+        if let Some(f) = (0..3).find(|&k| pole[k].is_none()) {
+            if let Some(u) = Self::floating(&pole, f, e_abc[f]) {
+                if u > v {
+                    pole[f] = Some(v);
+                } else if u < 0.0 {
+                    pole[f] = Some(0.0);
+                }
+            }
+        }
+        pole
+    }
+
+    /// The potential of floating phase `f` when the other two conduct: zero current in it
+    /// (`v_f = −e_f`) and the star point at the mean of the terminals give
+    /// `u_f = (u_a + u_b)/2 − 3e_f/2`. `None` unless exactly the other two conduct.
+    fn floating(pole: &Pattern, f: usize, e_f: f64) -> Option<f64> {
+        let others: Vec<f64> = (0..3).filter(|&k| k != f).filter_map(|k| pole[k]).collect();
+        match others[..] {
+            [u1, u2] => Some(0.5 * (u1 + u2) - 1.5 * e_f),
+            _ => None,
+        }
+    }
+
+    /// Currents after a sub-step: a phase whose diode's current crossed zero, or that was
+    /// floating, carries none; the rest keep a zero sum.
+    fn block(pattern: &Pattern, i_abc: [f64; 3], v_bus: f64) -> [f64; 3] {
+        let mut i: [f64; 3] = std::array::from_fn(|k| match pattern[k] {
+            Some(u) if u == v_bus && i_abc[k] < 0.0 => i_abc[k],
+            Some(u) if u == 0.0 && i_abc[k] > 0.0 => i_abc[k],
+            _ => 0.0,
+        });
+        let live = i.iter().filter(|x| **x != 0.0).count();
+        if live < 2 {
+            return [0.0; 3];
+        }
+        let mean = i.iter().sum::<f64>() / live as f64;
+        for x in i.iter_mut().filter(|x| **x != 0.0) {
+            *x -= mean;
+        }
+        i
+    }
+}
+
+/// A diode pattern held over a sub-step.
+struct Clamped {
+    pole: Pattern,
+}
+
+impl Supply for Clamped {
     fn v_alpha_beta(&self, _i: (f64, f64), e: (f64, f64)) -> (f64, f64) {
-        (-e.0, -e.1)
+        if self.pole.iter().all(Option::is_none) {
+            return (-e.0, -e.1);
+        }
+        let e_abc = crate::inverter::inverse_clarke(e.0, e.1);
+        let u: [f64; 3] = std::array::from_fn(|k| {
+            self.pole[k]
+                .or_else(|| DiodeBridge::floating(&self.pole, k, e_abc[k]))
+                .unwrap_or(0.0)
+        });
+        let star = (u[0] + u[1] + u[2]) / 3.0;
+        crate::inverter::clarke(u.map(|x| x - star))
     }
 }
 
@@ -207,6 +308,24 @@ impl Plant {
             });
         }
         self.state = PlantState::from_array(x);
+    }
+
+    /// Advances with every switch off ([`DiodeBridge`]): `n_sub` sub-steps of `h` seconds,
+    /// each with the diode pattern of its start, the blocked diodes' currents zeroed after it.
+    pub fn advance_off(&mut self, bridge: &DiodeBridge, tau_l: impl Load, h: f64, n_sub: usize) {
+        let p = self.params;
+        for k in 0..n_sub {
+            let x = &self.state;
+            let (s, c) = x.theta_e(&p).sin_cos();
+            let kn = p.flux * p.n;
+            let e = (kn * x.omega_m * s, -kn * x.omega_m * c);
+            let e_abc = crate::inverter::inverse_clarke(e.0, e.1);
+            let pole = bridge.pattern(self.i_abc(), e_abc);
+            let t0 = k as f64 * h;
+            self.advance(&Clamped { pole }, |t, w| tau_l(t0 + t, w), h, 1);
+            let i = DiodeBridge::block(&pole, self.i_abc(), bridge.v_bus);
+            (self.state.i_alpha, self.state.i_beta) = crate::inverter::clarke(i);
+        }
     }
 
     /// Phase currents `(a, b, c)` \[A] (inverse amplitude-invariant Clarke).

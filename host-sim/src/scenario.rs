@@ -103,6 +103,10 @@ pub struct Scenario {
     pub speed_tolerance: f64,
 }
 
+/// A brake's torque fades to zero below this fraction of rated speed, unless the scenario
+/// says otherwise (`brake_fade`).
+pub const BRAKE_FADE: f64 = 0.03;
+
 /// How the load torque depends on speed.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum LoadKind {
@@ -431,7 +435,7 @@ impl Spec {
             f.brake_fade_rpm,
             rated_rpm,
         )?
-        .unwrap_or(0.03 * rated_rpm);
+        .unwrap_or(BRAKE_FADE * rated_rpm);
         ensure!(
             fade_rpm.is_finite() && fade_rpm > 0.0,
             "brake_fade: must be a speed > 0, got {fade_rpm} rpm"

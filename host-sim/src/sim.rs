@@ -6,7 +6,7 @@
 
 use crate::inverter::{CurrentSensor, Inverter};
 use crate::observer::{Bare, BareInput, Estimate, ObserverKind, ObserverSetup};
-use crate::plant::OpenCircuit;
+use crate::plant::DiodeBridge;
 use crate::plant::{Plant, PlantParams};
 use crate::scenario::Injection;
 use crate::scenario::Scenario;
@@ -87,7 +87,8 @@ pub struct SimConfig {
     pub seed: u64,
     /// Inverter dead time \[s].
     pub dead_time_s: f64,
-    /// PWM frequency for the dead-time error \[Hz].
+    /// PWM frequency \[Hz] (the board's 20 kHz): the averaged dead-time error per phase is
+    /// `sign(i)·t_dead·f_pwm·V_bus`.
     pub pwm_hz: f64,
     /// Controller-vs-plant parameter factors.
     pub mismatch: Mismatch,
@@ -125,7 +126,7 @@ impl SimConfig {
             adc_lsb_a: 0.0,
             seed: 1,
             dead_time_s: 0.0,
-            pwm_hz: 16_000.0,
+            pwm_hz: 20_000.0,
             mismatch: Mismatch::default(),
             rate_hz: 4000.0,
             substeps: 25,
@@ -551,12 +552,12 @@ impl Sim {
         match duties {
             Some(d) => self.plant.advance(&self.inverter.hold(d), load, h, n_sub),
             None => {
-                // All switches off: the freewheeling diodes return the (small) inductive
-                // energy to the bus within a fraction of a period; the currents are taken to
-                // zero at once and the terminals then float at the back-EMF.
-                self.plant.state.i_alpha = 0.0;
-                self.plant.state.i_beta = 0.0;
-                self.plant.advance(&OpenCircuit, load, h, n_sub);
+                // All switches off: the currents flow through the freewheeling diodes into
+                // the bus until they die out, and a back-EMF above the bus brakes the rotor.
+                let bridge = DiodeBridge {
+                    v_bus: self.inverter.v_bus,
+                };
+                self.plant.advance_off(&bridge, load, h, n_sub);
             }
         }
         self.k += 1;

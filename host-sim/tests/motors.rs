@@ -286,7 +286,16 @@ fn bounds_and_gamma_take_a_motor_file() {
 
 #[test]
 fn plant_flags_beyond_the_motor_are_refused() {
-    let cases: [(&[&str], &[&str]); 4] = [
+    let cases: [(&[&str], &[&str]); 7] = [
+        (
+            &["--pwm-hz", "0"],
+            &["--pwm-hz = 0", "allowed [1000, 200000] Hz"],
+        ),
+        (&["--pwm-hz", "nan"], &["--pwm-hz = NaN"]),
+        (
+            &["--dead-time-us", "20"],
+            &["--dead-time-us = 20", "a tenth of the 20000 Hz PWM period"],
+        ),
         (&["--load-nm", "1e30"], &["--load-nm = 1e30", "N·m"]),
         (
             &["--bus-v", "1e30"],
