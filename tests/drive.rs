@@ -277,13 +277,22 @@ fn ratings_the_bus_cannot_drive_are_refused() {
     let e = strong.validate().unwrap_err();
     assert_eq!(e.field, "ratings.torque_nm", "{e}");
     assert!(e.to_string().contains("standstill"), "{e}");
-    // The drive's configuration refuses the same motor.
+    // The drive's configuration refuses both: the rated speed beyond even the highest bus
+    // (60 V: 1427 rpm), and 50 N·m's align current, 108 A through 2.5 Ω, 270 V, beyond the
+    // lowest bus's 20.8 V phase voltage.
     let mut c = DriveConfig::new(&HORNG_SINANO);
     c.ratings = fast.ratings;
     assert_eq!(
         c.build_flux_primary().unwrap_err().field,
         "ratings.speed_rpm"
     );
+    let e = DriveConfig::new(&strong).build_flux_primary().unwrap_err();
+    assert_eq!(e.field, "start.align_current_a", "{e}");
+    // The controller's parameters are its belief: a flux linkage 15 % off the nameplate's
+    // (whose torque then disagrees with N ψ_f I by more than 10 %) still builds.
+    let mut c = DriveConfig::new(&HORNG_SINANO);
+    c.motor.flux_wb *= 0.85;
+    assert!(c.build_flux_primary().is_ok());
 }
 
 #[test]

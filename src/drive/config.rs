@@ -149,16 +149,13 @@ impl DriveConfig {
 
     /// The settings validated: the error names the bad field, its value and the range
     /// allowed. The ranges keep every protection on (no trip level, disagreement or time so
-    /// large that it never acts) and the start-up within what the bus can drive.
+    /// large that it never acts) and the start-up within what the bus can drive. The
+    /// parameters are the controller's belief and may differ from the nameplate's motor, so
+    /// only [`Motor::validate`] holds the ratings to them; here the rated speed must be
+    /// within the highest bus.
     pub(super) fn validate(&self) -> Result<MotorParams, ParamError> {
-        let m = Motor {
-            name: "",
-            params: self.motor,
-            ratings: self.ratings,
-        }
-        .validate()?
-        .params;
-        let rated = self.ratings;
+        let m = self.motor.validate()?;
+        let rated = self.ratings.validate()?;
         let rate = Allowed::between(1000.0, 100_000.0).check("rate_hz", self.rate_hz)?;
         let (l, s, h) = (self.limits, self.start, self.health);
         let i_rated = rated.torque_nm / m.torque_constant();
@@ -186,9 +183,19 @@ impl DriveConfig {
         Allowed::above_up_to(0.0, 100.0 * rated.speed_rpm)
             .because("rated speed in 10 ms at most")
             .check("start.accel_rpm_per_s", s.accel_rpm_per_s)?;
-        // The open loop must reach the hand-over speed on the lowest bus: back-EMF within
-        // bus_min_v/√3.
-        let bus_rpm = l.bus_min_v * INV_SQRT3 / m.torque_constant() / RAD_S_PER_RPM;
+        // Align and open-loop currents through R within the lowest bus's phase voltage.
+        let bus_min_phase_v = l.bus_min_v * INV_SQRT3;
+        let through_r = Allowed::above_up_to(0.0, bus_min_phase_v / m.r_ohm)
+            .because("r_ohm times it within bus_min_v/sqrt(3)");
+        through_r.check("start.align_current_a", s.align_current_a)?;
+        through_r.check("start.open_loop_current_a", s.open_loop_current_a)?;
+        // The open loop must reach the hand-over speed on the lowest bus, and the rated speed
+        // must be within the highest: back-EMF within bus/√3.
+        let rpm_at = |bus_v: f32| bus_v * INV_SQRT3 / m.torque_constant() / RAD_S_PER_RPM;
+        let bus_rpm = rpm_at(l.bus_min_v);
+        Allowed::above_up_to(0.0, rpm_at(l.bus_max_v))
+            .because("back-EMF pole_pairs*flux_wb*omega_m within bus_max_v/sqrt(3)")
+            .check("ratings.speed_rpm", rated.speed_rpm)?;
         Allowed::strictly_between(0.0, 0.5 * rated.speed_rpm)
             .because("below half the rated speed")
             .check("start.handback_rpm", s.handback_rpm)?;
