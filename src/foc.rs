@@ -14,7 +14,7 @@
 use crate::frames::{Abc, AlphaBeta, Dq, SinCos};
 use crate::math::{all_finite, INV_SQRT3};
 use crate::motor::MotorParams;
-use crate::param::{positive, Allowed, ParamError};
+use crate::param::{Allowed, Checks, ParamError};
 use crate::pi::{Pi, PiConfig, PiState};
 use crate::svpwm::{svpwm_limited, Duties, Svpwm};
 use core::f32::consts::TAU;
@@ -76,17 +76,23 @@ impl FocConfig {
     /// Validates and turns the settings into per-sample coefficients.
     pub fn build(&self) -> Result<Foc, ParamError> {
         let motor = self.motor.validate()?;
-        let rate = positive("current_rate_hz", self.current_rate_hz)?;
+        let (rate, i_max) = (self.current_rate_hz, self.i_max_a);
+        let mut c = Checks::new();
+        c.check("current_rate_hz", rate, Allowed::POSITIVE);
+        let current = Allowed::above_up_to(0.0, rate / TAU).because("w_c T <= 1");
+        c.check("current_bandwidth_hz", self.current_bandwidth_hz, current);
+        let divider = Allowed::between(1.0, 1000.0);
+        c.check("speed_divider", self.speed_divider as f32, divider);
+        let speed = Allowed::above_up_to(0.0, self.current_bandwidth_hz / 5.0).because("current/5");
+        c.check("speed_bandwidth_hz", self.speed_bandwidth_hz, speed);
+        c.check("i_max_a", i_max, Allowed::POSITIVE);
+        c.check(
+            "angle_advance_periods",
+            self.angle_advance_periods,
+            Allowed::FINITE,
+        );
+        c.done()?;
         let ts = 1.0 / rate;
-        let current_bandwidth_hz = Allowed::above_up_to(0.0, rate / TAU)
-            .because("2*pi*bandwidth/rate at most 1")
-            .check("current_bandwidth_hz", self.current_bandwidth_hz)?;
-        Allowed::between(1.0, 1000.0).check("speed_divider", self.speed_divider as f32)?;
-        Allowed::above_up_to(0.0, current_bandwidth_hz / 5.0)
-            .because("a fifth of current_bandwidth_hz")
-            .check("speed_bandwidth_hz", self.speed_bandwidth_hz)?;
-        let i_max = positive("i_max_a", self.i_max_a)?;
-        Allowed::FINITE.check("angle_advance_periods", self.angle_advance_periods)?;
         let kt = motor.torque_constant();
         let g = self.gains();
         let speed = PiConfig {

@@ -13,7 +13,7 @@
 //! printed in both papers (no 3/2 factor: their αβ model is the machine).
 
 use crate::math::INV_SQRT3;
-use crate::param::{Allowed, ParamError};
+use crate::param::{Allowed, Checks, ParamError};
 use crate::units::RAD_S_PER_RPM;
 
 /// Electrical and mechanical parameters of a surface-mounted PMSM (SI units).
@@ -56,14 +56,21 @@ impl MotorParams {
         j_kgm2: f32,
         b_nms: f32,
     ) -> Result<Self, ParamError> {
-        Self::POLE_PAIRS.check("pole_pairs", pole_pairs as f32)?;
+        let mut c = Checks::new();
+        c.check("pole_pairs", pole_pairs as f32, Self::POLE_PAIRS);
+        c.check("r_ohm", r_ohm, Self::R_OHM);
+        c.check("l_h", l_h, Self::L_H);
+        c.check("flux_wb", flux_wb, Self::FLUX_WB);
+        c.check("j_kgm2", j_kgm2, Self::J_KGM2);
+        c.check("b_nms", b_nms, Self::B_NMS);
+        c.done()?;
         Ok(Self {
             pole_pairs,
-            r_ohm: Self::R_OHM.check("r_ohm", r_ohm)?,
-            l_h: Self::L_H.check("l_h", l_h)?,
-            flux_wb: Self::FLUX_WB.check("flux_wb", flux_wb)?,
-            j_kgm2: Self::J_KGM2.check("j_kgm2", j_kgm2)?,
-            b_nms: Self::B_NMS.check("b_nms", b_nms)?,
+            r_ohm,
+            l_h,
+            flux_wb,
+            j_kgm2,
+            b_nms,
         })
     }
 

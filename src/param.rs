@@ -86,7 +86,10 @@ impl Allowed {
         v.is_finite() && above && below
     }
 
-    /// `Ok(v)` inside the range, else the error naming `field` and `v`.
+    /// `Ok(v)` inside the range, else the error naming `field` and `v`. Out of line: a
+    /// configuration checks some forty values, and each call site stays a few instructions
+    /// (the board's flash).
+    #[inline(never)]
     pub fn check(self, field: &'static str, v: f32) -> Result<f32, ParamError> {
         if self.contains(v) {
             Ok(v)
@@ -118,6 +121,32 @@ impl fmt::Display for Allowed {
             write!(f, " ({})", self.why)?;
         }
         Ok(())
+    }
+}
+
+/// Many settings checked in order, the first refusal kept: `checks.check(..)` for each, then
+/// `checks.done()?`. Each check is one out-of-line call, so a configuration's forty checks
+/// stay small in a board's flash.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Checks(Option<ParamError>);
+
+impl Checks {
+    /// No refusal yet.
+    pub const fn new() -> Self {
+        Self(None)
+    }
+
+    /// Checks `value` of `field` against `allowed`, unless an earlier check refused.
+    #[inline(never)]
+    pub fn check(&mut self, field: &'static str, value: f32, allowed: Allowed) {
+        if self.0.is_none() {
+            self.0 = allowed.check(field, value).err();
+        }
+    }
+
+    /// The first refusal, if any.
+    pub fn done(self) -> Result<(), ParamError> {
+        self.0.map_or(Ok(()), Err)
     }
 }
 
@@ -173,14 +202,4 @@ impl fmt::Display for Num {
             write!(f, "{:e}", self.0)
         }
     }
-}
-
-/// `Ok(v)` if `v` is finite and `> 0`, else the error naming `field`.
-pub fn positive(field: &'static str, v: f32) -> Result<f32, ParamError> {
-    Allowed::POSITIVE.check(field, v)
-}
-
-/// `Ok(v)` if `v` is finite and `≥ 0`, else the error naming `field`.
-pub fn non_negative(field: &'static str, v: f32) -> Result<f32, ParamError> {
-    Allowed::NON_NEGATIVE.check(field, v)
 }

@@ -1,7 +1,7 @@
 //! Discrete PI controller with output clamp and clamping (conditional-integration) anti-windup.
 
 use crate::math::{all_finite, clamp};
-use crate::param::{non_negative, positive, Allowed, ParamError};
+use crate::param::{Allowed, Checks, ParamError};
 use core::hint::cold_path;
 
 /// PI settings in SI units: `u = kp·e + ki·∫e dt`, clamped to `[out_min, out_max]`.
@@ -36,13 +36,15 @@ pub struct PiState {
 impl PiConfig {
     /// Precomputes the per-sample integral gain for period `ts_s` \[s].
     pub fn build(&self, ts_s: f32) -> Result<Pi, ParamError> {
-        let ts = positive("ts_s", ts_s)?;
-        non_negative("kp", self.kp)?;
-        non_negative("ki", self.ki)?;
-        Allowed::FINITE.check("out_min", self.out_min)?;
-        Allowed::above_up_to(self.out_min, f32::INFINITY)
-            .because("above out_min")
-            .check("out_max", self.out_max)?;
+        let mut c = Checks::new();
+        c.check("ts_s", ts_s, Allowed::POSITIVE);
+        c.check("kp", self.kp, Allowed::NON_NEGATIVE);
+        c.check("ki", self.ki, Allowed::NON_NEGATIVE);
+        c.check("out_min", self.out_min, Allowed::FINITE);
+        let out_max = Allowed::above_up_to(self.out_min, f32::INFINITY).because("above out_min");
+        c.check("out_max", self.out_max, out_max);
+        c.done()?;
+        let ts = ts_s;
         Ok(Pi {
             kp: self.kp,
             ki_ts: self.ki * ts,

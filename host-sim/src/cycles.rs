@@ -3,8 +3,9 @@
 //!
 //! Method: the bench binary (`examples/qemu-m4f/src/bin/bench.rs`) calls each measured
 //! function between two marker functions; each is a function of its own (`Drive::step` inlined
-//! into one, as in the board firmware's interrupt), so its register saves are counted. QEMU (`mps2-an386`) runs it with
-//! `-singlestep -d exec,nochain`, which logs one line per executed instruction with its PC
+//! into one, as in the board firmware's interrupt), so its register saves are counted. QEMU
+//! (`mps2-an386`) runs it one instruction per translation block (`-singlestep` before QEMU
+//! 8.1, `-accel tcg,one-insn-per-tb=on` after) with `-d exec,nochain`, which logs one line per executed instruction with its PC
 //! and symbol; the instructions between a begin and an end marker are the call's (the
 //! marker call's own `bl` included). Each is weighted with the Cortex-M4 timing table
 //! (ARM DDI 0439 sec 3.3): ALU, MUL, most VFP 1; loads and stores 2 (LDRD/STRD 3); LDM,
@@ -126,6 +127,68 @@ fn cargo_build(root: &Path, args: &[&str], what: &str) -> anyhow::Result<()> {
         what,
     )
     .map(|_| ())
+}
+
+/// Where cargo puts the builds of `manifest`'s workspace: `cargo metadata`'s
+/// `target_directory`, which follows `CARGO_TARGET_DIR` and `build.target-dir`.
+fn target_dir(root: &Path, manifest: &Path) -> anyhow::Result<PathBuf> {
+    let text = run(
+        Command::new("cargo")
+            .args([
+                "metadata",
+                "--format-version",
+                "1",
+                "--no-deps",
+                "--manifest-path",
+            ])
+            .arg(manifest)
+            .current_dir(root),
+        "cargo metadata",
+    )?;
+    let v: serde_json::Value = serde_json::from_str(&text).context("cargo metadata's JSON")?;
+    v["target_directory"]
+        .as_str()
+        .map(PathBuf::from)
+        .context("cargo metadata gave no target_directory")
+}
+
+/// Builds binary `bin` of `manifest` for the M4F and returns its path.
+fn build_thumb(root: &Path, manifest: &Path, bin: &str, what: &str) -> anyhow::Result<PathBuf> {
+    let manifest_arg = manifest.to_string_lossy();
+    cargo_build(
+        root,
+        &["--manifest-path", &manifest_arg, "--bin", bin],
+        what,
+    )?;
+    let elf = target_dir(root, manifest)?
+        .join("thumbv7em-none-eabihf/release")
+        .join(bin);
+    if !elf.exists() {
+        bail!("{what}: cargo built, but {} is not there", elf.display());
+    }
+    Ok(elf)
+}
+
+/// QEMU's flags for one translation block per instruction, so that `-d exec` logs every
+/// instruction: `-singlestep` up to QEMU 8.0, `-accel tcg,one-insn-per-tb=on` from 8.1 (9.0
+/// removed `-singlestep`). `version` is what `qemu-system-arm --version` prints.
+pub fn one_insn_per_tb_flags(version: &str) -> anyhow::Result<&'static [&'static str]> {
+    let numbers = version
+        .split_whitespace()
+        .skip_while(|w| *w != "version")
+        .nth(1)
+        .with_context(|| format!("no version in {version:?}"))?;
+    let mut parts = numbers
+        .split(['.', '(', '+', '-'])
+        .map(|p| p.parse::<u32>());
+    let (Some(Ok(major)), Some(Ok(minor))) = (parts.next(), parts.next()) else {
+        bail!("unreadable QEMU version {numbers:?}");
+    };
+    Ok(if (major, minor) >= (8, 1) {
+        &["-accel", "tcg,one-insn-per-tb=on"]
+    } else {
+        &["-singlestep"]
+    })
 }
 
 /// PC → instruction, from `llvm-objdump -d`.
@@ -353,26 +416,22 @@ fn soft_float_symbols(nm: &Path, elf: &Path) -> anyhow::Result<Vec<String>> {
 
 /// Builds the bench and the board firmware, runs the bench under QEMU, and measures.
 pub fn measure(root: &Path) -> anyhow::Result<CyclesReport> {
-    let bench_manifest = root.join("examples/qemu-m4f/Cargo.toml");
-    cargo_build(
+    let bench = build_thumb(
         root,
-        &[
-            "--manifest-path",
-            &bench_manifest.to_string_lossy(),
-            "--bin",
-            "bench",
-        ],
+        &root.join("examples/qemu-m4f/Cargo.toml"),
+        "bench",
         "building the bench (thumbv7em)",
     )?;
-    let bench = root.join("examples/qemu-m4f/target/thumbv7em-none-eabihf/release/bench");
-    let board_manifest = root.join("examples/b-g431b-esc1/Cargo.toml");
-    cargo_build(
+    let board = build_thumb(
         root,
-        &["--manifest-path", &board_manifest.to_string_lossy()],
+        &root.join("examples/b-g431b-esc1/Cargo.toml"),
+        "b-g431b-esc1",
         "building the board firmware (thumbv7em)",
     )?;
-    let board =
-        root.join("examples/b-g431b-esc1/target/thumbv7em-none-eabihf/release/b-g431b-esc1");
+    let version = run(
+        Command::new("qemu-system-arm").arg("--version"),
+        "qemu-system-arm --version (apt-get install qemu-system-arm)",
+    )?;
     let dir = std::env::temp_dir().join(format!("pmsm-cycles-{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
     let trace_path = dir.join("trace.log");
@@ -380,11 +439,12 @@ pub fn measure(root: &Path) -> anyhow::Result<CyclesReport> {
         Command::new("qemu-system-arm")
             .args(["-machine", "mps2-an386", "-cpu", "cortex-m4", "-nographic"])
             .args(["-semihosting-config", "enable=on,target=native"])
-            .args(["-singlestep", "-d", "exec,nochain", "-D"])
+            .args(one_insn_per_tb_flags(&version)?)
+            .args(["-d", "exec,nochain", "-D"])
             .arg(&trace_path)
             .arg("-kernel")
             .arg(&bench),
-        "qemu-system-arm (apt-get install qemu-system-arm)",
+        &format!("qemu-system-arm running {}", bench.display()),
     )?;
     let trace_text = std::fs::read_to_string(&trace_path)
         .with_context(|| format!("reading {}", trace_path.display()))?;
@@ -441,6 +501,49 @@ pub fn measure(root: &Path) -> anyhow::Result<CyclesReport> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn qemu_flags_follow_its_version() {
+        let flags = |v: &str| one_insn_per_tb_flags(v).unwrap();
+        let debian = "QEMU emulator version 7.2.22 (Debian 1:7.2+dfsg-7+deb12u18+b2)\nCopyright";
+        assert_eq!(flags(debian), ["-singlestep"]);
+        assert_eq!(flags("QEMU emulator version 8.0.5"), ["-singlestep"]);
+        let new = ["-accel", "tcg,one-insn-per-tb=on"];
+        assert_eq!(flags("QEMU emulator version 8.1.0"), new);
+        assert_eq!(flags("QEMU emulator version 9.2.1 (v9.2.1)"), new);
+        assert_eq!(
+            flags("QEMU emulator version 10.0.2 (Debian 1:10.0.2+ds-2)"),
+            new
+        );
+        assert!(one_insn_per_tb_flags("qemu-system-arm: command not found").is_err());
+    }
+
+    #[test]
+    fn the_target_directory_follows_cargo_target_dir() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
+        let manifest = root.join("examples/qemu-m4f/Cargo.toml");
+        let expected = std::env::var_os("CARGO_TARGET_DIR")
+            .map_or_else(|| root.join("examples/qemu-m4f/target"), PathBuf::from);
+        assert_eq!(target_dir(root, &manifest).unwrap(), expected);
+        let moved = run(
+            Command::new("cargo")
+                .args([
+                    "metadata",
+                    "--format-version",
+                    "1",
+                    "--no-deps",
+                    "--manifest-path",
+                ])
+                .arg(&manifest)
+                .env("CARGO_TARGET_DIR", "/tmp/elsewhere"),
+            "cargo metadata",
+        )
+        .unwrap();
+        assert!(
+            moved.contains("\"target_directory\":\"/tmp/elsewhere\""),
+            "{moved}"
+        );
+    }
 
     fn insn(m: &str, o: &str) -> Insn {
         Insn {

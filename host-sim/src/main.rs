@@ -1027,9 +1027,8 @@ fn main() -> ExitCode {
                 print!("{e}");
                 return ExitCode::SUCCESS;
             }
-            let text = e.to_string();
-            let first = text.lines().next().unwrap_or("invalid arguments");
-            eprintln!("{first} (see pmsm-sim --help)");
+            // clap's own message: what is wrong, the usage, and where to find help.
+            eprint!("{e}");
             return ExitCode::from(2);
         }
     };

@@ -15,6 +15,16 @@ fn tmp_dir(name: &str) -> std::path::PathBuf {
     d
 }
 
+/// A command-line syntax error: clap's whole message (what is wrong, the usage where clap
+/// gives it, where to find help) and exit 2.
+fn assert_usage_error(out: &Output, needle: &str) {
+    assert_eq!(out.status.code(), Some(2), "{out:?}");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains(needle), "{err:?} lacks {needle:?}");
+    assert!(err.contains("help"), "{err:?} does not say where help is");
+    assert!(!err.contains("panicked"), "{err}");
+}
+
 fn assert_one_line_error(out: &Output, needle: &str) {
     assert!(!out.status.success(), "expected failure");
     let err = String::from_utf8_lossy(&out.stderr);
@@ -245,19 +255,19 @@ fn bad_arguments_get_one_line_errors() {
         &sim(&["run", "horng-ramp-brake", "--load-nm", "inf"]),
         "load",
     );
-    assert_one_line_error(
+    assert_usage_error(
         &sim(&["run", "horng-ramp-brake", "--seed", "x"]),
         "invalid value",
     );
-    assert_one_line_error(
+    assert_usage_error(
         &sim(&["run", "horng-ramp-brake", "--mismatch", "q=2"]),
         "unknown parameter",
     );
-    assert_one_line_error(
+    assert_usage_error(
         &sim(&["run", "horng-ramp-brake", "--frobnicate"]),
         "unexpected argument",
     );
-    assert_one_line_error(
+    assert_usage_error(
         &sim(&["run", "horng-ramp-brake", "--offset-a", "0.1,0.2"]),
         "three",
     );
@@ -265,6 +275,17 @@ fn bad_arguments_get_one_line_errors() {
         &sim(&["run", "horng-ramp-brake", "--adc-lsb-a", "-0.01"]),
         "ADC step",
     );
-    assert_one_line_error(&sim(&["fly"]), "unrecognized subcommand");
-    assert_one_line_error(&sim(&[]), "pmsm-sim");
+    assert_usage_error(&sim(&["fly"]), "unrecognized subcommand");
+    assert_usage_error(&sim(&[]), "pmsm-sim");
+    // The missing scenario is named, not cut to a first line.
+    let out = sim(&["run"]);
+    assert_usage_error(&out, "SCENARIO");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("required") && err.contains("Usage: pmsm-sim run"), "{err}");
+    // Help and version are not errors.
+    for flag in ["--help", "--version"] {
+        let out = sim(&[flag]);
+        assert_eq!(out.status.code(), Some(0), "{flag}");
+        assert!(!out.stdout.is_empty(), "{flag}");
+    }
 }

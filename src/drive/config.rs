@@ -15,7 +15,7 @@ use crate::observer::flux_speed::FluxPll;
 use crate::observer::pll::PllConfig;
 use crate::observer::sliding::{SlidingConfig, SlidingGain, SlidingObserver};
 use crate::observer::Observer;
-use crate::param::{Allowed, ParamError};
+use crate::param::{Allowed, Checks, ParamError};
 use crate::units::{RAD_PER_DEG, RAD_S_PER_RPM};
 
 /// The sliding observer's back-EMF angle and the controller's output angle lead the sample by
@@ -156,68 +156,79 @@ impl DriveConfig {
     pub(super) fn validate(&self) -> Result<MotorParams, ParamError> {
         let m = self.motor.validate()?;
         let rated = self.ratings.validate()?;
-        let rate = Allowed::between(1000.0, 100_000.0).check("rate_hz", self.rate_hz)?;
         let (l, s, h) = (self.limits, self.start, self.health);
+        let mut c = Checks::new();
+        c.check("rate_hz", self.rate_hz, Allowed::between(1000.0, 100_000.0));
         let i_rated = rated.torque_nm / m.torque_constant();
-        Allowed::above_up_to(0.0, 3.0 * i_rated)
-            .because("3 x the rated torque's current")
-            .check("limits.i_max_a", l.i_max_a)?;
-        Allowed::above_up_to(l.i_max_a, 4.0 * l.i_max_a)
-            .because("above i_max_a, at most 4 x it")
-            .check("limits.i_trip_a", l.i_trip_a)?;
-        Allowed::above_up_to(l.i_trip_a, 10.0 * l.i_trip_a)
-            .because("above i_trip_a, at most 10 x it")
-            .check("limits.i_sense_max_a", l.i_sense_max_a)?;
-        Allowed::from_below(0.25 * rated.bus_v, rated.bus_v)
-            .because("0.25 to 1 x ratings.bus_v")
-            .check("limits.bus_min_v", l.bus_min_v)?;
-        Allowed::strictly_between(l.bus_min_v, 1.5 * rated.bus_v)
-            .because("above bus_min_v, below 1.5 x ratings.bus_v")
-            .check("limits.bus_max_v", l.bus_max_v)?;
-        let start_current = Allowed::above_up_to(0.0, l.i_max_a).because("at most i_max_a");
-        start_current.check("start.align_current_a", s.align_current_a)?;
-        Allowed::between(2.0 / rate, 10.0)
-            .because("2 steps to 10 s")
-            .check("start.align_time_s", s.align_time_s)?;
-        start_current.check("start.open_loop_current_a", s.open_loop_current_a)?;
-        Allowed::above_up_to(0.0, 100.0 * rated.speed_rpm)
-            .because("rated speed in 10 ms at most")
-            .check("start.accel_rpm_per_s", s.accel_rpm_per_s)?;
-        // Align and open-loop currents through R within the lowest bus's phase voltage.
-        let bus_min_phase_v = l.bus_min_v * INV_SQRT3;
-        let through_r = Allowed::above_up_to(0.0, bus_min_phase_v / m.r_ohm)
-            .because("r_ohm times it within bus_min_v/sqrt(3)");
-        through_r.check("start.align_current_a", s.align_current_a)?;
-        through_r.check("start.open_loop_current_a", s.open_loop_current_a)?;
+        let i_max = Allowed::above_up_to(0.0, 3.0 * i_rated).because("3 x rated torque's");
+        c.check("limits.i_max_a", l.i_max_a, i_max);
+        let trip = Allowed::above_up_to(l.i_max_a, 4.0 * l.i_max_a).because("i_max_a..4 x it");
+        c.check("limits.i_trip_a", l.i_trip_a, trip);
+        let sense =
+            Allowed::above_up_to(l.i_trip_a, 10.0 * l.i_trip_a).because("i_trip_a..10 x it");
+        c.check("limits.i_sense_max_a", l.i_sense_max_a, sense);
+        let bus_min =
+            Allowed::from_below(0.25 * rated.bus_v, rated.bus_v).because("0.25..1 x bus_v");
+        c.check("limits.bus_min_v", l.bus_min_v, bus_min);
+        let bus_max = Allowed::strictly_between(l.bus_min_v, 1.5 * rated.bus_v)
+            .because("bus_min_v..1.5 x bus_v");
+        c.check("limits.bus_max_v", l.bus_max_v, bus_max);
+        // Align and open-loop currents up to i_max_a, and through R within the lowest bus's
+        // phase voltage.
+        let start_current = Allowed::above_up_to(0.0, l.i_max_a).because("up to i_max_a");
+        let through_r = Allowed::above_up_to(0.0, l.bus_min_v * INV_SQRT3 / m.r_ohm)
+            .because("r_ohm x it < bus_min_v/sqrt3");
+        for (field, i) in [
+            ("start.align_current_a", s.align_current_a),
+            ("start.open_loop_current_a", s.open_loop_current_a),
+        ] {
+            c.check(field, i, start_current);
+            c.check(field, i, through_r);
+        }
+        let align_time = Allowed::between(2.0 / self.rate_hz, 10.0).because("2 steps to 10 s");
+        c.check("start.align_time_s", s.align_time_s, align_time);
+        let accel = Allowed::above_up_to(0.0, 100.0 * rated.speed_rpm).because("rated in 10 ms");
+        c.check("start.accel_rpm_per_s", s.accel_rpm_per_s, accel);
         // The open loop must reach the hand-over speed on the lowest bus, and the rated speed
         // must be within the highest: back-EMF within bus/√3.
         let rpm_at = |bus_v: f32| bus_v * INV_SQRT3 / m.torque_constant() / RAD_S_PER_RPM;
-        let bus_rpm = rpm_at(l.bus_min_v);
-        Allowed::above_up_to(0.0, rpm_at(l.bus_max_v))
-            .because("back-EMF pole_pairs*flux_wb*omega_m within bus_max_v/sqrt(3)")
-            .check("ratings.speed_rpm", rated.speed_rpm)?;
-        Allowed::strictly_between(0.0, 0.5 * rated.speed_rpm)
-            .because("below half the rated speed")
-            .check("start.handback_rpm", s.handback_rpm)?;
-        Allowed::above_up_to(s.handback_rpm, (0.5 * rated.speed_rpm).min(bus_rpm))
-            .because("above handback_rpm, at most half the rated speed and the back-EMF within bus_min_v/sqrt(3)")
-            .check("start.handover_rpm", s.handover_rpm)?;
-        Allowed::strictly_between(0.0, 90.0).check("start.handover_tol_deg", s.handover_tol_deg)?;
-        Allowed::above_up_to(0.0, 1.0).check("start.handover_hold_s", s.handover_hold_s)?;
-        Allowed::above_up_to(s.handover_hold_s, 60.0)
-            .because("above handover_hold_s, at most 60 s")
-            .check("start.handover_timeout_s", s.handover_timeout_s)?;
-        Allowed::above_up_to(0.0, 90.0)
-            .because("the angle error of a lost lock")
-            .check("health.max_disagreement_deg", h.max_disagreement_deg)?;
-        Allowed::above_up_to(0.0, 0.5 * rated.speed_rpm)
-            .because("at most half the rated speed")
-            .check(
-                "health.max_speed_disagreement_rpm",
-                h.max_speed_disagreement_rpm,
-            )?;
-        Allowed::above_up_to(0.0, 1.0).check("health.loss_time_s", h.loss_time_s)?;
-        Allowed::above_up_to(0.0, 5.0).check("health.stall_time_s", h.stall_time_s)?;
+        let rated_speed =
+            Allowed::above_up_to(0.0, rpm_at(l.bus_max_v)).because("EMF < bus_max_v/sqrt3");
+        c.check("ratings.speed_rpm", rated.speed_rpm, rated_speed);
+        let half_rated = 0.5 * rated.speed_rpm;
+        let handback = Allowed::strictly_between(0.0, half_rated).because("rated/2");
+        c.check("start.handback_rpm", s.handback_rpm, handback);
+        let handover = Allowed::above_up_to(s.handback_rpm, half_rated.min(rpm_at(l.bus_min_v)))
+            .because("handback..rated/2, EMF < bus_min_v/sqrt3");
+        c.check("start.handover_rpm", s.handover_rpm, handover);
+        let tol = Allowed::strictly_between(0.0, 90.0);
+        c.check("start.handover_tol_deg", s.handover_tol_deg, tol);
+        c.check(
+            "start.handover_hold_s",
+            s.handover_hold_s,
+            Allowed::above_up_to(0.0, 1.0),
+        );
+        let timeout = Allowed::above_up_to(s.handover_hold_s, 60.0).because("above hold, 60 s");
+        c.check("start.handover_timeout_s", s.handover_timeout_s, timeout);
+        let angle = Allowed::above_up_to(0.0, 90.0).because("lost lock");
+        c.check("health.max_disagreement_deg", h.max_disagreement_deg, angle);
+        let speed = Allowed::above_up_to(0.0, half_rated).because("rated/2");
+        c.check(
+            "health.max_speed_disagreement_rpm",
+            h.max_speed_disagreement_rpm,
+            speed,
+        );
+        c.check(
+            "health.loss_time_s",
+            h.loss_time_s,
+            Allowed::above_up_to(0.0, 1.0),
+        );
+        c.check(
+            "health.stall_time_s",
+            h.stall_time_s,
+            Allowed::above_up_to(0.0, 5.0),
+        );
+        c.done()?;
         Ok(m)
     }
 
@@ -234,10 +245,10 @@ impl DriveConfig {
             let rated = self.ratings.speed_rpm * RAD_S_PER_RPM;
             let e2 = ks_max_e2(&m, rated, eps);
             Allowed::strictly_between(0.0, ks_max_t(&m, self.rate_hz, eps))
-                .because("below (K_s,max)_T, Horng & Chin Sec 4")
+                .because("(K_s,max)_T")
                 .check("ks", ks)?;
             Allowed::above_up_to(0.0, e2)
-                .because("at most (K_s,max)_E2 at the rated speed, Horng & Chin Sec 4")
+                .because("(K_s,max)_E2 at rated speed")
                 .check("ks", ks)?;
         }
         cfg.build()

@@ -21,7 +21,7 @@
 use crate::frames::{AlphaBeta, SinCos};
 use crate::math::{all_finite, atan2, is_normal_positive, rsqrt_normal};
 use crate::motor::MotorParams;
-use crate::param::{positive, Allowed, ParamError};
+use crate::param::{Allowed, Checks, ParamError};
 use core::hint::cold_path;
 
 /// Largest γ \[1/(Wb²·s)] for which the forward-Euler gradient step of eq (9) is stable:
@@ -82,7 +82,7 @@ impl FluxConfig {
     pub fn build(&self) -> Result<FluxObserver, ParamError> {
         let observer = self.build_unchecked_gamma()?;
         Allowed::strictly_between(0.0, gamma_max_discrete(self.motor.flux_wb, self.rate_hz))
-            .because("gamma*flux_wb^2/rate below 2")
+            .because("gamma Phi^2 T < 2")
             .check("gamma", self.gamma)?;
         Ok(observer)
     }
@@ -90,8 +90,11 @@ impl FluxConfig {
     /// As [`FluxConfig::build`] but without the discrete-stability check on γ.
     pub fn build_unchecked_gamma(&self) -> Result<FluxObserver, ParamError> {
         let m = self.motor.validate()?;
-        let rate = positive("rate_hz", self.rate_hz)?;
-        let gamma = positive("gamma", self.gamma)?;
+        let (rate, gamma) = (self.rate_hz, self.gamma);
+        let mut c = Checks::new();
+        c.check("rate_hz", rate, Allowed::POSITIVE);
+        c.check("gamma", gamma, Allowed::POSITIVE);
+        c.done()?;
         let phi2 = m.flux_wb * m.flux_wb;
         let ts = 1.0 / rate;
         Ok(FluxObserver {

@@ -32,7 +32,7 @@
 
 use crate::math::{clamp, sin_cos};
 use crate::motor::MotorParams;
-use crate::param::{positive, Allowed, ParamError};
+use crate::param::{Allowed, Checks, ParamError};
 use core::f32::consts::TAU;
 
 /// I&I observer settings.
@@ -68,19 +68,25 @@ impl IiConfig {
     /// Validates and computes k1..k5, δ (eqs (26)-(29)).
     pub fn build(&self) -> Result<IiObserver, ParamError> {
         let m = self.motor.validate()?;
-        let rate = positive("rate_hz", self.rate_hz)?;
-        let ts = 1.0 / rate;
-        let p1 = TAU * positive("pole_slow_hz", self.pole_slow_hz)?;
+        let rate = self.rate_hz;
+        let mut c = Checks::new();
+        c.check("rate_hz", rate, Allowed::POSITIVE);
+        c.check("pole_slow_hz", self.pole_slow_hz, Allowed::POSITIVE);
         // p2 > p1, a1 = p1 + p2 > 4 (eq (27)) and the fast pole inside the discrete range.
         let p2_min = self.pole_slow_hz.max(4.0 / TAU - self.pole_slow_hz);
-        let p2 = TAU
-            * Allowed::strictly_between(p2_min, 0.5 * rate / TAU)
-                .because(
-                    "above pole_slow_hz, a1 = 2*pi*(slow + fast) above 4, 2*pi*fast/rate below 0.5",
-                )
-                .check("pole_fast_hz", self.pole_fast_hz)?;
-        let k4 = positive("k4", self.k4)?;
-        Allowed::above_up_to(1.0, f32::INFINITY).check("r_max", self.r_max)?;
+        let fast = Allowed::strictly_between(p2_min, 0.5 * rate / TAU).because(
+            "above pole_slow_hz, a1 = 2*pi*(slow + fast) above 4, 2*pi*fast/rate below 0.5",
+        );
+        c.check("pole_fast_hz", self.pole_fast_hz, fast);
+        c.check("k4", self.k4, Allowed::POSITIVE);
+        c.check(
+            "r_max",
+            self.r_max,
+            Allowed::above_up_to(1.0, f32::INFINITY),
+        );
+        c.done()?;
+        let ts = 1.0 / rate;
+        let (p1, p2, k4) = (TAU * self.pole_slow_hz, TAU * self.pole_fast_hz, self.k4);
         let (a1, a2) = (p1 + p2, p1 * p2);
         let f_over_j = m.b_nms / m.j_kgm2;
         let delta = [a1 - f_over_j, -a2]; // (26)

@@ -9,7 +9,7 @@
 //! integral state is kept as `Ki·z2` \[rad/s].
 
 use crate::math::{all_finite, wrap_pi};
-use crate::param::{positive, Allowed, ParamError};
+use crate::param::{Allowed, Checks, ParamError};
 use core::f32::consts::TAU;
 use core::hint::cold_path;
 
@@ -52,15 +52,17 @@ impl PllConfig {
 
     /// Validates and precomputes `Kp`, `Ki·T`.
     pub fn build(&self) -> Result<Pll, ParamError> {
-        let rate = positive("rate_hz", self.rate_hz)?;
-        let bandwidth_hz = Allowed::strictly_between(0.0, 0.5 * rate / TAU)
-            .because("2*pi*bandwidth/rate below 0.5")
-            .check("bandwidth_hz", self.bandwidth_hz)?;
-        let ts = 1.0 / rate;
+        let rate = self.rate_hz;
+        let mut c = Checks::new();
+        c.check("rate_hz", rate, Allowed::POSITIVE);
+        let bandwidth = Allowed::strictly_between(0.0, 0.5 * rate / TAU).because("w_n T < 0.5");
+        c.check("bandwidth_hz", self.bandwidth_hz, bandwidth);
         // The proportional step Kp·T must stay below 1 for the discrete loop to be stable.
-        Allowed::strictly_between(0.0, rate / (2.0 * TAU * bandwidth_hz))
-            .because("2*damping*2*pi*bandwidth/rate below 1")
-            .check("damping", self.damping)?;
+        let damping = Allowed::strictly_between(0.0, rate / (2.0 * TAU * self.bandwidth_hz))
+            .because("Kp T < 1");
+        c.check("damping", self.damping, damping);
+        c.done()?;
+        let ts = 1.0 / rate;
         let (kp, ki) = self.gains();
         Ok(Pll {
             ts,

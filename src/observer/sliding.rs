@@ -26,7 +26,7 @@ use crate::frames::{AlphaBeta, SinCos};
 use crate::math::{all_finite, clamp, sin_cos_wrapped, wrap_pi};
 use crate::motor::MotorParams;
 use crate::observer::{Observer, Rotor};
-use crate::param::{non_negative, positive, Allowed, ParamError};
+use crate::param::{Allowed, Checks, ParamError};
 use core::f32::consts::TAU;
 use core::hint::cold_path;
 
@@ -95,20 +95,30 @@ impl SlidingConfig {
     /// Validates and precomputes the per-step coefficients.
     pub fn build(&self) -> Result<SlidingObserver, ParamError> {
         let m = self.motor.validate()?;
-        let ts = 1.0 / positive("rate_hz", self.rate_hz)?;
-        let l_th = TAU * positive("lambda_theta_hz", self.lambda_theta_hz)?;
-        let l_om = TAU * positive("lambda_omega_hz", self.lambda_omega_hz)?;
-        let l_ta = TAU * non_negative("lambda_tau_hz", self.lambda_tau_hz)?;
-        let epsilon = positive("epsilon_a", self.epsilon_a)?;
-        let ks = match self.ks {
-            SlidingGain::Constant(k) => SlidingGain::Constant(positive("ks", k)?),
-            SlidingGain::PerSpeed { per_rad_s, min } => SlidingGain::PerSpeed {
-                per_rad_s: non_negative("ks.per_rad_s", per_rad_s)?,
-                min: positive("ks.min", min)?,
-            },
-        };
-        let omega_low = positive("omega_low_rad_s", self.omega_low_rad_s)?;
-        Allowed::FINITE.check("emf_advance_periods", self.emf_advance_periods)?;
+        let mut c = Checks::new();
+        c.check("rate_hz", self.rate_hz, Allowed::POSITIVE);
+        c.check("lambda_theta_hz", self.lambda_theta_hz, Allowed::POSITIVE);
+        c.check("lambda_omega_hz", self.lambda_omega_hz, Allowed::POSITIVE);
+        c.check("lambda_tau_hz", self.lambda_tau_hz, Allowed::NON_NEGATIVE);
+        c.check("epsilon_a", self.epsilon_a, Allowed::POSITIVE);
+        match self.ks {
+            SlidingGain::Constant(k) => c.check("ks", k, Allowed::POSITIVE),
+            SlidingGain::PerSpeed { per_rad_s, min } => {
+                c.check("ks.per_rad_s", per_rad_s, Allowed::NON_NEGATIVE);
+                c.check("ks.min", min, Allowed::POSITIVE);
+            }
+        }
+        c.check("omega_low_rad_s", self.omega_low_rad_s, Allowed::POSITIVE);
+        c.check(
+            "emf_advance_periods",
+            self.emf_advance_periods,
+            Allowed::FINITE,
+        );
+        c.done()?;
+        let ts = 1.0 / self.rate_hz;
+        let (l_th, l_om) = (TAU * self.lambda_theta_hz, TAU * self.lambda_omega_hz);
+        let l_ta = TAU * self.lambda_tau_hz;
+        let (epsilon, ks, omega_low) = (self.epsilon_a, self.ks, self.omega_low_rad_s);
         let n = m.n();
         let kn = m.flux_wb * n;
         let factors = GainFactors {
