@@ -129,22 +129,25 @@ fn cargo_build(root: &Path, args: &[&str], what: &str) -> anyhow::Result<()> {
     .map(|_| ())
 }
 
+/// `cargo metadata` of `manifest`'s workspace (JSON, no dependencies).
+fn metadata(root: &Path, manifest: &Path) -> Command {
+    let mut cmd = Command::new("cargo");
+    cmd.args([
+        "metadata",
+        "--format-version",
+        "1",
+        "--no-deps",
+        "--manifest-path",
+    ])
+    .arg(manifest)
+    .current_dir(root);
+    cmd
+}
+
 /// Where cargo puts the builds of `manifest`'s workspace: `cargo metadata`'s
 /// `target_directory`, which follows `CARGO_TARGET_DIR` and `build.target-dir`.
 fn target_dir(root: &Path, manifest: &Path) -> anyhow::Result<PathBuf> {
-    let text = run(
-        Command::new("cargo")
-            .args([
-                "metadata",
-                "--format-version",
-                "1",
-                "--no-deps",
-                "--manifest-path",
-            ])
-            .arg(manifest)
-            .current_dir(root),
-        "cargo metadata",
-    )?;
+    let text = run(&mut metadata(root, manifest), "cargo metadata")?;
     let v: serde_json::Value = serde_json::from_str(&text).context("cargo metadata's JSON")?;
     v["target_directory"]
         .as_str()
@@ -526,16 +529,7 @@ mod tests {
             .map_or_else(|| root.join("examples/qemu-m4f/target"), PathBuf::from);
         assert_eq!(target_dir(root, &manifest).unwrap(), expected);
         let moved = run(
-            Command::new("cargo")
-                .args([
-                    "metadata",
-                    "--format-version",
-                    "1",
-                    "--no-deps",
-                    "--manifest-path",
-                ])
-                .arg(&manifest)
-                .env("CARGO_TARGET_DIR", "/tmp/elsewhere"),
+            metadata(root, &manifest).env("CARGO_TARGET_DIR", "/tmp/elsewhere"),
             "cargo metadata",
         )
         .unwrap();

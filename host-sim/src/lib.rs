@@ -27,3 +27,19 @@ pub fn number(v: f64) -> String {
         format!("{v:e}")
     }
 }
+
+/// A TOML file's text as `T`; the error is one line, the parser's message and its line.
+pub fn from_toml<T: serde::de::DeserializeOwned>(text: &str) -> anyhow::Result<T> {
+    toml::from_str(text).map_err(|e| {
+        let line = e
+            .span()
+            .map(|s| {
+                format!(
+                    " (line {})",
+                    text[..s.start.min(text.len())].lines().count().max(1)
+                )
+            })
+            .unwrap_or_default();
+        anyhow::anyhow!("{}{line}", e.message().trim())
+    })
+}

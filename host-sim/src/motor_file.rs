@@ -106,18 +106,7 @@ fn in_file_terms(e: ParamError, given: &[(&str, Given)]) -> anyhow::Error {
 /// Parses and validates a motor file's text; the error is one line naming the bad key, its
 /// value and the range allowed.
 pub fn parse(text: &str) -> anyhow::Result<(String, Motor)> {
-    let f: MotorFile = toml::from_str(text).map_err(|e| {
-        let line = e
-            .span()
-            .map(|s| {
-                format!(
-                    " (line {})",
-                    text[..s.start.min(text.len())].lines().count().max(1)
-                )
-            })
-            .unwrap_or_default();
-        anyhow::anyhow!("{}{line}", e.message().trim())
-    })?;
+    let f: MotorFile = crate::from_toml(text)?;
     let n = match (f.pole_pairs, f.poles) {
         (Some(n), None) => n,
         (None, Some(p)) => {

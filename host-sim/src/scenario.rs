@@ -323,18 +323,7 @@ const BUILT_IN: [(&str, &str); 12] = [
 impl Spec {
     /// Parses a scenario file's text; errors say the line and the key.
     pub fn parse(name: &str, text: &str) -> anyhow::Result<Self> {
-        let file: ScenarioFile = toml::from_str(text).map_err(|e| {
-            let line = e
-                .span()
-                .map(|s| {
-                    format!(
-                        " (line {})",
-                        text[..s.start.min(text.len())].lines().count().max(1)
-                    )
-                })
-                .unwrap_or_default();
-            anyhow::anyhow!("{}{line}", e.message().trim())
-        })?;
+        let file: ScenarioFile = crate::from_toml(text)?;
         Ok(Self {
             name: name.to_string(),
             file,

@@ -136,8 +136,7 @@ fn flags_of(
 impl Matrix {
     /// Parses a matrix file's text; `dir` is the directory scenario files are relative to.
     pub fn parse(text: &str, dir: &Path) -> anyhow::Result<Self> {
-        let doc: toml::Table =
-            toml::from_str(text).map_err(|e| anyhow::anyhow!("{}", e.message().trim()))?;
+        let doc: toml::Table = crate::from_toml(text)?;
         let mut fixed = Vec::new();
         let mut axes = Vec::new();
         for (key, v) in &doc {

@@ -1,13 +1,9 @@
 //! The `pmsm-sim` command line: the JSON contract and one-line errors.
 
-use std::process::{Command, Output};
+mod common;
+use common::sim;
 
-fn sim(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_pmsm-sim"))
-        .args(args)
-        .output()
-        .expect("pmsm-sim runs")
-}
+use std::process::Output;
 
 fn tmp_dir(name: &str) -> std::path::PathBuf {
     let d = std::env::temp_dir().join(format!("pmsm-sim-cli-{}-{name}", std::process::id()));
@@ -281,7 +277,10 @@ fn bad_arguments_get_one_line_errors() {
     let out = sim(&["run"]);
     assert_usage_error(&out, "SCENARIO");
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("required") && err.contains("Usage: pmsm-sim run"), "{err}");
+    assert!(
+        err.contains("required") && err.contains("Usage: pmsm-sim run"),
+        "{err}"
+    );
     // Help and version are not errors.
     for flag in ["--help", "--version"] {
         let out = sim(&[flag]);

@@ -1,15 +1,11 @@
 //! Motor files (model and datasheet forms), `gains`, and the refusal of nonsense: every bad
 //! value ends in a one-line error naming the field, the value and the range, and exit 1.
 
-use std::path::PathBuf;
-use std::process::{Command, Output};
+mod common;
+use common::sim;
 
-fn sim(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_pmsm-sim"))
-        .args(args)
-        .output()
-        .expect("pmsm-sim runs")
-}
+use std::path::PathBuf;
+use std::process::Output;
 
 const MODEL: &str = "name = \"mine\"\npole_pairs = 4\nr_ohm = 2.5\nl_h = 5.97e-3\nflux_wb = 5.795e-2\nj_kgm2 = 6.45e-5\nb_nms = 0.0\n[ratings]\nbus_v = 48.0\ncurrent_a = 3.0\ntorque_nm = 0.695\nspeed_rpm = 1000.0\npower_w = 73.0\n";
 

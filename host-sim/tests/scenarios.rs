@@ -1,14 +1,10 @@
 //! Scenario files, the verdict of `run` (exit 3 on a failed run) and `sweep`.
 
+mod common;
+use common::sim;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-
-fn sim(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_pmsm-sim"))
-        .args(args)
-        .output()
-        .expect("pmsm-sim runs")
-}
 
 /// A fresh directory for one test.
 fn tmp_dir(name: &str) -> PathBuf {
