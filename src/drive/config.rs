@@ -160,7 +160,7 @@ impl DriveConfig {
         let mut c = Checks::new();
         c.check("rate_hz", self.rate_hz, Allowed::between(1000.0, 100_000.0));
         let i_rated = rated.torque_nm / m.torque_constant();
-        let i_max = Allowed::above_up_to(0.0, 3.0 * i_rated).because("3 x rated torque's");
+        let i_max = Allowed::above_up_to(0.0, 3.0 * i_rated).because("3 x rated-torque current");
         c.check("limits.i_max_a", l.i_max_a, i_max);
         let trip = Allowed::above_up_to(l.i_max_a, 4.0 * l.i_max_a).because("i_max_a..4 x it");
         c.check("limits.i_trip_a", l.i_trip_a, trip);

@@ -123,7 +123,13 @@ pub fn build_drive() -> BoardDrive {
     cfg.limits.i_sense_max_a = cfg.limits.i_sense_max_a.min(I_ADC_RANGE_A);
     let drive = match cfg.build_sliding_primary() {
         Ok(d) => d,
-        Err(e) => defmt::panic!("drive configuration rejected: {=str}", e.field()),
+        Err(e) => defmt::panic!(
+            "drive configuration rejected: {=str} = {=f32}, allowed {=f32}..{=f32}",
+            e.field,
+            e.value,
+            e.allowed.min,
+            e.allowed.max
+        ),
     };
     defmt::info!(
         "motor {=str}, primary {=str}, speed command {=f32} rpm, trip {=f32} A, bus {=f32}..{=f32} V",
