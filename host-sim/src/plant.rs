@@ -139,9 +139,9 @@ pub trait Supply {
 /// three-phase diode rectifier; here the back-EMF is the source). Below the bus the motor
 /// coasts without current; above it the bridge brakes it into the bus.
 ///
-/// Within a sub-step the conduction pattern is fixed ([`DiodeBridge::pattern`], from the
+/// Within a sub-step the conduction pattern is fixed (`DiodeBridge::pattern`, from the
 /// currents and back-EMF at its start); after it, a diode whose current has crossed zero
-/// blocks ([`DiodeBridge::block`]).
+/// blocks (`DiodeBridge::block`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DiodeBridge {
     /// DC bus voltage \[V].
