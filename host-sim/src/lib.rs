@@ -43,3 +43,16 @@ pub fn from_toml<T: serde::de::DeserializeOwned>(text: &str) -> anyhow::Result<T
         anyhow::anyhow!("{}{line}", e.message().trim())
     })
 }
+
+/// A table of the CLI's one style, with `header`; columns `right` aligned right (numbers).
+pub fn table(header: &[&str], right: &[usize]) -> comfy_table::Table {
+    let mut t = comfy_table::Table::new();
+    t.load_style(comfy_table::presets::UTF8_FULL_CONDENSED);
+    t.set_header(header.to_vec());
+    for &k in right {
+        if let Some(c) = t.column_mut(k) {
+            c.set_cell_alignment(comfy_table::CellAlignment::Right);
+        }
+    }
+    t
+}

@@ -5,7 +5,7 @@ use pmsm_host_sim::observer::ObserverKind;
 use pmsm_host_sim::scenario::LoadKind;
 use pmsm_host_sim::sim::{self, Mismatch, SimConfig};
 use pmsm_host_sim::summary::Summary;
-use pmsm_host_sim::{motor_file, number, output, scenario};
+use pmsm_host_sim::{motor_file, number, output, scenario, table};
 use pmsm_sensorless::motor;
 use std::fmt::Write as _;
 use std::io::Write as _;
@@ -127,54 +127,43 @@ fn cycles(args: CyclesArgs) -> anyhow::Result<String> {
         outln!(out, "{}", serde_json::to_string(&r)?);
     } else {
         outln!(out, "Cortex-M4F (QEMU mps2-an386, one trace line per instruction), cycles at zero wait states:");
+        let mut t = table(&["measured call", "cycles est"], &[1]);
+        for (what, c) in [
+            (
+                "step, both observers, sliding primary (worst over a turn)",
+                r.step_cycles_est,
+            ),
+            (
+                "  its 1 kHz part: flux angle read-out",
+                r.step_monitor_angle_cycles_est,
+            ),
+            (
+                "  its 1 kHz part: supervision",
+                r.step_supervision_cycles_est,
+            ),
+            (
+                "  its 1 kHz part: PLL / speed read-out",
+                r.step_pll_cycles_est,
+            ),
+            ("  its 1 kHz part: speed loop", r.step_speed_loop_cycles_est),
+            ("  worst of four runs across ±π", r.step_seam_cycles_est),
+            (
+                "step, flux observer primary",
+                r.step_flux_primary_cycles_est,
+            ),
+            ("step, open loop (start-up)", r.step_open_loop_cycles_est),
+            ("step, voltage at its limit", r.step_saturated_cycles_est),
+            ("sliding torque observer update", r.sliding_cycles_est),
+            ("flux observer + PLL update", r.flux_cycles_est),
+            ("FOC current loop + SVPWM", r.foc_svpwm_cycles_est),
+        ] {
+            t.add_row([what.to_string(), c.to_string()]);
+        }
+        outln!(out, "{t}");
         outln!(
             out,
-            "  step, worst over a turn (both observers, sliding primary): {} instructions, ~{} cycles",
-            r.step_instructions,
-            r.step_cycles_est
-        );
-        outln!(
-            out,
-            "    by its 1 kHz part: flux angle ~{}, supervision ~{}, PLL ~{}, speed loop ~{}",
-            r.step_monitor_angle_cycles_est,
-            r.step_supervision_cycles_est,
-            r.step_pll_cycles_est,
-            r.step_speed_loop_cycles_est
-        );
-        outln!(
-            out,
-            "  step, worst over a turn, flux observer primary: ~{} cycles",
-            r.step_flux_primary_cycles_est
-        );
-        outln!(
-            out,
-            "  step, worst over a turn, open loop (start-up):  ~{} cycles",
-            r.step_open_loop_cycles_est
-        );
-        outln!(
-            out,
-            "  step, worst over a turn, voltage at its limit:  ~{} cycles",
-            r.step_saturated_cycles_est
-        );
-        outln!(
-            out,
-            "  step, worst of four runs across ±π:             ~{} cycles",
-            r.step_seam_cycles_est
-        );
-        outln!(
-            out,
-            "  sliding torque observer update:    ~{} cycles",
-            r.sliding_cycles_est
-        );
-        outln!(
-            out,
-            "  flux observer + PLL update:        ~{} cycles",
-            r.flux_cycles_est
-        );
-        outln!(
-            out,
-            "  FOC current loop + SVPWM:          ~{} cycles",
-            r.foc_svpwm_cycles_est
+            "sliding-primary step: {} instructions",
+            r.step_instructions
         );
         outln!(
             out,
@@ -432,9 +421,7 @@ fn gains(args: GainsArgs) -> anyhow::Result<String> {
         outln!(out, "{v}");
         return Ok(out);
     }
-    let mut t = comfy_table::Table::new();
-    t.load_style(comfy_table::presets::UTF8_FULL_CONDENSED);
-    t.set_header(["", "value", "unit", "formula; inputs"]);
+    let mut t = table(&["", "value", "unit", "formula; inputs"], &[1]);
     for row in &rows {
         t.add_row([
             row.name.to_string(),
@@ -442,9 +429,6 @@ fn gains(args: GainsArgs) -> anyhow::Result<String> {
             row.unit.to_string(),
             row.formula.clone(),
         ]);
-    }
-    if let Some(c) = t.column_mut(1) {
-        c.set_cell_alignment(comfy_table::CellAlignment::Right);
     }
     outln!(out, "{name} at {} Hz", args.rate_hz);
     outln!(out, "{t}");
@@ -517,21 +501,21 @@ fn gamma(args: GammaArgs) -> anyhow::Result<String> {
             p.flux_wb,
             p.pole_pairs
         );
-        outln!(
-            out,
-            "γ_max, discrete step (γΦ²T < 2):         {:.1} 1/(Wb²·s)",
-            report.gamma_max_discrete
-        );
-        outln!(
-            out,
-            "γ_max, one equilibrium (γ < 4n_P|ω|/Φ²): {:.1} 1/(Wb²·s)",
-            report.gamma_max_single_equilibrium
-        );
-        outln!(
-            out,
-            "γ recommended (0.5 × the smaller):        {:.1} 1/(Wb²·s)",
-            report.gamma_recommended
-        );
+        let mut t = table(&["limit on γ", "1/(Wb²·s)"], &[1]);
+        for (what, v) in [
+            ("γ_max, discrete step (γΦ²T < 2)", report.gamma_max_discrete),
+            (
+                "γ_max, one equilibrium (γ < 4n_P|ω|/Φ²)",
+                report.gamma_max_single_equilibrium,
+            ),
+            (
+                "γ recommended (0.5 × the smaller)",
+                report.gamma_recommended,
+            ),
+        ] {
+            t.add_row([what.to_string(), format!("{v:.1}")]);
+        }
+        outln!(out, "{t}");
     }
     Ok(out)
 }
@@ -716,12 +700,7 @@ fn parse_offsets(s: &str) -> Result<[f64; 3], String> {
 }
 
 fn list() -> anyhow::Result<String> {
-    let table = |header: &[&str]| {
-        let mut t = comfy_table::Table::new();
-        t.load_style(comfy_table::presets::UTF8_FULL_CONDENSED);
-        t.set_header(header.to_vec());
-        t
-    };
+    let table = |header: &[&str]| table(header, &[]);
     let mut scenarios = table(&["scenario (host-sim/scenarios/)", "what it does"]);
     for s in scenario::Spec::all_built_in()? {
         scenarios.add_row([s.name.as_str(), s.description()]);
@@ -881,20 +860,21 @@ fn run(args: RunArgs) -> anyhow::Result<(String, bool)> {
             .map_or("no".to_string(), |t| format!("at {t:.4} s")),
         summary.fault.as_deref().unwrap_or("none")
     );
-    let mut table = comfy_table::Table::new();
-    table.load_style(comfy_table::presets::UTF8_FULL_CONDENSED);
-    table.set_header([
-        "window",
-        "cmd rpm",
-        "err mean rpm",
-        "err max rpm",
-        "θ err mean °e",
-        "θ err max °e",
-        "τ̂ N·m",
-    ]);
+    let mut windows = table(
+        &[
+            "window",
+            "cmd rpm",
+            "err mean rpm",
+            "err max rpm",
+            "θ err mean °e",
+            "θ err max °e",
+            "τ̂ N·m",
+        ],
+        &[1, 2, 3, 4, 5, 6],
+    );
     for (name, m) in &summary.windows {
         match m {
-            Some(m) => table.add_row([
+            Some(m) => windows.add_row([
                 name.clone(),
                 format!("{:.1}", m.speed_cmd_mean_rpm),
                 format!("{:.4}", m.speed_err_mean_rpm),
@@ -904,15 +884,10 @@ fn run(args: RunArgs) -> anyhow::Result<(String, bool)> {
                 m.torque_hat_mean_nm
                     .map_or_else(|| "-".into(), |x| format!("{x:.4}")),
             ]),
-            None => table.add_row([name.as_str(), "not reached"]),
+            None => windows.add_row([name.as_str(), "not reached"]),
         };
     }
-    for k in 1..7 {
-        if let Some(c) = table.column_mut(k) {
-            c.set_cell_alignment(comfy_table::CellAlignment::Right);
-        }
-    }
-    outln!(out, "{table}");
+    outln!(out, "{windows}");
     for tr in &summary.transitions {
         outln!(
             out,
@@ -987,18 +962,31 @@ fn bounds(args: BoundsArgs) -> anyhow::Result<String> {
             args.observer,
             args.rate_hz
         );
-        outln!(out, "(K_s,max)_E2 = {:.2} A/s", report.ks_max_e2);
-        match report.ks_max_t {
-            Some(k) => outln!(out, "(K_s,max)_T  = {k:.2} A/s"),
-            None => outln!(
-                out,
-                "(K_s,max)_T: no stable K_s up to {} A/s",
-                pmsm_host_sim::bounds::KS_SCAN_MAX
+        let mut t = table(&["bound", "A/s"], &[1]);
+        t.add_row([
+            "(K_s,max)_E2".to_string(),
+            format!("{:.2}", report.ks_max_e2),
+        ]);
+        t.add_row([
+            "(K_s,max)_T".to_string(),
+            report.ks_max_t.map_or_else(
+                || format!("none stable up to {}", pmsm_host_sim::bounds::KS_SCAN_MAX),
+                |k| format!("{k:.2}"),
             ),
+        ]);
+        outln!(out, "{t}");
+        let mut e = table(
+            &["eigenvalue at (K_s,max)_T", "re 1/s", "im rad/s"],
+            &[1, 2],
+        );
+        for (k, [re, im]) in report.eigenvalues_at_ks_max_t.iter().enumerate() {
+            e.add_row([
+                format!("λ{}", k + 1),
+                format!("{re:.3}"),
+                format!("{im:+.3}"),
+            ]);
         }
-        for [re, im] in &report.eigenvalues_at_ks_max_t {
-            outln!(out, "  eigenvalue {re:12.3} {im:+12.3}i");
-        }
+        outln!(out, "{e}");
     }
     if let Some(dir) = &args.out {
         use pmsm_host_sim::bounds::{write_root_locus, Equilibrium};

@@ -347,9 +347,7 @@ impl Report {
 
     /// The table of pass counts per axis value.
     pub fn table(&self, matrix: &Matrix) -> String {
-        let mut t = comfy_table::Table::new();
-        t.load_style(comfy_table::presets::UTF8_FULL_CONDENSED);
-        t.set_header(["axis", "value", "passed", "of", "%"]);
+        let mut t = crate::table(&["axis", "value", "passed", "of", "%"], &[2, 3, 4]);
         for (axis, rows) in self.counts(matrix) {
             for (label, p, n) in rows {
                 t.add_row([
