@@ -272,7 +272,7 @@ pub struct Spec {
 }
 
 /// The built-in scenario files, in listing order.
-const BUILT_IN: [(&str, &str); 12] = [
+const BUILT_IN: [(&str, &str); 22] = [
     (
         "horng-ramp-brake",
         include_str!("../scenarios/horng-ramp-brake.toml"),
@@ -317,6 +317,46 @@ const BUILT_IN: [(&str, &str); 12] = [
     (
         "fault-observer-loss",
         include_str!("../scenarios/fault-observer-loss.toml"),
+    ),
+    (
+        "sup-load-steps-50",
+        include_str!("../scenarios/sup-load-steps-50.toml"),
+    ),
+    (
+        "sup-load-steps-100",
+        include_str!("../scenarios/sup-load-steps-100.toml"),
+    ),
+    (
+        "sup-start-brake-100",
+        include_str!("../scenarios/sup-start-brake-100.toml"),
+    ),
+    (
+        "sup-start-active-50",
+        include_str!("../scenarios/sup-start-active-50.toml"),
+    ),
+    (
+        "sup-catch-50",
+        include_str!("../scenarios/sup-catch-50.toml"),
+    ),
+    (
+        "sup-catch-neg50",
+        include_str!("../scenarios/sup-catch-neg50.toml"),
+    ),
+    (
+        "sup-catch-100",
+        include_str!("../scenarios/sup-catch-100.toml"),
+    ),
+    (
+        "sup-catch-neg100",
+        include_str!("../scenarios/sup-catch-neg100.toml"),
+    ),
+    (
+        "sup-low-speed-3",
+        include_str!("../scenarios/sup-low-speed-3.toml"),
+    ),
+    (
+        "sup-reverse-20",
+        include_str!("../scenarios/sup-reverse-20.toml"),
     ),
 ];
 
