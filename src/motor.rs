@@ -95,6 +95,12 @@ impl MotorParams {
     pub fn torque_constant(&self) -> f32 {
         self.n() * self.flux_wb
     }
+
+    /// The speed \[rpm, mechanical] whose back-EMF `N ψ_f ω_m` is the largest phase voltage
+    /// SVPWM makes from `bus_v` \[V], `bus_v/√3`: the most that bus drives without current.
+    pub fn bus_limited_rpm(&self, bus_v: f32) -> f32 {
+        bus_v * INV_SQRT3 / self.torque_constant() / RAD_S_PER_RPM
+    }
 }
 
 /// Nameplate ratings used for limits and scenarios.
@@ -164,7 +170,7 @@ impl Motor {
         Allowed::between(0.5 * torque_of_current, 1.1 * torque_of_current)
             .because("0.5 to 1.1 x pole_pairs*flux_wb*current_a, the torque of the rated current")
             .check("ratings.torque_nm", r.torque_nm)?;
-        Allowed::above_up_to(0.0, v_max / kt / RAD_S_PER_RPM)
+        Allowed::above_up_to(0.0, p.bus_limited_rpm(r.bus_v))
             .because("back-EMF pole_pairs*flux_wb*omega_m within bus_v/sqrt(3)")
             .check("ratings.speed_rpm", r.speed_rpm)?;
         Allowed::above_up_to(0.0, v_max / p.r_ohm * kt)

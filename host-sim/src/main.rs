@@ -224,6 +224,15 @@ fn significant(v: f64) -> String {
     format!("{v:.*}", (5 - digits).max(0) as usize)
 }
 
+/// `x` as a multiple of `of`, named: "0.1 × rated speed".
+fn share(x: f32, of: f32, name: &str) -> String {
+    let ratio = format!("{:.3}", x / of);
+    format!(
+        "{} × {name}",
+        ratio.trim_end_matches('0').trim_end_matches('.')
+    )
+}
+
 /// `gains`: what `DriveConfig::derived` reports for the motor, as a table or JSON, and its
 /// warnings.
 fn gains(args: GainsArgs) -> anyhow::Result<String> {
@@ -266,7 +275,7 @@ fn gains(args: GainsArgs) -> anyhow::Result<String> {
             "K_s",
             d.ks_a_per_s,
             "A/s",
-            "Horng & Chin Sec 5 (1000π)".into(),
+            "the paper's setting, Horng & Chin Sec 5".into(),
         ),
         (
             "ε",
@@ -302,7 +311,11 @@ fn gains(args: GainsArgs) -> anyhow::Result<String> {
             "γ",
             d.gamma,
             "1/(Wb²·s)",
-            "0.5 × the smaller limit below (Ortega eq (9))".into(),
+            share(
+                d.gamma,
+                d.gamma_max_discrete.min(d.gamma_max_single_equilibrium),
+                "the smaller limit below (Ortega eq (9))",
+            ),
         ),
         (
             "γ_max, discrete step",
@@ -333,13 +346,13 @@ fn gains(args: GainsArgs) -> anyhow::Result<String> {
             "hand-over speed",
             d.handover_rpm,
             "rpm",
-            "10 % of rated speed".into(),
+            share(d.handover_rpm, r.speed_rpm, "rated speed"),
         ),
         (
             "hand-back speed",
             d.handback_rpm,
             "rpm",
-            "6 % of rated speed".into(),
+            share(d.handback_rpm, r.speed_rpm, "rated speed"),
         ),
         (
             "speed the lowest bus drives",
@@ -360,21 +373,39 @@ fn gains(args: GainsArgs) -> anyhow::Result<String> {
             "current command limit i_max",
             d.i_max_a,
             "A",
-            "1.5 × rated-torque current".into(),
+            share(d.i_max_a, d.rated_torque_current_a, "rated-torque current"),
         ),
-        ("current trip", d.i_trip_a, "A", "1.5 × i_max".into()),
-        ("sensing range", d.i_sense_max_a, "A", "2 × trip".into()),
+        (
+            "current trip",
+            d.i_trip_a,
+            "A",
+            share(d.i_trip_a, d.i_max_a, "i_max"),
+        ),
+        (
+            "sensing range",
+            d.i_sense_max_a,
+            "A",
+            share(d.i_sense_max_a, d.i_trip_a, "trip"),
+        ),
         (
             "align current",
             d.align_current_a,
             "A",
-            "0.5 × rated-torque current".into(),
+            share(
+                d.align_current_a,
+                d.rated_torque_current_a,
+                "rated-torque current",
+            ),
         ),
         (
             "open-loop current",
             d.open_loop_current_a,
             "A",
-            "0.6 × rated-torque current".into(),
+            share(
+                d.open_loop_current_a,
+                d.rated_torque_current_a,
+                "rated-torque current",
+            ),
         ),
         (
             "largest phase voltage",

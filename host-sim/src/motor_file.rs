@@ -151,7 +151,7 @@ pub fn parse(text: &str) -> anyhow::Result<(String, Motor)> {
     )?;
     let kt = f64::from(params.torque_constant());
     let torque_nm = rf.torque_nm.unwrap_or(kt * current.2);
-    let bus_rpm = rf.bus_v / 3f64.sqrt() / kt * 60.0 / (2.0 * PI);
+    let bus_rpm = f64::from(params.bus_limited_rpm(rf.bus_v as f32));
     let speed_rpm = rf.speed_rpm.unwrap_or(0.8 * bus_rpm);
     let power_w = rf
         .power_w

@@ -191,15 +191,17 @@ impl DriveConfig {
         c.check("start.accel_rpm_per_s", s.accel_rpm_per_s, accel);
         // The open loop must reach the hand-over speed on the lowest bus, and the rated speed
         // must be within the highest: back-EMF within bus/√3.
-        let rpm_at = |bus_v: f32| bus_v * INV_SQRT3 / m.torque_constant() / RAD_S_PER_RPM;
-        let rated_speed =
-            Allowed::above_up_to(0.0, rpm_at(l.bus_max_v)).because("EMF < bus_max_v/sqrt3");
+        let rated_speed = Allowed::above_up_to(0.0, m.bus_limited_rpm(l.bus_max_v))
+            .because("EMF < bus_max_v/sqrt3");
         c.check("ratings.speed_rpm", rated.speed_rpm, rated_speed);
         let half_rated = 0.5 * rated.speed_rpm;
         let handback = Allowed::strictly_between(0.0, half_rated).because("rated/2");
         c.check("start.handback_rpm", s.handback_rpm, handback);
-        let handover = Allowed::above_up_to(s.handback_rpm, half_rated.min(rpm_at(l.bus_min_v)))
-            .because("handback..rated/2, EMF < bus_min_v/sqrt3");
+        let handover = Allowed::above_up_to(
+            s.handback_rpm,
+            half_rated.min(m.bus_limited_rpm(l.bus_min_v)),
+        )
+        .because("handback..rated/2, EMF < bus_min_v/sqrt3");
         c.check("start.handover_rpm", s.handover_rpm, handover);
         let tol = Allowed::strictly_between(0.0, 90.0);
         c.check("start.handover_tol_deg", s.handover_tol_deg, tol);

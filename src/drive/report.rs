@@ -154,7 +154,7 @@ impl DriveConfig {
             pll_damping: pll.damping,
             handover_rpm: s.handover_rpm,
             handback_rpm: s.handback_rpm,
-            bus_limited_rpm: rpm(l.bus_min_v * INV_SQRT3 / kt),
+            bus_limited_rpm: m.bus_limited_rpm(l.bus_min_v),
             rated_torque_current_a: i_rated,
             i_max_a: l.i_max_a,
             i_trip_a: l.i_trip_a,
