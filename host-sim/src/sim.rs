@@ -369,13 +369,15 @@ impl Sim {
             config.adc_lsb_a,
             config.seed,
         )?;
+        let mut plant = Plant::new(
+            PlantParams::from(&params),
+            config.theta_m0,
+            sc.initial_speed_rpm * RAD_S_PER_RPM,
+        );
+        plant.locked = sc.locked_rotor;
         Ok(Self {
             controller,
-            plant: Plant::new(
-                PlantParams::from(&params),
-                config.theta_m0,
-                sc.initial_speed_rpm * RAD_S_PER_RPM,
-            ),
+            plant,
             inverter: Inverter {
                 v_bus: config.bus_v,
                 dead_time_s: config.dead_time_s,
