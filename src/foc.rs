@@ -419,6 +419,11 @@ impl Foc {
         torque_nm * self.inv_kt
     }
 
+    /// The torque the q current `i_q_a` \[A] makes in the papers' model, `N ψ_f i_q` \[N·m].
+    pub fn torque_for_current(&self, i_q_a: f32) -> f32 {
+        i_q_a / self.inv_kt
+    }
+
     /// One period of a drive mode's [`Request`]: the current loop on a current reference, or
     /// the voltage reference limited to the bus; then SVPWM. `i_ab` the measured currents \[A],
     /// `v_bus` \[V].

@@ -6,7 +6,7 @@ use pmsm_host_sim::scenario::{self, Scenario};
 use pmsm_host_sim::sim::{run, SimConfig};
 use pmsm_host_sim::summary::Summary;
 use pmsm_sensorless::drive::{Command, Drive, DriveConfig, DriveInput, DriveState, Mode, StateOf};
-use pmsm_sensorless::frames::Abc;
+use pmsm_sensorless::frames::{Abc, AlphaBeta};
 use pmsm_sensorless::motor::HORNG_SINANO;
 use pmsm_sensorless::observer::flux_speed::FluxPll;
 use pmsm_sensorless::observer::sliding::SlidingObserver;
@@ -39,6 +39,7 @@ fn no_current_48v() -> DriveInput {
     DriveInput {
         i_abc: Abc::default(),
         v_bus: 48.0,
+        v_ab_terminal: None,
         overrun: false,
     }
 }
@@ -203,12 +204,8 @@ fn impossible_settings_name_the_field_value_and_range() {
             0.5 * i_max,
         ),
         (|c| c.start.handover_rpm = 10.0, "start.handover_rpm", 10.0),
-        // Longer than the 1 s timeout: hand-over could never happen.
-        (
-            |c| c.start.handover_hold_s = 2.0,
-            "start.handover_hold_s",
-            2.0,
-        ),
+        // Longer than a second: an observer would hardly ever count as healthy.
+        (|c| c.health.lock_time_s = 2.0, "health.lock_time_s", 2.0),
         (|c| c.motor.l_h = f32::NAN, "l_h", f32::NAN),
         (|c| c.rate_hz = 0.0, "rate_hz", 0.0),
     ];
@@ -426,13 +423,15 @@ fn step_input() -> impl Strategy<Value = (DriveInput, Command)> {
         wild_f32(),
         prop::bool::weighted(0.9),
         prop::bool::weighted(0.05),
+        prop::option::of((wild_f32(), wild_f32())),
     )
         .prop_map(
-            |(a, b, c, v_bus, overrun, speed_rpm, enable, clear_fault)| {
+            |(a, b, c, v_bus, overrun, speed_rpm, enable, clear_fault, v_t)| {
                 (
                     DriveInput {
                         i_abc: Abc::new(a, b, c),
                         v_bus,
+                        v_ab_terminal: v_t.map(|(alpha, beta)| AlphaBeta::new(alpha, beta)),
                         overrun,
                     },
                     Command {

@@ -110,6 +110,9 @@ pub struct SimConfig {
     pub cold_start: bool,
     /// Flux-observer γ replacing the recommended one \[1/(Wb²·s)].
     pub gamma: Option<f32>,
+    /// The board senses the terminal voltage (the B-G431B-ESC1's back-EMF dividers): the
+    /// drive gets it while its PWM is off and can catch a turning rotor.
+    pub sense_terminal_voltage: bool,
 }
 
 impl SimConfig {
@@ -135,6 +138,7 @@ impl SimConfig {
             sensorless_from_rpm: None,
             cold_start: false,
             gamma: None,
+            sense_terminal_voltage: true,
         }
     }
 }
@@ -297,6 +301,9 @@ pub struct Sim {
     inverter: Inverter,
     sensor: CurrentSensor,
     v_ab_last: AlphaBeta,
+    /// The terminal voltage of the period that just ended (the plant's with the PWM off, the
+    /// commanded one with it on) \[V].
+    v_terminal: AlphaBeta,
     k: usize,
     ts: f64,
     transitions: Vec<(f64, Transition)>,
@@ -383,6 +390,7 @@ impl Sim {
             },
             sensor,
             v_ab_last: AlphaBeta::default(),
+            v_terminal: AlphaBeta::default(),
             k: 0,
             ts: 1.0 / config.rate_hz,
             transitions: Vec::new(),
@@ -488,6 +496,10 @@ impl Sim {
                     &DriveInput {
                         i_abc,
                         v_bus: bus,
+                        v_ab_terminal: self
+                            .config
+                            .sense_terminal_voltage
+                            .then_some(self.v_terminal),
                         overrun: false,
                     },
                     &cmd,
@@ -499,12 +511,18 @@ impl Sim {
                     }
                 }
                 let tel = drive.telemetry();
+                // The angle the controller runs on: the driving observer's while sensorless.
+                let sensorless = tel.mode == Mode::Sensorless;
                 let est = Estimate {
-                    theta_e: tel.theta_e_primary,
+                    theta_e: if sensorless {
+                        tel.theta_e_control
+                    } else {
+                        tel.theta_e_primary
+                    },
                     omega_m: tel.speed_rpm * pmsm_sensorless::units::RAD_S_PER_RPM,
                     load_nm: tel.load_nm,
                     sliding: None,
-                    sensorless: tel.mode == Mode::Sensorless,
+                    sensorless,
                 };
                 self.v_ab_last = drive.v_ab_applied();
                 let monitor = (tel.theta_e_monitor as f64).to_degrees();
@@ -549,17 +567,21 @@ impl Sim {
         let n_sub = self.config.substeps;
         let h = self.ts / n_sub as f64;
         let load = |dt: f64, w: f64| sc.load_at(t + dt, w);
-        match duties {
-            Some(d) => self.plant.advance(&self.inverter.hold(d), load, h, n_sub),
+        self.v_terminal = match duties {
+            Some(d) => {
+                self.plant.advance(&self.inverter.hold(d), load, h, n_sub);
+                self.v_ab_last
+            }
             None => {
                 // All switches off: the currents flow through the freewheeling diodes into
                 // the bus until they die out, and a back-EMF above the bus brakes the rotor.
                 let bridge = DiodeBridge {
                     v_bus: self.inverter.v_bus,
                 };
-                self.plant.advance_off(&bridge, load, h, n_sub);
+                let v = self.plant.advance_off(&bridge, load, h, n_sub);
+                AlphaBeta::new(v.0 as f32, v.1 as f32)
             }
-        }
+        };
         self.k += 1;
         let s = &self.plant.state;
         if [s.i_alpha, s.i_beta, s.theta_m, s.omega_m]

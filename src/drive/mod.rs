@@ -8,15 +8,18 @@
 //! 3. both observers ([`Observer`]) every step while the inverter is on, the primary feeding
 //!    the controller and the monitor watching it, their read-outs in their slots;
 //! 4. the mode's step, each mode in a file of its own with its state in its variant of the
-//!    mode: idle → `align.rs` → `open_loop.rs` start (I/f) →
-//!    `sensorless.rs` control → back to open loop through zero speed → idle;
-//!    fault from anywhere. Each mode returns a [`Request`] (a frame and a current or voltage
-//!    reference) and, rarely, the mode to switch to;
+//!    mode: idle → `catch.rs` (PWM off: is the rotor turning? a flying start goes straight
+//!    to sensorless control) → `align.rs` → `open_loop.rs` start (I/f) → `sensorless.rs`
+//!    control, through zero speed on the observer → stopped at zero → idle; back to open loop
+//!    only where no observer is healthy at low speed; fault from anywhere. Each mode returns a
+//!    [`Request`] (a frame and a current or voltage reference) and, rarely, the mode to switch
+//!    to;
 //! 5. the one FOC call site, [`Foc::run`]: current loop and SVPWM.
 //!
 //! The 1 kHz work is spread over the four steps of each millisecond
 //! (`schedule.rs`); the checks of supervision
-//! (`supervision.rs`) take the angles of one sample.
+//! (`supervision.rs`: each observer's health from its own evidence, which one drives, which
+//! is re-seeded) take the estimates of one sample.
 //!
 //! The drive is generic over its two observers (`Drive<P, M>`, monomorphised): the step
 //! compiles to one function, with no per-block register save and restore and no structs
@@ -25,6 +28,7 @@
 //! reads it from the state at the log's rate.
 
 mod align;
+mod catch;
 mod config;
 mod io;
 mod open_loop;
@@ -35,21 +39,23 @@ mod sensorless;
 mod supervision;
 
 pub use config::{DriveConfig, HealthConfig, Limits, StartConfig};
-pub use io::{Command, DriveInput, DriveOutput, Fault, Mode, Reason, Telemetry, Transition};
+pub use io::{Command, DriveInput, DriveOutput, Fault, Mode, Reason, Role, Telemetry, Transition};
 pub use report::{Derived, Warning};
 pub use schedule::{Slot, SLOTS};
 
 use crate::foc::{CurrentLoopState, Foc, Request};
 use crate::frames::{AlphaBeta, SinCos};
 use crate::math::atan2;
+use crate::math::clamp;
 use crate::observer::{Observer, ReadOut, Rotor};
 use crate::power_stage::PowerStage;
 use crate::units::{DEG_PER_RAD, RAD_S_PER_RPM, RPM_PER_RAD_S};
 use align::Align;
+use catch::Catch;
 use core::hint::cold_path;
 use open_loop::OpenLoop;
 use sensorless::Sensorless;
-use supervision::Views;
+use supervision::{Health, Seed, Verdict, Views};
 
 /// A built drive: the observers, the FOC and every mode's per-step coefficients. `P` feeds the
 /// controller, `M` watches it.
@@ -61,7 +67,10 @@ pub struct Drive<P, M> {
     /// Speed-reference slew per slot cycle (the speed loop's period), also the open-loop
     /// frequency ramp \[rpm].
     slew_per_slot_cycle_rpm: f32,
+    /// The speed command is limited to ± this \[rpm] (the rated speed).
+    max_speed_rpm: f32,
     limits: Limits,
+    catch: catch::Settings,
     align: align::Settings,
     open_loop: open_loop::Settings,
     supervision: supervision::Settings,
@@ -105,6 +114,7 @@ impl<PS, MS> DriveState<PS, MS> {
     pub fn mode(&self) -> Mode {
         match self.mode {
             ModeState::Idle => Mode::Idle,
+            ModeState::Catch(_) => Mode::Catch,
             ModeState::Align(_) => Mode::Align,
             ModeState::OpenLoop(_) => Mode::OpenLoop,
             ModeState::Sensorless(_) => Mode::Sensorless,
@@ -141,6 +151,11 @@ impl<PS, MS> DriveState<PS, MS> {
         &self.obs.monitor
     }
 
+    /// Which observer drives the controller.
+    pub fn driving(&self) -> Role {
+        self.obs.health.driving
+    }
+
     /// sin/cos of the open-loop angle θ_ol, in open loop.
     pub fn open_loop_frame(&self) -> Option<SinCos> {
         match &self.mode {
@@ -155,6 +170,8 @@ impl<PS, MS> DriveState<PS, MS> {
 enum ModeState {
     /// PWM off, waiting for enable.
     Idle,
+    /// PWM off, the observers on the terminal voltage.
+    Catch(Catch),
     /// Rotor alignment.
     Align(Align),
     /// Open-loop start.
@@ -165,13 +182,15 @@ enum ModeState {
     Fault(Fault),
 }
 
-/// Both observers' states and the angles of one sample.
+/// Both observers' states, the angles of one sample and their health (which drives).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 struct ObserverStates<PS, MS> {
     primary: PS,
     monitor: MS,
     /// The angles of the last [`Slot::AngleReadOut`] step's sample.
     sample: AngleSample,
+    /// Each observer's lock, which drives.
+    health: Health,
 }
 
 /// The angles the 1 kHz comparisons take, all of one sample (the [`Slot::AngleReadOut`]
@@ -188,6 +207,8 @@ enum Outcome {
     Run(Request),
     /// Apply the request, and switch to the mode for the next step.
     Switch(Request, ModeState, Reason),
+    /// Apply the request; within the mode, the driving observer changed.
+    Note(Request, Reason),
     /// Stop switching: a fault.
     Fault(Fault),
     /// Stop switching: stopped at zero speed with a zero command (back to idle).
@@ -229,8 +250,14 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             ModeState::Fault(_) => {}
             ModeState::Idle if starting => {
                 cold_path();
+                // With the terminal voltage sensed, first see whether the rotor turns.
+                let mode = if input.v_ab_terminal.is_some() {
+                    ModeState::Catch(Catch::default())
+                } else {
+                    ModeState::Align(Align::default())
+                };
                 *st = DriveState {
-                    mode: ModeState::Align(Align::default()),
+                    mode,
                     ..DriveState::default()
                 };
                 reason = Some(Reason::Enabled);
@@ -244,12 +271,20 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             _ => {}
         }
         // 3.-5. Observers, the mode's step, FOC.
+        // The command within the ratings.
+        let cmd_rpm = clamp(cmd.speed_rpm, -self.max_speed_rpm, self.max_speed_rpm);
         let duties = match st.mode {
             ModeState::Idle | ModeState::Fault(_) => None,
             _ => {
                 let i_ab = input.i_abc.to_alpha_beta();
-                let ok = self.observe(st, i_ab);
-                let (duties, r) = self.control(st, input.v_bus, cmd.speed_rpm, i_ab, ok);
+                // PWM off (catching): the voltage is the terminals'.
+                let v_ab = match (&st.mode, input.v_ab_terminal) {
+                    (ModeState::Catch(_), Some(v)) => v,
+                    _ => st.v_ab_last,
+                };
+                let ok = self.observe(st, i_ab, v_ab);
+                let (duties, r) =
+                    self.control(st, input.v_bus, cmd_rpm, i_ab, input.v_ab_terminal, ok);
                 if r.is_some() {
                     reason = r;
                 }
@@ -258,10 +293,12 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         };
         st.slot = st.slot.next();
         let to = st.mode();
+        // Mode changes, and the changes of the driving observer within a mode.
+        let within = matches!(reason, Some(Reason::Failover | Reason::PrimaryDrives));
         DriveOutput {
             duties: if to == Mode::Fault { None } else { duties },
             transition: reason
-                .filter(|_| to != from)
+                .filter(|_| to != from || within)
                 .map(|reason| Transition { from, to, reason }),
         }
     }
@@ -294,6 +331,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             theta_primary: self.primary.theta_e(&st.obs.primary),
             theta_monitor: self.monitor.theta_e(&st.obs.monitor),
         };
+        st.obs.health = Health::AT_KNOWN_STATE;
         st.mode = ModeState::Sensorless(Sensorless::new(
             rotor.omega_m * RPM_PER_RAD_S,
             self.foc.current_for_torque(rotor.load_nm),
@@ -314,24 +352,25 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             ..Telemetry::default()
         };
         // The angles of this very sample (the step reads them out at 1 kHz).
-        let (mut ps, mut ms) = (st.obs.primary, st.obs.monitor);
-        self.primary.read_out(&mut ps, ReadOut::Angle);
-        self.monitor.read_out(&mut ms, ReadOut::Angle);
-        let v = Views {
-            theta_primary: self.primary.theta_e(&ps),
-            omega_primary: self.primary.omega_m(&ps),
-            theta_monitor: self.monitor.theta_e(&ms),
-            omega_monitor: self.monitor.omega_m(&ms),
+        let mut obs = st.obs;
+        self.primary.read_out(&mut obs.primary, ReadOut::Angle);
+        self.monitor.read_out(&mut obs.monitor, ReadOut::Angle);
+        obs.sample = AngleSample {
+            theta_primary: self.primary.theta_e(&obs.primary),
+            theta_monitor: self.monitor.theta_e(&obs.monitor),
         };
+        let v = self.views(&obs);
+        let driving = obs.health.driving;
         let (theta, omega_m, speed_ref_rpm) = match &st.mode {
             ModeState::Idle | ModeState::Fault(_) => return off,
             ModeState::Align(_) => (0.0, 0.0, 0.0),
+            ModeState::Catch(_) => (v.theta(driving), v.omega(driving), 0.0),
             ModeState::OpenLoop(ol) => {
                 let f = ol.frame();
                 let speed = ol.speed_rpm();
                 (atan2(f.sin, f.cos), speed * RAD_S_PER_RPM, speed)
             }
-            ModeState::Sensorless(s) => (v.theta_primary, v.omega_primary, s.speed_ref_rpm()),
+            ModeState::Sensorless(s) => (v.theta(driving), v.omega(driving), s.speed_ref_rpm()),
         };
         let i_dq = st.i_ab_last.to_dq(SinCos::of(theta));
         Telemetry {
@@ -342,18 +381,20 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             theta_e_control: theta,
             i_d: i_dq.d,
             i_q: i_dq.q,
-            load_nm: self.primary.load_nm(&ps),
+            load_nm: self.primary.load_nm(&obs.primary),
+            driving,
+            residual_primary: v.residual_primary,
+            residual_monitor: v.residual_monitor,
             disagreement_deg: v.disagreement() * DEG_PER_RAD,
             speed_disagreement_rpm: v.speed_disagreement_rpm(),
             ..off
         }
     }
 
-    /// Runs both observers on this sample, and their read-outs in their slots; false if
-    /// either could not update.
+    /// Runs both observers on this sample (`i_ab` measured now, `v` applied over the period
+    /// that just ended), and their read-outs in their slots; false if either could not update.
     #[inline(always)]
-    fn observe(&self, st: &mut StateOf<P, M>, i_ab: AlphaBeta) -> bool {
-        let v = st.v_ab_last;
+    fn observe(&self, st: &mut StateOf<P, M>, i_ab: AlphaBeta, v: AlphaBeta) -> bool {
         st.i_ab_last = i_ab;
         let obs = &mut st.obs;
         let ok_p = self.primary.update(&mut obs.primary, i_ab, v);
@@ -385,15 +426,31 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         v_bus: f32,
         cmd_rpm: f32,
         i_ab: AlphaBeta,
+        v_terminal: Option<AlphaBeta>,
         observers_ok: bool,
     ) -> (Option<crate::svpwm::Duties>, Option<Reason>) {
         let slot = st.slot;
         let outcome = match &mut st.mode {
+            ModeState::Catch(c) => {
+                // PWM off; the observers ran on the terminal voltage.
+                let v_ab = v_terminal.unwrap_or_default();
+                let check = slot == Slot::Supervision;
+                return match self.catch_step(c, &mut st.obs, check, i_ab, v_ab) {
+                    None if observers_ok => (None, None),
+                    None => (None, Some(enter_fault(st, Fault::InvalidInput))),
+                    Some(Ok((mode, reason))) => {
+                        st.mode = mode;
+                        (None, Some(reason))
+                    }
+                    Some(Err(f)) => (None, Some(enter_fault(st, f))),
+                };
+            }
             ModeState::Align(a) => {
                 let (request, done) = self.align.step(a);
                 if done {
-                    // Rotor at θ_e = 0, at rest: start the observers there.
+                    // Rotor at θ_e = 0, at rest: start the observers there, both locked.
                     self.reset_observers(&mut st.obs, i_ab, SinCos::ZERO, 0.0);
+                    st.obs.health = Health::AT_KNOWN_STATE;
                     Outcome::Switch(
                         request,
                         ModeState::OpenLoop(OpenLoop::AT_REST),
@@ -405,7 +462,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             }
             ModeState::OpenLoop(ol) => self.open_loop_step(ol, &mut st.obs, slot, cmd_rpm, i_ab),
             ModeState::Sensorless(s) => {
-                self.sensorless_step(s, &st.obs, slot, cmd_rpm, observers_ok)
+                self.sensorless_step(s, &mut st.obs, slot, cmd_rpm, i_ab, observers_ok)
             }
             ModeState::Idle | ModeState::Fault(_) => return (None, None),
         };
@@ -416,6 +473,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 st.mode = mode;
                 (request, Some(reason))
             }
+            Outcome::Note(request, reason) => (request, Some(reason)),
             Outcome::Fault(f) => return (None, Some(enter_fault(st, f))),
             Outcome::Stopped => {
                 cold_path();
@@ -428,15 +486,92 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         (Some(out.duties), reason)
     }
 
-    /// The observers' estimates: the angles of the last [`Slot::AngleReadOut`] sample and the
-    /// speeds now.
+    /// The observers' estimates: the angles of the last [`Slot::AngleReadOut`] sample, the
+    /// speeds and residuals now, their speed ranges.
     #[inline(always)]
-    fn sample_views(&self, obs: &ObserverStates<P::State, M::State>) -> Views {
+    fn views(&self, obs: &ObserverStates<P::State, M::State>) -> Views {
         Views {
             theta_primary: obs.sample.theta_primary,
             omega_primary: self.primary.omega_m(&obs.primary),
+            residual_primary: self.primary.residual(&obs.primary),
+            min_speed_primary: self.primary.min_speed_m(),
             theta_monitor: obs.sample.theta_monitor,
             omega_monitor: self.monitor.omega_m(&obs.monitor),
+            residual_monitor: self.monitor.residual(&obs.monitor),
+            min_speed_monitor: self.monitor.min_speed_m(),
+        }
+    }
+
+    /// The driving observer's frame now, its output frame turned by `lead`, its speed
+    /// [rad/s, mechanical] and its load-torque estimate \[N·m] (0 without one).
+    #[inline(always)]
+    fn driving(
+        &self,
+        obs: &ObserverStates<P::State, M::State>,
+        lead: SinCos,
+    ) -> (SinCos, SinCos, f32, f32) {
+        match obs.health.driving {
+            Role::Primary => {
+                let (o, st) = (&self.primary, &obs.primary);
+                let f = o.sin_cos(st);
+                let load = o.load_nm(st).unwrap_or(0.0);
+                (f, o.sin_cos_output(st, f, lead), o.omega_m(st), load)
+            }
+            Role::Monitor => {
+                let (o, st) = (&self.monitor, &obs.monitor);
+                let f = o.sin_cos(st);
+                let load = o.load_nm(st).unwrap_or(0.0);
+                (f, o.sin_cos_output(st, f, lead), o.omega_m(st), load)
+            }
+        }
+    }
+
+    /// The health check of [`Slot::Supervision`] (`supervision.rs`) and the seeds it asks
+    /// for: a seeded observer starts at the driving one's angle now, speed and load (its
+    /// own estimate, else `load_nm` \[N·m], the torque the controller makes). Returns the
+    /// verdict and, when the driving observer changed, why.
+    #[inline(always)]
+    fn supervise(
+        &self,
+        obs: &mut ObserverStates<P::State, M::State>,
+        i_ab: AlphaBeta,
+        load_nm: f32,
+    ) -> (Verdict, Option<Reason>) {
+        let views = self.views(obs);
+        let (verdict, seed) = self.supervision.check(&mut obs.health, &views);
+        if seed != Seed::default() {
+            self.seed_from_driving(obs, seed, i_ab, load_nm);
+        }
+        let reason = match (verdict, obs.health.driving) {
+            (Verdict::Switched, Role::Monitor) => Some(Reason::Failover),
+            (Verdict::Switched, Role::Primary) => Some(Reason::PrimaryDrives),
+            _ => None,
+        };
+        (verdict, reason)
+    }
+
+    /// Seeds the observers `seed` names from the driving one (see [`Drive::supervise`]).
+    // Out of line, like the mode changes: rare, kept off the every-step path.
+    #[inline(never)]
+    fn seed_from_driving(
+        &self,
+        obs: &mut ObserverStates<P::State, M::State>,
+        seed: Seed,
+        i_ab: AlphaBeta,
+        load_nm: f32,
+    ) {
+        cold_path();
+        let (frame, _, omega_m, load) = self.driving(obs, SinCos::ZERO);
+        let rotor = Rotor {
+            theta_e: atan2(frame.sin, frame.cos),
+            omega_m,
+            load_nm: if load != 0.0 { load } else { load_nm },
+        };
+        if seed.primary {
+            self.primary.seed(&mut obs.primary, i_ab, rotor);
+        }
+        if seed.monitor {
+            self.monitor.seed(&mut obs.monitor, i_ab, rotor);
         }
     }
 

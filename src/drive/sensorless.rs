@@ -1,16 +1,18 @@
-//! Sensorless control: FOC on the primary observer's angle and speed, the speed loop with the
-//! primary's load-torque estimate fed forward (Horng & Chin Fig 4), supervision of both
-//! observers (in [`Slot::Supervision`]), and the hand-back to open loop at low speed.
+//! Sensorless control: FOC on the driving observer's angle and speed (the primary, or the
+//! monitor while the primary is not healthy), the speed loop with its load-torque estimate fed
+//! forward (Horng & Chin Fig 4), the health check of both observers (in [`Slot::Supervision`],
+//! `supervision.rs`), the stall check, the stop at zero, and the hand-back to open loop where
+//! no observer is healthy at low speed.
 
 use super::open_loop::slew;
 use super::schedule::Slot;
-use super::supervision::{Health, HealthCount};
+use super::supervision::{StallCount, Verdict};
 use super::{Drive, Fault, ModeState, ObserverStates, Outcome, Reason};
 use crate::foc::{Reference, Request};
-use crate::frames::{Dq, SinCos};
+use crate::frames::{AlphaBeta, Dq, SinCos};
 use crate::observer::Observer;
 use crate::pi::PiState;
-use crate::units::RAD_S_PER_RPM;
+use crate::units::{RAD_S_PER_RPM, RPM_PER_RAD_S};
 
 /// The state of [`Mode::Sensorless`](super::Mode::Sensorless).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -21,11 +23,12 @@ pub(super) struct Sensorless {
     speed_pi: PiState,
     /// The speed loop's i_q command \[A].
     i_q_ref: f32,
-    /// sin/cos of the output angle's lead at the primary's speed (`Foc::output_rotation`),
-    /// renewed in [`Slot::SpeedReadOut`] (the speed read-outs move at 1 kHz).
+    /// sin/cos of the output angle's lead at the driving observer's speed
+    /// (`Foc::output_rotation`), renewed in [`Slot::SpeedReadOut`] (the speed read-outs move at
+    /// 1 kHz).
     out_rot: SinCos,
-    /// The health counts.
-    health: HealthCount,
+    /// The stall counts.
+    stall: StallCount,
 }
 
 impl Sensorless {
@@ -37,7 +40,7 @@ impl Sensorless {
             speed_pi: PiState { integral: i_q_a },
             i_q_ref: i_q_a,
             out_rot,
-            health: HealthCount::default(),
+            stall: StallCount::default(),
         }
     }
 
@@ -50,60 +53,86 @@ impl Sensorless {
 impl<P: Observer, M: Observer> Drive<P, M> {
     /// One sensorless step: the speed loop (in [`Slot::SpeedLoop`]), supervision (in
     /// [`Slot::Supervision`]), the output lead at the new speed (in [`Slot::SpeedReadOut`]); the
-    /// request is the speed loop's i_q in the primary's frame. An observer that could not
-    /// update (`observers_ok` false) is an observer loss.
+    /// request is the speed loop's i_q in the driving observer's frame. An observer that could
+    /// not update (`observers_ok` false) is an observer loss.
     #[inline(always)]
     pub(super) fn sensorless_step(
         &self,
         s: &mut Sensorless,
-        obs: &ObserverStates<P::State, M::State>,
+        obs: &mut ObserverStates<P::State, M::State>,
         slot: Slot,
         cmd_rpm: f32,
+        i_ab: AlphaBeta,
         observers_ok: bool,
     ) -> Outcome {
         if !observers_ok {
             return Outcome::Fault(Fault::ObserverLoss);
         }
-        let omega_m = self.primary.omega_m(&obs.primary);
-        let mut next = None;
+        let (frame, frame_out, omega_m, load_nm) = self.driving(obs, s.out_rot);
+        let mut note = None;
         match slot {
             Slot::SpeedLoop => {
                 s.speed_ref_rpm = slew(s.speed_ref_rpm, cmd_rpm, self.slew_per_slot_cycle_rpm);
                 let omega_m_ref = s.speed_ref_rpm * RAD_S_PER_RPM;
-                let ff = self.primary.load_nm(&obs.primary).unwrap_or(0.0);
                 s.i_q_ref = self
                     .foc
-                    .speed_step(&mut s.speed_pi, omega_m_ref, omega_m, ff);
+                    .speed_step(&mut s.speed_pi, omega_m_ref, omega_m, load_nm);
             }
             Slot::Supervision => {
-                let views = self.sample_views(obs);
-                match self
-                    .supervision
-                    .health(&mut s.health, &views, s.speed_ref_rpm, s.i_q_ref)
-                {
-                    Health::Good => {}
-                    Health::ObserverLoss => return Outcome::Fault(Fault::ObserverLoss),
-                    Health::Stall => return Outcome::Fault(Fault::Stall),
-                    Health::HandBack => {
-                        let frame = self.primary.sin_cos(&obs.primary);
-                        let ol = self.open_loop_at(frame, views.omega_primary);
-                        next = Some(ModeState::OpenLoop(ol));
+                let torque = self.foc.torque_for_current(s.i_q_ref);
+                let (verdict, reason) = self.supervise(obs, i_ab, torque);
+                note = reason;
+                let speed_rpm = omega_m * RPM_PER_RAD_S;
+                let handback = self.supervision.handback_rpm;
+                match verdict {
+                    Verdict::Drive | Verdict::Switched => {}
+                    // Without an observer at low speed, open loop carries the rotor on.
+                    Verdict::NoLock
+                        if s.speed_ref_rpm.abs() < handback && speed_rpm.abs() < handback =>
+                    {
+                        let ol = self.open_loop_at(frame, omega_m);
+                        return Outcome::Switch(
+                            self.request(frame, frame_out, omega_m, s.i_q_ref),
+                            ModeState::OpenLoop(ol),
+                            Reason::HandBack,
+                        );
                     }
+                    Verdict::NoLock | Verdict::Contradiction => {
+                        return Outcome::Fault(Fault::ObserverLoss)
+                    }
+                }
+                if self
+                    .supervision
+                    .stalled(&mut s.stall, omega_m, s.speed_ref_rpm, s.i_q_ref)
+                {
+                    return Outcome::Fault(Fault::Stall);
+                }
+                if cmd_rpm == 0.0
+                    && s.speed_ref_rpm == 0.0
+                    && speed_rpm.abs() < self.supervision.stop_rpm
+                {
+                    return Outcome::Stopped;
                 }
             }
             Slot::SpeedReadOut => s.out_rot = self.foc.output_rotation(omega_m),
             Slot::AngleReadOut => {}
         }
-        let frame = self.primary.sin_cos(&obs.primary);
-        let request = Request {
-            frame,
-            frame_out: self.primary.sin_cos_output(&obs.primary, frame, s.out_rot),
-            omega_m,
-            reference: Reference::Current(Dq::new(0.0, s.i_q_ref)),
-        };
-        match next {
-            Some(mode) => Outcome::Switch(request, mode, Reason::HandBack),
+        let request = self.request(frame, frame_out, omega_m, s.i_q_ref);
+        match note {
+            Some(reason) => Outcome::Note(request, reason),
             None => Outcome::Run(request),
+        }
+    }
+
+    /// The current command `(0, i_q)` \[A] in the frame at sin/cos `frame`, applied at
+    /// `frame_out`, `omega_m` the frame's speed \[rad/s].
+    #[inline(always)]
+    fn request(&self, frame: SinCos, frame_out: SinCos, omega_m: f32, i_q: f32) -> Request {
+        Request {
+            frame,
+            frame_out,
+            omega_m,
+            reference: Reference::Current(Dq::new(0.0, i_q)),
         }
     }
 }

@@ -79,4 +79,15 @@ pub trait Observer {
 
     /// Restarts the observer at a known rotor state, `i_ab` the currents measured now \[A].
     fn seed(&self, st: &mut Self::State, i_ab: AlphaBeta, rotor: Rotor);
+
+    /// The observer's own evidence of lock, from its own signals (not from another
+    /// estimate): 0 when its model fits the measurements, 1 at the edge of lock, above it lost
+    /// (each observer's implementation says what its 1 means). As of the last sample.
+    fn residual(&self, st: &Self::State) -> f32;
+
+    /// The lowest |ω̂_m| \[rad/s] at which this observer's estimate may drive the controller;
+    /// below it the drive neither uses nor judges it (0: any speed; infinite: never).
+    fn min_speed_m(&self) -> f32 {
+        0.0
+    }
 }

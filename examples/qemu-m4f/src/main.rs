@@ -51,6 +51,7 @@ mod firmware {
             DriveInput {
                 i_abc: self.i_ab.to_abc(),
                 v_bus: BUS_V,
+                v_ab_terminal: None,
                 overrun: false,
             }
         }

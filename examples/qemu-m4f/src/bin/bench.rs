@@ -162,6 +162,7 @@ mod firmware {
         let input = |start, k| DriveInput {
             i_abc: sample_from(start, k).1.to_abc(),
             v_bus: 48.0,
+            v_ab_terminal: None,
             overrun: false,
         };
         let cmd = Command {
@@ -183,6 +184,7 @@ mod firmware {
                 let input = DriveInput {
                     i_abc: sample_from(start, k).1.to_abc(),
                     v_bus,
+                    v_ab_terminal: None,
                     overrun: false,
                 };
                 let (begin, end) = markers(st.slot());

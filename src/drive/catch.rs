@@ -1,0 +1,121 @@
+//! Catch (flying start): the PWM stays off while the observers watch the terminal voltage.
+//! With no current the stator voltage is the back-EMF, the rotor flux's derivative
+//! (Ortega et al. eqs (1), (4) with `i = 0`): `v = ω_e ψ_f [−sin θ_e, cos θ_e]`. Its length
+//! gives |ω_e|, the turn between two samples the direction, its angle θ_e ∓ 90°; both observers
+//! are seeded there and must then lock on their own evidence (`supervision.rs`) before
+//! closed loop starts at the observed speed with zero current (the current loop's back-EMF
+//! feed-forward applies the rotor's own voltage: no current step). A rotor whose back-EMF is
+//! below that of the slowest catch speed is taken as at rest and aligned. Needs a board that
+//! senses the terminal voltage ([`DriveInput::v_ab_terminal`](super::DriveInput)); without it
+//! an enable aligns.
+//!
+//! Reading the back-EMF of a coasting motor through the phase-voltage dividers before the
+//! switches start is the usual flying-start of sensorless drives (e.g. ST's motor-control
+//! SDK "on-the-fly start-up", VESC's observer on the sensed phase voltages).
+
+use super::supervision::Lock;
+use super::{Drive, Fault, ModeState, ObserverStates, Reason, Sensorless};
+use crate::frames::AlphaBeta;
+use crate::math::{atan2, sqrt};
+use crate::observer::{Observer, Rotor};
+use crate::units::RPM_PER_RAD_S;
+use core::f32::consts::FRAC_PI_2;
+use core::hint::cold_path;
+
+/// Catch's coefficients.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Settings {
+    /// A back-EMF below this is a rotor at rest \[V].
+    pub(super) v_min: f32,
+    /// 1/(N ψ_f): ω_m per volt of back-EMF \[rad/(s·V)].
+    pub(super) omega_m_per_v: f32,
+    /// N T/2 \[s]: the rotation from the middle of the last period to now per rad/s of ω_m.
+    pub(super) half_n_ts: f32,
+    /// Checks for an observer to lock before an observer loss.
+    pub(super) timeout_checks: u32,
+}
+
+/// The state of [`Mode::Catch`](super::Mode::Catch).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(super) struct Catch {
+    /// Steps taken.
+    steps: u32,
+    /// The terminal voltage of the first step \[V].
+    v_first: AlphaBeta,
+}
+
+impl<P: Observer, M: Observer> Drive<P, M> {
+    /// One catch step with the PWM off, `v_ab` the terminal voltage of the period that just
+    /// ended \[V], `i_ab` the currents \[A]: the seed at the second step, then the health
+    /// check at each check until an observer locks. Returns the mode to switch to, or a fault.
+    #[inline(always)]
+    pub(super) fn catch_step(
+        &self,
+        c: &mut Catch,
+        obs: &mut ObserverStates<P::State, M::State>,
+        supervision_slot: bool,
+        i_ab: AlphaBeta,
+        v_ab: AlphaBeta,
+    ) -> Option<Result<(ModeState, Reason), Fault>> {
+        c.steps = c.steps.saturating_add(1);
+        match c.steps {
+            1 => {
+                c.v_first = v_ab;
+                None
+            }
+            2 => self.catch_seed(c, obs, i_ab, v_ab),
+            _ if supervision_slot => {
+                let (_, _) = self.supervise(obs, i_ab, 0.0);
+                if obs.health.usable() {
+                    cold_path();
+                    let (_, _, omega_m, load_nm) = self.driving(obs, crate::frames::SinCos::ZERO);
+                    let s = Sensorless::new(
+                        omega_m * RPM_PER_RAD_S,
+                        self.foc.current_for_torque(load_nm),
+                        self.foc.output_rotation(omega_m),
+                    );
+                    return Some(Ok((ModeState::Sensorless(s), Reason::Caught)));
+                }
+                // Steps, four to a check.
+                if c.steps >= 4 * self.catch.timeout_checks {
+                    cold_path();
+                    return Some(Err(Fault::ObserverLoss));
+                }
+                None
+            }
+            _ => None,
+        }
+    }
+
+    /// The second step: at rest, or both observers seeded at the back-EMF's rotor.
+    // Out of line, like the mode changes: once a start.
+    #[inline(never)]
+    fn catch_seed(
+        &self,
+        c: &Catch,
+        obs: &mut ObserverStates<P::State, M::State>,
+        i_ab: AlphaBeta,
+        v_ab: AlphaBeta,
+    ) -> Option<Result<(ModeState, Reason), Fault>> {
+        let s = &self.catch;
+        let emf = sqrt(v_ab.alpha * v_ab.alpha + v_ab.beta * v_ab.beta);
+        if !(emf >= s.v_min) {
+            return Some(Ok((ModeState::Align(Default::default()), Reason::AtRest)));
+        }
+        // The back-EMF turns with the rotor: its turn between the two samples is the sign.
+        let turn = c.v_first.alpha * v_ab.beta - c.v_first.beta * v_ab.alpha;
+        let sign = if turn < 0.0 { -1.0 } else { 1.0 };
+        let omega_m = sign * emf * s.omega_m_per_v;
+        let theta_mid = atan2(v_ab.beta, v_ab.alpha) - sign * FRAC_PI_2;
+        let rotor = Rotor {
+            theta_e: theta_mid + s.half_n_ts * omega_m,
+            omega_m,
+            load_nm: 0.0,
+        };
+        self.primary.seed(&mut obs.primary, i_ab, rotor);
+        self.monitor.seed(&mut obs.monitor, i_ab, rotor);
+        obs.health.primary = Lock::default();
+        obs.health.monitor = Lock::default();
+        None
+    }
+}
