@@ -28,6 +28,7 @@ fn constant_speed(motor: Motor, rpm: f64, duration_s: f64) -> Scenario {
         load_kind: scenario::LoadKind::Active,
         drive: None,
         speed_tolerance: 0.02,
+        locked_rotor: false,
     }
 }
 

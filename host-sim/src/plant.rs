@@ -246,17 +246,24 @@ impl Supply for Clamped {
 pub trait Load: Fn(f64, f64) -> f64 {}
 impl<F: Fn(f64, f64) -> f64> Load for F {}
 
-fn derivative<S: Supply>(p: &PlantParams, x: &[f64; DIM], supply: &S, tau_l: f64) -> [f64; DIM] {
+fn derivative<S: Supply>(
+    p: &PlantParams,
+    x: &[f64; DIM],
+    supply: &S,
+    tau_l: f64,
+    locked: bool,
+) -> [f64; DIM] {
     let (i_a, i_b, theta, omega) = (x[0], x[1], x[2], x[3]);
     let (s, c) = (p.n * theta).sin_cos();
     let kn = p.flux * p.n;
     let e = (kn * omega * s, -kn * omega * c);
     let (v_a, v_b) = supply.v_alpha_beta((i_a, i_b), e);
+    let accel = (-kn * (i_a * s - i_b * c) - p.b * omega - tau_l) / p.j; // (19)
     [
-        (-p.r * i_a + e.0 + v_a) / p.l,                          // (16)
-        (-p.r * i_b + e.1 + v_b) / p.l,                          // (17)
-        omega,                                                   // (18)
-        (-kn * (i_a * s - i_b * c) - p.b * omega - tau_l) / p.j, // (19)
+        (-p.r * i_a + e.0 + v_a) / p.l,   // (16)
+        (-p.r * i_b + e.1 + v_b) / p.l,   // (17)
+        if locked { 0.0 } else { omega }, // (18)
+        if locked { 0.0 } else { accel }, // (19)
         v_a * i_a + v_b * i_b,
         p.r * (i_a * i_a + i_b * i_b),
         p.b * omega * omega,
@@ -272,6 +279,8 @@ pub struct Plant {
     pub params: PlantParams,
     /// State.
     pub state: PlantState,
+    /// The rotor is held (a blocked shaft): θ and ω stay as they are.
+    pub locked: bool,
 }
 
 impl Plant {
@@ -285,6 +294,7 @@ impl Plant {
                 omega_m: omega_m0,
                 ..Default::default()
             },
+            locked: false,
         }
     }
 
@@ -298,7 +308,8 @@ impl Plant {
             let add = |x: &[f64; DIM], d: &[f64; DIM], s: f64| -> [f64; DIM] {
                 std::array::from_fn(|i| x[i] + s * d[i])
             };
-            let stage = |x: &[f64; DIM], t: f64| derivative(&p, x, supply, tau_l(t, x[3]));
+            let locked = self.locked;
+            let stage = |x: &[f64; DIM], t: f64| derivative(&p, x, supply, tau_l(t, x[3]), locked);
             let k1 = stage(&x, t0);
             let k2 = stage(&add(&x, &k1, 0.5 * h), t0 + 0.5 * h);
             let k3 = stage(&add(&x, &k2, 0.5 * h), t0 + 0.5 * h);

@@ -30,7 +30,7 @@
 //! speed the flux observer's γ is chosen for; default the smallest non-zero speed command),
 //! `i_max_a` (bare-observer runs: the speed loop's current limit), `speed_tolerance` (a window
 //! passes when its mean speed error is within this fraction of max(|command|, 5 % of rated
-//! speed); default 0.02).
+//! speed); default 0.02), `locked_rotor = true` (the shaft is blocked throughout).
 //!
 //! The built-in scenarios are the files in `host-sim/scenarios/`, compiled in.
 
@@ -101,6 +101,8 @@ pub struct Scenario {
     /// A window passes when its mean speed error is within this fraction of
     /// max(|command|, 5 % of rated speed).
     pub speed_tolerance: f64,
+    /// The rotor is held throughout (a blocked shaft).
+    pub locked_rotor: bool,
 }
 
 /// A brake's torque fades to zero below this fraction of rated speed, unless the scenario
@@ -241,6 +243,7 @@ pub struct ScenarioFile {
     inject: Option<InjectFile>,
     expect_fault: Option<String>,
     speed_tolerance: Option<f64>,
+    locked_rotor: Option<bool>,
 }
 
 /// `[inject]` of a scenario file.
@@ -272,7 +275,7 @@ pub struct Spec {
 }
 
 /// The built-in scenario files, in listing order.
-const BUILT_IN: [(&str, &str); 22] = [
+const BUILT_IN: [(&str, &str); 24] = [
     (
         "horng-ramp-brake",
         include_str!("../scenarios/horng-ramp-brake.toml"),
@@ -353,6 +356,14 @@ const BUILT_IN: [(&str, &str); 22] = [
     (
         "sup-low-speed-3",
         include_str!("../scenarios/sup-low-speed-3.toml"),
+    ),
+    (
+        "sup-locked-rated",
+        include_str!("../scenarios/sup-locked-rated.toml"),
+    ),
+    (
+        "sup-locked-slow",
+        include_str!("../scenarios/sup-locked-slow.toml"),
     ),
     (
         "sup-reverse-20",
@@ -570,6 +581,7 @@ impl Spec {
             load_kind,
             drive,
             speed_tolerance,
+            locked_rotor: f.locked_rotor.unwrap_or(false),
         })
     }
 }

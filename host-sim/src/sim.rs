@@ -12,8 +12,8 @@ use crate::scenario::Injection;
 use crate::scenario::Scenario;
 use pmsm_sensorless::bounds::ks_min;
 use pmsm_sensorless::drive::{
-    Command, Drive, DriveConfig, DriveInput, DriveOutput, Fault, Limits, Mode, Reason, StateOf,
-    Telemetry, Transition,
+    Command, Drive, DriveConfig, DriveInput, DriveOutput, Fault, Limits, Mode, Reason, Role,
+    StateOf, Telemetry, Transition,
 };
 use pmsm_sensorless::foc::FocConfig;
 use pmsm_sensorless::frames::AlphaBeta;
@@ -184,6 +184,21 @@ pub struct Row {
     /// The controller ran on its observer's estimate (the drive in `Sensorless`; a bare run
     /// after its hand-over from the encoder; never for the encoder itself).
     pub sensorless: bool,
+    /// Drive runs: which observer drives, and each one's residual (`Observer::residual`).
+    pub health: Option<RowHealth>,
+    /// Drive runs: the transition this step made.
+    pub transition: Option<Transition>,
+}
+
+/// The drive's health figures of one row.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RowHealth {
+    /// Which observer drives.
+    pub driving: Role,
+    /// The primary's residual (1: the edge of lock).
+    pub residual_primary: f64,
+    /// The monitor's residual.
+    pub residual_monitor: f64,
 }
 
 impl Row {
@@ -376,13 +391,15 @@ impl Sim {
             config.adc_lsb_a,
             config.seed,
         )?;
+        let mut plant = Plant::new(
+            PlantParams::from(&params),
+            config.theta_m0,
+            sc.initial_speed_rpm * RAD_S_PER_RPM,
+        );
+        plant.locked = sc.locked_rotor;
         Ok(Self {
             controller,
-            plant: Plant::new(
-                PlantParams::from(&params),
-                config.theta_m0,
-                sc.initial_speed_rpm * RAD_S_PER_RPM,
-            ),
+            plant,
             inverter: Inverter {
                 v_bus: config.bus_v,
                 dead_time_s: config.dead_time_s,
@@ -459,6 +476,7 @@ impl Sim {
         }
         let v_bus = self.inverter.v_bus;
         let speed_cmd_rpm = self.config.scenario.speed_cmd_rpm.at(t);
+        let (mut health, mut transition) = (None, None);
         let (duties, est, mode, monitor) = match &mut self.controller {
             Controller::Bare(bare) => {
                 let (out, est) = bare.step(&BareInput {
@@ -505,12 +523,18 @@ impl Sim {
                     &cmd,
                 );
                 if let Some(tr) = out.transition {
+                    transition = Some(tr);
                     self.transitions.push((t, tr));
                     if let Reason::Fault(f) = tr.reason {
                         self.causes.fault.get_or_insert((self.k, f));
                     }
                 }
                 let tel = drive.telemetry();
+                health = Some(RowHealth {
+                    driving: tel.driving,
+                    residual_primary: tel.residual_primary as f64,
+                    residual_monitor: tel.residual_monitor as f64,
+                });
                 // The angle the controller runs on: the driving observer's while sensorless.
                 let sensorless = tel.mode == Mode::Sensorless;
                 let est = Estimate {
@@ -563,6 +587,8 @@ impl Sim {
             mode,
             theta_e_monitor_deg: monitor,
             sensorless: est.sensorless,
+            health,
+            transition,
         };
         let n_sub = self.config.substeps;
         let h = self.ts / n_sub as f64;

@@ -167,13 +167,14 @@ impl Summary {
             }
         }
         // Loss of lock while sensorless; in a run whose expected fault came, what follows its
-        // injected cause is that fault's business.
+        // injected cause (a blocked shaft: from the start) is that fault's business.
+        let cause_from_start = if sc.locked_rotor { 0.0 } else { f64::INFINITY };
         let lock_until = match (expected, run.drive_fault) {
             (Some(e), Some(f)) if e == f => sc
                 .drive
                 .as_ref()
                 .and_then(|d| d.injection)
-                .map_or(f64::INFINITY, |i| i.t()),
+                .map_or(cause_from_start, |i| i.t()),
             _ => f64::INFINITY,
         };
         let lost = run.rows.iter().find(|r| {

@@ -15,7 +15,7 @@
 
 use super::supervision::Lock;
 use super::{Drive, Fault, ModeState, ObserverStates, Reason, Sensorless};
-use crate::frames::AlphaBeta;
+use crate::frames::{AlphaBeta, SinCos};
 use crate::math::{atan2, sqrt};
 use crate::observer::{Observer, Rotor};
 use crate::units::RPM_PER_RAD_S;
@@ -40,14 +40,17 @@ pub(super) struct Settings {
 pub(super) struct Catch {
     /// Steps taken.
     steps: u32,
-    /// The terminal voltage of the first step \[V].
+    /// The terminal voltage of the last step \[V].
     v_first: AlphaBeta,
+    /// The observers have been seeded.
+    seeded: bool,
 }
 
 impl<P: Observer, M: Observer> Drive<P, M> {
     /// One catch step with the PWM off, `v_ab` the terminal voltage of the period that just
-    /// ended \[V], `i_ab` the currents \[A]: the seed at the second step, then the health
-    /// check at each check until an observer locks. Returns the mode to switch to, or a fault.
+    /// ended \[V], `i_ab` the currents \[A]: the seed (from the second step on), then the
+    /// health check at each check until an observer locks. Returns the mode to switch to, or
+    /// a fault.
     #[inline(always)]
     pub(super) fn catch_step(
         &self,
@@ -58,52 +61,63 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         v_ab: AlphaBeta,
     ) -> Option<Result<(ModeState, Reason), Fault>> {
         c.steps = c.steps.saturating_add(1);
-        match c.steps {
-            1 => {
-                c.v_first = v_ab;
-                None
-            }
-            2 => self.catch_seed(c, obs, i_ab, v_ab),
-            _ if supervision_slot => {
-                let (_, _) = self.supervise(obs, i_ab, 0.0);
-                if obs.health.usable() {
-                    cold_path();
-                    let (_, _, omega_m, load_nm) = self.driving(obs, crate::frames::SinCos::ZERO);
-                    let s = Sensorless::new(
-                        omega_m * RPM_PER_RAD_S,
-                        self.foc.current_for_torque(load_nm),
-                        self.foc.output_rotation(omega_m),
-                    );
-                    return Some(Ok((ModeState::Sensorless(s), Reason::Caught)));
-                }
-                // Steps, four to a check.
-                if c.steps >= 4 * self.catch.timeout_checks {
-                    cold_path();
-                    return Some(Err(Fault::ObserverLoss));
-                }
-                None
-            }
-            _ => None,
+        if !c.seeded {
+            cold_path();
+            return self.catch_seed(c, obs, i_ab, v_ab);
         }
+        if !supervision_slot {
+            return None;
+        }
+        self.supervise(obs, i_ab, 0.0);
+        if obs.health.usable() {
+            cold_path();
+            let (_, _, omega_m, load_nm) = self.driving(obs, SinCos::ZERO);
+            let s = Sensorless::new(
+                omega_m * RPM_PER_RAD_S,
+                self.foc.current_for_torque(load_nm),
+                self.foc.output_rotation(omega_m),
+            );
+            return Some(Ok((ModeState::Sensorless(s), Reason::Caught)));
+        }
+        // Steps, four to a check.
+        if c.steps >= 4 * self.catch.timeout_checks {
+            cold_path();
+            return Some(Err(Fault::ObserverLoss));
+        }
+        None
     }
 
-    /// The second step: at rest, or both observers seeded at the back-EMF's rotor.
+    /// Before the seed: two samples of back-EMF above `v_min` in a row (a first sample taken
+    /// before any period was measured reads zero), or the rotor at rest; then both observers
+    /// seeded at the back-EMF's rotor.
     // Out of line, like the mode changes: once a start.
     #[inline(never)]
     fn catch_seed(
         &self,
-        c: &Catch,
+        c: &mut Catch,
         obs: &mut ObserverStates<P::State, M::State>,
         i_ab: AlphaBeta,
         v_ab: AlphaBeta,
     ) -> Option<Result<(ModeState, Reason), Fault>> {
         let s = &self.catch;
         let emf = sqrt(v_ab.alpha * v_ab.alpha + v_ab.beta * v_ab.beta);
-        if !(emf >= s.v_min) {
+        let first = c.v_first;
+        let emf_first = sqrt(first.alpha * first.alpha + first.beta * first.beta);
+        c.v_first = v_ab;
+        // A back-EMF seen (false for a NaN sample too).
+        let (seen, seen_first) = (emf >= s.v_min, emf_first >= s.v_min);
+        if c.steps < 2 || !seen_first {
+            // A first sample, or the last one too small: the rotor at rest once two are.
+            if c.steps >= 3 && !seen {
+                return Some(Ok((ModeState::Align(Default::default()), Reason::AtRest)));
+            }
+            return None;
+        }
+        if !seen {
             return Some(Ok((ModeState::Align(Default::default()), Reason::AtRest)));
         }
         // The back-EMF turns with the rotor: its turn between the two samples is the sign.
-        let turn = c.v_first.alpha * v_ab.beta - c.v_first.beta * v_ab.alpha;
+        let turn = first.alpha * v_ab.beta - first.beta * v_ab.alpha;
         let sign = if turn < 0.0 { -1.0 } else { 1.0 };
         let omega_m = sign * emf * s.omega_m_per_v;
         let theta_mid = atan2(v_ab.beta, v_ab.alpha) - sign * FRAC_PI_2;
@@ -116,6 +130,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         self.monitor.seed(&mut obs.monitor, i_ab, rotor);
         obs.health.primary = Lock::default();
         obs.health.monitor = Lock::default();
+        c.seeded = true;
         None
     }
 }

@@ -147,9 +147,11 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                     return Outcome::Run(request);
                 }
                 let (_, _, omega_hat, _) = self.driving(obs, SinCos::ZERO);
-                // Pulled out: the rotor is not where the ramp is.
+                // Pulled out: the rotor is not where the ramp is (above the hand-back speed:
+                // below it a rotor still accelerating from rest lags the ramp too).
                 let off = (omega_hat - omega_m).abs() > 0.5 * omega_m.abs();
-                ol.pulled_out = consecutive(ol.pulled_out, off && ol.speed_rpm != 0.0);
+                let fast = ol.speed_rpm.abs() >= self.supervision.handback_rpm;
+                ol.pulled_out = consecutive(ol.pulled_out, off && fast);
                 let reached = ol.speed_rpm.abs() >= s.handover_rpm.min(cmd_rpm.abs());
                 if (reached && ol.speed_rpm != 0.0) || ol.pulled_out >= s.pullout_checks {
                     let sl = self.enter_sensorless(ol, obs);

@@ -75,7 +75,7 @@ pub struct Derived {
     /// The speed up to which the rated bus drives rated torque \[rpm].
     pub rated_torque_speed_rpm: f32,
     /// What will struggle, each once.
-    pub warnings: [Option<Warning>; 2],
+    pub warnings: [Option<Warning>; 3],
 }
 
 /// A setting the drive accepts but will struggle with: the setting, its value, the limit it
@@ -122,6 +122,19 @@ impl DriveConfig {
                 limit: ks_e2_speed_rpm,
                 what: "below this speed K_s is above (K_s,max)_E2: the sliding observer's \
                        unstable second equilibrium exists (Horng & Chin Sec 4)",
+            }),
+            // K_s outside its window: the sliding observer cannot be trusted anywhere.
+            self.sliding_torque().err().map(|e| Warning {
+                field: "ks",
+                value: e.value,
+                limit: if e.value > e.allowed.max {
+                    e.allowed.max
+                } else {
+                    e.allowed.min
+                },
+                what: "outside its window (Horng & Chin Sec 4): the sliding observer never \
+                       drives; the flux observer runs alone (build_flux_primary), a sliding \
+                       primary is refused",
             }),
             (rated_torque_speed_rpm < self.ratings.speed_rpm).then_some(Warning {
                 field: "ratings.speed_rpm",
