@@ -11,6 +11,7 @@ use crate::plant::{Plant, PlantParams};
 use crate::scenario::Injection;
 use crate::scenario::Scenario;
 use pmsm_sensorless::bounds::ks_min;
+use pmsm_sensorless::dead_time::DeadTimeConfig;
 use pmsm_sensorless::drive::{
     Command, Drive, DriveConfig, DriveInput, DriveOutput, Fault, Limits, Mode, Reason, Role,
     StateOf, Telemetry, Transition,
@@ -351,6 +352,10 @@ impl Sim {
             };
             let mut cfg = DriveConfig::new(&motor);
             cfg.rate_hz = config.rate_hz as f32;
+            // The board's figures as the user configures them: the plant's own (an ideal
+            // plant, dead time 0, gets no compensation).
+            cfg.power_stage.pwm_hz = config.pwm_hz as f32;
+            cfg.power_stage.dead_time_s = config.dead_time_s as f32;
             let err = |e| anyhow::anyhow!("drive configuration: {e}");
             let drive = match config.observer {
                 ObserverKind::SlidingTorque => running(cfg.build_sliding_primary().map_err(err)?),
@@ -367,6 +372,14 @@ impl Sim {
         } else {
             let mut foc_cfg = FocConfig::new(controller_motor, sc.i_max_a() as f32);
             foc_cfg.current_rate_hz = config.rate_hz as f32;
+            // The plant's dead time compensated, as the drive does (the drive's smooth-sign
+            // band: 5 % of the rated-torque current).
+            let band_a = DriveConfig::new(&sc.motor).power_stage.dead_time_band_a;
+            foc_cfg.dead_time = DeadTimeConfig {
+                dead_time_s: config.dead_time_s as f32,
+                pwm_hz: config.pwm_hz as f32,
+                band_a,
+            };
             let foc = foc_cfg
                 .build()
                 .map_err(|e| anyhow::anyhow!("controller configuration: {e}"))?;

@@ -6,6 +6,7 @@ use super::schedule::SLOTS;
 use super::supervision;
 use super::{align, catch, Drive};
 use crate::bounds::{ks_max_e2, ks_max_t};
+use crate::dead_time::DeadTimeConfig;
 use crate::foc::FocConfig;
 use crate::math::INV_SQRT3;
 use crate::motor::{Motor, MotorParams, Ratings};
@@ -84,6 +85,18 @@ pub struct HealthConfig {
     pub stall_time_s: f32,
 }
 
+/// The board's power stage as the drive compensates it (see [`crate::dead_time`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PowerStageConfig {
+    /// PWM (switching) frequency \[Hz], positive.
+    pub pwm_hz: f32,
+    /// Dead time per switching edge \[s], in `[0, 0.1/pwm_hz]`; 0 for no compensation.
+    pub dead_time_s: f32,
+    /// Width of the compensation's smooth sign \[A], > 0: a phase current of this or more
+    /// gets the full `t_d·f_pwm`.
+    pub dead_time_band_a: f32,
+}
+
 /// Everything the drive is built from. [`DriveConfig::new`] derives it from a motor.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DriveConfig {
@@ -101,6 +114,8 @@ pub struct DriveConfig {
     pub start: StartConfig,
     /// Health supervision.
     pub health: HealthConfig,
+    /// The power stage's PWM frequency and dead time, compensated.
+    pub power_stage: PowerStageConfig,
     /// The motor's ratings: the ranges of the limits are set from them, and the sliding gain
     /// must stay below (K_s,max)_E2 at the rated speed.
     pub ratings: Ratings,
@@ -112,10 +127,16 @@ impl DriveConfig {
     /// rated bus; align and open-loop currents 0.5 and 0.6 of the rated-torque current for
     /// 0.2 s and up the ramp; the ramp climbs the rated speed in a second; hand-over at 10 %
     /// of rated speed; hand-back (without a healthy observer) below 6 %; stopped below 2 %;
-    /// an observer healthy after 20 ms of residual below ½, lost after 3 ms at 1; observer
-    /// loss after 20 ms without a healthy one or of 30° or 10 % of rated speed contradiction;
-    /// stall after 0.5 s of open loop without lock or 0.1 s at the current limit below half
-    /// the speed reference.
+    /// an observer healthy after 20 ms of mean residual below ¼, lost after 3 ms at ½;
+    /// observer loss after 20 ms without a healthy one or of 30° or 10 % of rated speed
+    /// contradiction; stall after 0.5 s of open loop without lock or 0.1 s at the current
+    /// limit below half the speed reference. The power stage is the B-G431B-ESC1's (20 kHz
+    /// PWM, 500 ns dead time); the dead-time
+    /// compensation's smooth sign reaches full at 5 % of the rated-torque current: five
+    /// standard deviations of the 1 %-of-rated-current noise a board's sensing has
+    /// (`DESIGN.md`), so noise at a zero crossing moves the compensation by a fifth of it
+    /// per sample, not from one sign to the other; and a phase current of rated-torque
+    /// amplitude is below the band only 3 % of an electrical turn (|sin| < 0.05).
     pub fn new(motor: &Motor) -> Self {
         let i_rated = motor.rated_torque_current_a();
         let i_max = 1.5 * i_rated;
@@ -151,6 +172,11 @@ impl DriveConfig {
                 max_speed_disagreement_rpm: 0.1 * speed,
                 loss_time_s: 0.02,
                 stall_time_s: 0.1,
+            },
+            power_stage: PowerStageConfig {
+                pwm_hz: 20_000.0,
+                dead_time_s: 500e-9,
+                dead_time_band_a: 0.05 * i_rated,
             },
             ratings: motor.ratings,
         }
@@ -232,6 +258,14 @@ impl DriveConfig {
             "health.stall_time_s",
             h.stall_time_s,
             Allowed::above_up_to(0.0, 5.0),
+        );
+        self.dead_time_config().check(
+            &mut c,
+            [
+                "power_stage.pwm_hz",
+                "power_stage.dead_time_s",
+                "power_stage.dead_time_band_a",
+            ],
         );
         c.done()?;
         Ok(m)
@@ -315,6 +349,16 @@ impl DriveConfig {
         }
     }
 
+    /// The dead-time compensation's settings (unvalidated).
+    pub(super) fn dead_time_config(&self) -> DeadTimeConfig {
+        let p = self.power_stage;
+        DeadTimeConfig {
+            dead_time_s: p.dead_time_s,
+            pwm_hz: p.pwm_hz,
+            band_a: p.dead_time_band_a,
+        }
+    }
+
     /// The FOC's settings (unvalidated).
     pub(super) fn foc_config(&self) -> FocConfig {
         FocConfig {
@@ -323,6 +367,7 @@ impl DriveConfig {
             current_rate_hz: self.rate_hz,
             speed_divider: SLOTS,
             angle_advance_periods: ADVANCE_PERIODS,
+            dead_time: self.dead_time_config(),
             ..FocConfig::new(self.motor, self.limits.i_max_a)
         }
     }

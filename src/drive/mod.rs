@@ -14,7 +14,8 @@
 //!    only where no observer is healthy at low speed; fault from anywhere. Each mode returns a
 //!    [`Request`] (a frame and a current or voltage reference) and, rarely, the mode to switch
 //!    to;
-//! 5. the one FOC call site, [`Foc::run`]: current loop and SVPWM.
+//! 5. the one FOC call site, [`Foc::run`]: current loop, dead-time compensation
+//!    ([`crate::dead_time`], the board's figures in [`PowerStageConfig`]) and SVPWM.
 //!
 //! The 1 kHz work is spread over the four steps of each millisecond
 //! (`schedule.rs`); the checks of supervision
@@ -38,7 +39,7 @@ mod schedule;
 mod sensorless;
 mod supervision;
 
-pub use config::{DriveConfig, HealthConfig, Limits, StartConfig};
+pub use config::{DriveConfig, HealthConfig, Limits, PowerStageConfig, StartConfig};
 pub use io::{Command, DriveInput, DriveOutput, Fault, Mode, Reason, Role, Telemetry, Transition};
 pub use report::{Derived, Warning};
 pub use schedule::{Slot, SLOTS};
@@ -136,7 +137,8 @@ impl<PS, MS> DriveState<PS, MS> {
     }
 
     /// The voltage the last step's duties apply over the period \[V] (what the observers take
-    /// next step); zero before the first switching step.
+    /// next step), the inverter's dead time included ([`crate::foc::FocOutput::v_ab`]); zero
+    /// before the first switching step.
     pub fn v_ab_applied(&self) -> AlphaBeta {
         self.v_ab_last
     }

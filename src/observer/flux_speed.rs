@@ -13,7 +13,7 @@ use crate::observer::flux::{FluxObserver, FluxState};
 use crate::observer::ii::{IiObserver, IiState};
 use crate::observer::pll::{Pll, PllState};
 use crate::observer::{Observer, ReadOut, Rotor};
-use core::f32::consts::FRAC_PI_4;
+use core::f32::consts::FRAC_PI_2;
 
 /// The flux observer for θ̂_e and the PLL on its angle for ω̂.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -83,11 +83,14 @@ impl Observer for FluxPll {
     }
 
     /// The larger of the flux magnitude's residual ([`FluxObserver::magnitude_residual`]) and
-    /// the PLL's error on the coming angle over 45° (a PLL that follows its input has a small
-    /// error; its steady lag at 1000 rpm/s on the Sinano motor is 0.2°).
+    /// the PLL's error on the coming angle over 90°: the angle is the flux observer's, the
+    /// PLL only differentiates it, so its error says the speed estimate is slipping, not that
+    /// the angle is wrong. Its tracking error under an acceleration α is `α/ω_n²`: 25° for
+    /// rated torque applied at once to the Sinano motor (4.3e4 rad/s² electrical), 0.2° on
+    /// the 1000 rpm/s ramp; a slipping PLL swings through ±180°.
     #[inline(always)]
     fn residual(&self, st: &FluxPllState) -> f32 {
-        let pll_error = wrap_pi(st.flux.theta_e - st.pll.z1).abs() * (1.0 / FRAC_PI_4);
+        let pll_error = wrap_pi(st.flux.theta_e - st.pll.z1).abs() * (1.0 / FRAC_PI_2);
         max(self.flux.magnitude_residual(&st.flux), pll_error)
     }
 
