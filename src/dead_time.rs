@@ -40,8 +40,8 @@
 //!   today's duties and voltages bit for bit.
 //!
 //! Cost: the smooth sign is one multiply and a saturating float → integer → float conversion
-//! per phase (`VCVT` saturates in hardware; see [`DeadTime::error`]); the block is 28 FPU
-//! instructions, 32 cycles, and the drive's step grows by about 45 cycles on the emulated
+//! per phase (`VCVT` saturates in hardware; see [`DeadTime::error`]); the block is 27 FPU
+//! instructions, 30 cycles, and the drive's step grows by 30 to 36 cycles on the emulated
 //! Cortex-M4F (`pmsm-sim cycles`, register pressure included).
 
 use crate::frames::{Abc, AlphaBeta};
