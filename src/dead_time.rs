@@ -40,8 +40,8 @@
 //!   today's duties and voltages bit for bit.
 //!
 //! Cost: the smooth sign is one multiply and a saturating float → integer → float conversion
-//! per phase (`VCVT` saturates in hardware; see [`DeadTime::error`]); the block is 28 FPU
-//! instructions, 32 cycles, and the drive's step grows by about 45 cycles on the emulated
+//! per phase (`VCVT` saturates in hardware; see [`DeadTime::error`]); the block is 27 FPU
+//! instructions, 30 cycles, and the drive's step grows by 30 to 36 cycles on the emulated
 //! Cortex-M4F (`pmsm-sim cycles`, register pressure included).
 
 use crate::frames::{Abc, AlphaBeta};
@@ -119,14 +119,10 @@ impl DeadTimeConfig {
 /// The compensation's per-sample coefficients, built by [`DeadTimeConfig::build`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DeadTime {
-    /// `2³¹/band` \[1/A]: phase a's current at the smooth sign's integer scale.
-    gain_a: f32,
-    /// `(√3/2)·2³¹/band` \[1/A]: β's share of phases b and c at that scale.
-    gain_bc: f32,
-    /// `t_d·f_pwm·2⁻³¹/3`: from the integer-scaled signs to α of the error per volt of bus.
-    per_bus_alpha: f32,
-    /// `t_d·f_pwm·2⁻³¹/√3`: the same for β.
-    per_bus_beta: f32,
+    /// `2³¹/band` \[1/A]: a current at the smooth sign's integer scale.
+    gain: f32,
+    /// `t_d·f_pwm·2⁻³¹/3`: from the integer-scaled signs to the error per volt of bus.
+    per_bus: f32,
 }
 
 impl Default for DeadTime {
@@ -139,13 +135,9 @@ impl Default for DeadTime {
 impl DeadTime {
     /// The coefficients of `cfg`, validated by the caller ([`DeadTimeConfig::check`]).
     pub(crate) fn new(cfg: &DeadTimeConfig) -> Self {
-        let gain = SAT_SCALE / cfg.band_a;
-        let per_bus = cfg.duty() / SAT_SCALE;
         Self {
-            gain_a: gain,
-            gain_bc: SQRT3_OVER_2 * gain,
-            per_bus_alpha: per_bus * (1.0 / 3.0),
-            per_bus_beta: per_bus * INV_SQRT3,
+            gain: SAT_SCALE / cfg.band_a,
+            per_bus: cfg.duty() / SAT_SCALE * (1.0 / 3.0),
         }
     }
 
@@ -160,9 +152,10 @@ impl DeadTime {
     /// The signs of [`DeadTime::smooth_signs`] at the scale 2³¹.
     #[inline(always)]
     fn scaled_signs(&self, i_ab: AlphaBeta) -> (f32, f32, f32) {
-        // Inverse Clarke at the sign's scale: x_a = α, x_b,c = −α/2 ± (√3/2) β.
-        let x_a = self.gain_a * i_ab.alpha;
-        let y = self.gain_bc * i_ab.beta;
+        // Inverse Clarke at the sign's scale: x_a = α, x_b,c = −α/2 ± (√3/2) β (the −1/2 and
+        // √3/2 are SVPWM's too: one register each).
+        let x_a = self.gain * i_ab.alpha;
+        let y = (self.gain * i_ab.beta) * SQRT3_OVER_2;
         let h = -0.5 * x_a;
         (sat(x_a), sat(h + y), sat(h - y))
     }
@@ -182,14 +175,12 @@ impl DeadTime {
     #[inline(always)]
     pub fn error(&self, i_ab: AlphaBeta, v_bus: f32) -> AlphaBeta {
         let (q_a, q_b, q_c) = self.scaled_signs(i_ab);
-        // Clarke: α = (2a − b − c)/3, β = (b − c)/√3; the 1/3, 1/√3, t_d·f_pwm and 2⁻³¹ folded
-        // into one coefficient each.
+        // Clarke: α = (2a − b − c)/3, β = (b − c)/√3 = 2(b − c)(√3/2)/3; the 1/3, t_d·f_pwm
+        // and 2⁻³¹ folded into one coefficient.
+        let u = v_bus * self.per_bus;
         let alpha = (q_a + q_a) - (q_b + q_c);
         let beta = q_b - q_c;
-        AlphaBeta::new(
-            alpha * (v_bus * self.per_bus_alpha),
-            beta * (v_bus * self.per_bus_beta),
-        )
+        AlphaBeta::new(alpha * u, ((beta + beta) * u) * SQRT3_OVER_2)
     }
 }
 

@@ -547,11 +547,15 @@ impl Foc {
             let e = self.dead_time.error(input.i_ab, input.v_bus);
             let v = AlphaBeta::new(v_ab_cmd.alpha + e.alpha, v_ab_cmd.beta + e.beta);
             let pwm = svpwm_limited(v, input.v_bus);
-            let applied = pwm.v_ab_applied;
-            (
-                pwm,
-                AlphaBeta::new(applied.alpha - e.alpha, applied.beta - e.beta),
-            )
+            // Not cut: SVPWM applied `v` itself, the inverter `v_cmd` (exactly).
+            let applied = if pwm.saturated {
+                cold_path();
+                let a = pwm.v_ab_applied;
+                AlphaBeta::new(a.alpha - e.alpha, a.beta - e.beta)
+            } else {
+                v_ab_cmd
+            };
+            (pwm, applied)
         } else {
             cold_path();
             (Svpwm::OFF, AlphaBeta::default())
