@@ -16,6 +16,7 @@ pub mod dead_time;
 pub mod drive;
 pub mod foc;
 pub mod frames;
+pub mod load_observer;
 pub mod math;
 pub mod motor;
 pub mod observer;

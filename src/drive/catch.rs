@@ -14,11 +14,10 @@
 //! SDK "on-the-fly start-up", VESC's observer on the sensed phase voltages).
 
 use super::supervision::Lock;
-use super::{Drive, Fault, ModeState, ObserverStates, Reason, Sensorless};
+use super::{Drive, Fault, ModeState, ObserverStates, Reason};
 use crate::frames::{AlphaBeta, SinCos};
 use crate::math::{atan2, sqrt};
 use crate::observer::{Observer, Rotor};
-use crate::units::RPM_PER_RAD_S;
 use core::f32::consts::FRAC_PI_2;
 use core::hint::cold_path;
 
@@ -72,11 +71,8 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         if obs.health.usable() {
             cold_path();
             let (_, _, omega_m, load_nm) = self.driving(obs, SinCos::ZERO);
-            let s = Sensorless::new(
-                omega_m * RPM_PER_RAD_S,
-                self.foc.current_for_torque(load_nm),
-                self.foc.output_rotation(omega_m),
-            );
+            let i_q = self.foc.current_for_torque(load_nm.unwrap_or(0.0));
+            let s = self.sensorless_at(omega_m, i_q);
             return Some(Ok((ModeState::Sensorless(s), Reason::Caught)));
         }
         // Steps, four to a check.

@@ -8,6 +8,7 @@ use super::{align, catch, Drive};
 use crate::bounds::{ks_max_e2, ks_max_t};
 use crate::dead_time::DeadTimeConfig;
 use crate::foc::FocConfig;
+use crate::load_observer::LoadObserverConfig;
 use crate::math::INV_SQRT3;
 use crate::motor::{Motor, MotorParams, Ratings};
 use crate::observer::flux::FluxConfig;
@@ -81,7 +82,7 @@ pub struct HealthConfig {
     /// No healthy observer (or a contradiction) this long is an observer loss \[s].
     pub loss_time_s: f32,
     /// Speed collapse: the speed loop at its current limit with |ω̂| below half the reference
-    /// for this long is a stall \[s] (five times as long below the limit).
+    /// for this long is a stall \[s].
     pub stall_time_s: f32,
 }
 
@@ -359,6 +360,18 @@ impl DriveConfig {
         }
     }
 
+    /// The speed loop's load-torque observer: the motor's mechanics, as fast as the speed
+    /// loop, at its rate (unvalidated).
+    pub(super) fn load_observer_config(&self) -> LoadObserverConfig {
+        LoadObserverConfig {
+            j_kgm2: self.motor.j_kgm2,
+            b_nms: self.motor.b_nms,
+            torque_constant: self.motor.torque_constant(),
+            bandwidth_hz: self.speed_bandwidth_hz,
+            rate_hz: self.rate_hz / SLOTS as f32,
+        }
+    }
+
     /// The FOC's settings (unvalidated).
     pub(super) fn foc_config(&self) -> FocConfig {
         FocConfig {
@@ -404,6 +417,7 @@ impl DriveConfig {
             monitor,
             foc,
             slew_per_slot_cycle_rpm: s.accel_rpm_per_s * ts * SLOTS as f32,
+            load_observer: self.load_observer_config().build()?,
             max_speed_rpm: self.ratings.speed_rpm,
             limits: l,
             catch: catch::Settings {
@@ -434,7 +448,6 @@ impl DriveConfig {
                 max_disagreement: h.max_disagreement_deg * RAD_PER_DEG,
                 max_speed_disagreement_rpm: h.max_speed_disagreement_rpm,
                 stall_checks: slot_cycles(h.stall_time_s).max(1),
-                stall_checks_unlimited: 5 * slot_cycles(h.stall_time_s).max(1),
                 i_limit_a: 0.99 * l.i_max_a,
                 handback_rpm: s.handback_rpm,
                 stop_rpm: s.stop_rpm,

@@ -46,6 +46,7 @@ pub use schedule::{Slot, SLOTS};
 
 use crate::foc::{CurrentLoopState, Foc, Request};
 use crate::frames::{AlphaBeta, SinCos};
+use crate::load_observer::LoadObserver;
 use crate::math::atan2;
 use crate::math::clamp;
 use crate::observer::{Observer, ReadOut, Rotor};
@@ -68,6 +69,8 @@ pub struct Drive<P, M> {
     /// Speed-reference slew per slot cycle (the speed loop's period), also the open-loop
     /// frequency ramp \[rpm].
     slew_per_slot_cycle_rpm: f32,
+    /// The speed loop's load-torque observer, for a driving observer without one.
+    load_observer: LoadObserver,
     /// The speed command is limited to ± this \[rpm] (the rated speed).
     max_speed_rpm: f32,
     limits: Limits,
@@ -334,11 +337,8 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             theta_monitor: self.monitor.theta_e(&st.obs.monitor),
         };
         st.obs.health = Health::AT_KNOWN_STATE;
-        st.mode = ModeState::Sensorless(Sensorless::new(
-            rotor.omega_m * RPM_PER_RAD_S,
-            self.foc.current_for_torque(rotor.load_nm),
-            self.foc.output_rotation(rotor.omega_m),
-        ));
+        let i_q = self.foc.current_for_torque(rotor.load_nm);
+        st.mode = ModeState::Sensorless(self.sensorless_at(rotor.omega_m, i_q));
         st
     }
 
@@ -505,25 +505,33 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     }
 
     /// The driving observer's frame now, its output frame turned by `lead`, its speed
-    /// [rad/s, mechanical] and its load-torque estimate \[N·m] (0 without one).
+    /// [rad/s, mechanical] and its load-torque estimate \[N·m], if it has one.
     #[inline(always)]
     fn driving(
         &self,
         obs: &ObserverStates<P::State, M::State>,
         lead: SinCos,
-    ) -> (SinCos, SinCos, f32, f32) {
+    ) -> (SinCos, SinCos, f32, Option<f32>) {
         match obs.health.driving {
             Role::Primary => {
                 let (o, st) = (&self.primary, &obs.primary);
                 let f = o.sin_cos(st);
-                let load = o.load_nm(st).unwrap_or(0.0);
-                (f, o.sin_cos_output(st, f, lead), o.omega_m(st), load)
+                (
+                    f,
+                    o.sin_cos_output(st, f, lead),
+                    o.omega_m(st),
+                    o.load_nm(st),
+                )
             }
             Role::Monitor => {
                 let (o, st) = (&self.monitor, &obs.monitor);
                 let f = o.sin_cos(st);
-                let load = o.load_nm(st).unwrap_or(0.0);
-                (f, o.sin_cos_output(st, f, lead), o.omega_m(st), load)
+                (
+                    f,
+                    o.sin_cos_output(st, f, lead),
+                    o.omega_m(st),
+                    o.load_nm(st),
+                )
             }
         }
     }
@@ -567,7 +575,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         let rotor = Rotor {
             theta_e: atan2(frame.sin, frame.cos),
             omega_m,
-            load_nm: if load != 0.0 { load } else { load_nm },
+            load_nm: load.unwrap_or(load_nm),
         };
         if seed.primary {
             self.primary.seed(&mut obs.primary, i_ab, rotor);

@@ -5,11 +5,12 @@
 //!
 //! Supervised by the observers (the flux observer, seeded at the aligned rotor, sees the rotor
 //! from the first turn; `supervision.rs`): closed loop on the first usable observer once the
-//! ramp has reached the hand-over speed (or the command, if lower), at once when that observer
-//! sees the rotor pulled out of the ramp (its speed off ω_ol by half: the load is more than the
-//! I/f current carries, and the speed loop has up to `i_max_a`); a stall when no observer has
-//! locked within the time limit, at any speed; stopped when the ramp is at zero with a zero
-//! command.
+//! ramp has reached the hand-over speed (or the command, if lower) with the rotor seen
+//! following it, at once when that observer sees the rotor pulled out of the ramp above the
+//! hand-back speed (its speed off ω_ol by half: the load is more than the I/f current carries,
+//! and the speed loop has up to `i_max_a`); a stall when no hand-over came within the time
+//! limit, at any speed (a blocked rotor at a small command); stopped when the ramp is at zero
+//! with a zero command.
 
 use super::schedule::Slot;
 use super::sensorless::Sensorless;
@@ -34,7 +35,7 @@ pub(super) struct Settings {
     /// Checks in open loop before a stall: the ramp to the hand-over speed and the hand-over
     /// time limit.
     pub(super) timeout_checks: u32,
-    /// Checks of a pulled-out rotor before the hand-over.
+    /// Checks of a rotor pulled out of the ramp, or following it, before the hand-over.
     pub(super) pullout_checks: u32,
 }
 
@@ -53,6 +54,8 @@ pub(super) struct OpenLoop {
     checks: u32,
     /// Consecutive checks with the rotor pulled out of the ramp.
     pulled_out: u32,
+    /// Consecutive checks with the rotor following the ramp.
+    following: u32,
 }
 
 impl OpenLoop {
@@ -64,6 +67,7 @@ impl OpenLoop {
         speed_rpm: 0.0,
         checks: 0,
         pulled_out: 0,
+        following: 0,
     };
 
     /// sin/cos of θ_ol.
@@ -152,8 +156,13 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 let off = (omega_hat - omega_m).abs() > 0.5 * omega_m.abs();
                 let fast = ol.speed_rpm.abs() >= self.supervision.handback_rpm;
                 ol.pulled_out = consecutive(ol.pulled_out, off && fast);
+                // Seen following the ramp at the hand-over speed (or the command, if lower):
+                // below it a blocked rotor shows no back-EMF, so the observer must see it turn
+                // with the I/f current's frame, which it does even at a standstill.
                 let reached = ol.speed_rpm.abs() >= s.handover_rpm.min(cmd_rpm.abs());
-                if (reached && ol.speed_rpm != 0.0) || ol.pulled_out >= s.pullout_checks {
+                ol.following = consecutive(ol.following, !off && ol.speed_rpm != 0.0);
+                let seen_following = ol.following >= s.pullout_checks;
+                if (reached && seen_following) || ol.pulled_out >= s.pullout_checks {
                     let sl = self.enter_sensorless(ol, obs);
                     return Outcome::Switch(request, ModeState::Sensorless(sl), Reason::HandOver);
                 }
@@ -181,11 +190,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         let (p, _, omega_m, _) = self.driving(obs, SinCos::ZERO);
         // sin(θ_ol − θ̂) of this sample.
         let sin_load_angle = ol.frame.sin * p.cos - ol.frame.cos * p.sin;
-        Sensorless::new(
-            omega_m * RPM_PER_RAD_S,
-            self.open_loop.current_a * sin_load_angle,
-            self.foc.output_rotation(omega_m),
-        )
+        self.sensorless_at(omega_m, self.open_loop.current_a * sin_load_angle)
     }
 }
 

@@ -6,10 +6,11 @@
 
 use super::open_loop::slew;
 use super::schedule::Slot;
-use super::supervision::{StallCount, Verdict};
+use super::supervision::Verdict;
 use super::{Drive, Fault, ModeState, ObserverStates, Outcome, Reason};
 use crate::foc::{Reference, Request};
 use crate::frames::{AlphaBeta, Dq, SinCos};
+use crate::load_observer::LoadObserverState;
 use crate::observer::Observer;
 use crate::pi::PiState;
 use crate::units::{RAD_S_PER_RPM, RPM_PER_RAD_S};
@@ -27,23 +28,13 @@ pub(super) struct Sensorless {
     /// (`Foc::output_rotation`), renewed in [`Slot::SpeedReadOut`] (the speed read-outs move at
     /// 1 kHz).
     out_rot: SinCos,
-    /// The stall counts.
-    stall: StallCount,
+    /// Consecutive checks of a collapsed speed at the current limit.
+    stall: u32,
+    /// The speed loop's load-torque observer (`load_observer.rs`).
+    load: LoadObserverState,
 }
 
 impl Sensorless {
-    /// Sensorless control from the reference `speed_ref_rpm`, with the speed loop's integrator
-    /// (and command) at `i_q_a` \[A] and the output lead `out_rot`.
-    pub(super) fn new(speed_ref_rpm: f32, i_q_a: f32, out_rot: SinCos) -> Self {
-        Self {
-            speed_ref_rpm,
-            speed_pi: PiState { integral: i_q_a },
-            i_q_ref: i_q_a,
-            out_rot,
-            stall: StallCount::default(),
-        }
-    }
-
     /// Slewed speed reference \[rpm].
     pub(super) fn speed_ref_rpm(&self) -> f32 {
         self.speed_ref_rpm
@@ -51,6 +42,25 @@ impl Sensorless {
 }
 
 impl<P: Observer, M: Observer> Drive<P, M> {
+    /// Sensorless control of a rotor at `omega_m` \[rad/s]: the reference there, the speed
+    /// loop's integrator (and command) at `i_q_a` \[A], the load-torque observer at the torque
+    /// it makes.
+    // Out of line, like the other mode changes: rare, kept off the every-step path.
+    #[inline(never)]
+    pub(super) fn sensorless_at(&self, omega_m: f32, i_q_a: f32) -> Sensorless {
+        let mut load = LoadObserverState::default();
+        let torque = self.foc.torque_for_current(i_q_a);
+        self.load_observer.reset(&mut load, torque, omega_m);
+        Sensorless {
+            speed_ref_rpm: omega_m * RPM_PER_RAD_S,
+            speed_pi: PiState { integral: i_q_a },
+            i_q_ref: i_q_a,
+            out_rot: self.foc.output_rotation(omega_m),
+            stall: 0,
+            load,
+        }
+    }
+
     /// One sensorless step: the speed loop (in [`Slot::SpeedLoop`]), supervision (in
     /// [`Slot::Supervision`]), the output lead at the new speed (in [`Slot::SpeedReadOut`]); the
     /// request is the speed loop's i_q in the driving observer's frame. An observer that could
@@ -74,9 +84,12 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             Slot::SpeedLoop => {
                 s.speed_ref_rpm = slew(s.speed_ref_rpm, cmd_rpm, self.slew_per_slot_cycle_rpm);
                 let omega_m_ref = s.speed_ref_rpm * RAD_S_PER_RPM;
+                // The driving observer's load estimate fed forward, else the speed loop's own.
+                let own = self.load_observer.update(&mut s.load, omega_m, s.i_q_ref);
+                let ff_nm = load_nm.unwrap_or(own);
                 s.i_q_ref = self
                     .foc
-                    .speed_step(&mut s.speed_pi, omega_m_ref, omega_m, load_nm);
+                    .speed_step(&mut s.speed_pi, omega_m_ref, omega_m, ff_nm);
             }
             Slot::Supervision => {
                 let torque = self.foc.torque_for_current(s.i_q_ref);

@@ -59,9 +59,6 @@ pub(super) struct Settings {
     pub(super) max_speed_disagreement_rpm: f32,
     /// Checks of collapsed speed at the current limit before a stall.
     pub(super) stall_checks: u32,
-    /// Checks of collapsed speed below the current limit before a stall (a locked rotor at a
-    /// small command, where the speed loop's integrator needs long to reach the limit).
-    pub(super) stall_checks_unlimited: u32,
     /// |i_q command| at or above this is the speed loop at its limit \[A].
     pub(super) i_limit_a: f32,
     /// Without a usable observer, below this |speed| and |reference| open loop takes over
@@ -307,31 +304,23 @@ impl Settings {
     }
 
     /// Sensorless stall: the speed `omega_m` [rad/s] of the driving observer below half the
-    /// slewed reference `speed_ref_rpm` (or turning the wrong way) for `stall_checks` with the
-    /// speed loop's command `i_q_ref_a` at its limit, or for `stall_checks_unlimited` without.
+    /// slewed reference `speed_ref_rpm` (or turning the wrong way) for `stall_checks` in a row
+    /// with the speed loop's command `i_q_ref_a` at its limit. (A rotor blocked before it
+    /// turned never leaves the open loop: it is not seen following the ramp.)
     #[inline(always)]
     pub(super) fn stalled(
         &self,
-        count: &mut StallCount,
+        count: &mut u32,
         omega_m: f32,
         speed_ref_rpm: f32,
         i_q_ref_a: f32,
     ) -> bool {
         let speed = omega_m * RPM_PER_RAD_S;
         let along = if speed_ref_rpm < 0.0 { -speed } else { speed };
-        let collapsed = along < 0.5 * speed_ref_rpm.abs();
         let at_limit = i_q_ref_a.abs() >= self.i_limit_a;
-        count.at_limit = consecutive(count.at_limit, collapsed && at_limit);
-        count.any = consecutive(count.any, collapsed);
-        count.at_limit >= self.stall_checks || count.any >= self.stall_checks_unlimited
+        *count = consecutive(*count, along < 0.5 * speed_ref_rpm.abs() && at_limit);
+        *count >= self.stall_checks
     }
-}
-
-/// The stall counts, kept by sensorless control.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub(super) struct StallCount {
-    at_limit: u32,
-    any: u32,
 }
 
 /// A count of consecutive checks in which a condition held: one more if it holds, else 0.
