@@ -50,7 +50,8 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     /// ended \[V], `i_ab` the currents \[A]: the seed (from the second step on), then the
     /// health check at each check until an observer locks. Returns the mode to switch to, or
     /// a fault.
-    #[inline(always)]
+    // Out of line, like the mode changes: only between an enable and the start.
+    #[inline(never)]
     pub(super) fn catch_step(
         &self,
         c: &mut Catch,

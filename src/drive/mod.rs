@@ -540,7 +540,8 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     /// for: a seeded observer starts at the driving one's angle now, speed and load (its
     /// own estimate, else `load_nm` \[N·m], the torque the controller makes). Returns the
     /// verdict and, when the driving observer changed, why.
-    #[inline(always)]
+    // Out of line: a thousandth of a second's work, called from three modes.
+    #[inline(never)]
     fn supervise(
         &self,
         obs: &mut ObserverStates<P::State, M::State>,

@@ -107,7 +107,9 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     /// One open-loop step: the ramp (in [`Slot::SpeedLoop`]), the frame turned, the stop at
     /// zero, the health check and the hand-over (in [`Slot::Supervision`]); the request is the
     /// I/f current in θ_ol's frame.
-    #[inline(always)]
+    // Out of line (in flash on a board whose step runs from RAM): the start-up's, not the
+    // running drive's.
+    #[inline(never)]
     pub(super) fn open_loop_step(
         &self,
         ol: &mut OpenLoop,
