@@ -269,6 +269,8 @@ enum Controller {
 trait SimDrive {
     /// [`Drive::step`].
     fn step(&mut self, input: &DriveInput, cmd: &Command) -> DriveOutput;
+    /// [`Drive::tick`] when it is due after the last step (once a millisecond).
+    fn tick(&mut self, cmd: &Command) -> Option<Transition>;
     /// [`Drive::telemetry`].
     fn telemetry(&self) -> Telemetry;
     /// The voltage the last step's duties apply \[V].
@@ -283,6 +285,13 @@ struct Running<P: Observer, M: Observer> {
 impl<P: Observer, M: Observer> SimDrive for Running<P, M> {
     fn step(&mut self, input: &DriveInput, cmd: &Command) -> DriveOutput {
         self.drive.step(&mut self.state, input, cmd)
+    }
+    fn tick(&mut self, cmd: &Command) -> Option<Transition> {
+        if self.state.tick_due() {
+            self.drive.tick(&mut self.state, cmd)
+        } else {
+            None
+        }
     }
     fn telemetry(&self) -> Telemetry {
         self.drive.telemetry(&self.state)
@@ -535,7 +544,9 @@ impl Sim {
                     },
                     &cmd,
                 );
-                if let Some(tr) = out.transition {
+                // The step, then the 1 kHz task when due (as a board runs it after the
+                // interrupt).
+                for tr in [out.transition, drive.tick(&cmd)].into_iter().flatten() {
                     transition = Some(tr);
                     self.transitions.push((t, tr));
                     if let Reason::Fault(f) = tr.reason {

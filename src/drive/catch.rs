@@ -14,12 +14,11 @@
 //! SDK "on-the-fly start-up", VESC's observer on the sensed phase voltages).
 
 use super::supervision::Lock;
-use super::{Drive, Fault, ModeState, ObserverStates, Reason};
+use super::{Drive, Fault, ModeState, Next, ObserverStates, Reason};
 use crate::frames::{AlphaBeta, SinCos};
 use crate::math::{atan2, sqrt};
 use crate::observer::{Observer, Rotor};
 use core::f32::consts::FRAC_PI_2;
-use core::hint::cold_path;
 
 /// Catch's coefficients.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -43,45 +42,55 @@ pub(super) struct Catch {
     v_first: AlphaBeta,
     /// The observers have been seeded.
     seeded: bool,
+    /// Checks since the seed.
+    checks: u32,
 }
 
 impl<P: Observer, M: Observer> Drive<P, M> {
     /// One catch step with the PWM off, `v_ab` the terminal voltage of the period that just
-    /// ended \[V], `i_ab` the currents \[A]: the seed (from the second step on), then the
-    /// health check at each check until an observer locks. Returns the mode to switch to, or
-    /// a fault.
+    /// ended \[V], `i_ab` the currents \[A]: the seed (from the second step on). Returns the
+    /// alignment when the rotor is at rest.
     // Out of line, like the mode changes: only between an enable and the start.
     #[inline(never)]
     pub(super) fn catch_step(
         &self,
         c: &mut Catch,
         obs: &mut ObserverStates<P::State, M::State>,
-        supervision_slot: bool,
         i_ab: AlphaBeta,
         v_ab: AlphaBeta,
-    ) -> Option<Result<(ModeState, Reason), Fault>> {
+    ) -> Option<ModeState> {
         c.steps = c.steps.saturating_add(1);
-        if !c.seeded {
-            cold_path();
-            return self.catch_seed(c, obs, i_ab, v_ab);
-        }
-        if !supervision_slot {
+        if c.seeded {
             return None;
+        }
+        self.catch_seed(c, obs, i_ab, v_ab)
+    }
+
+    /// Catch's 1 kHz work ([`Drive::tick`]): after the seed, the health check until an
+    /// observer locks (closed loop at its speed with zero current) or the time limit (an
+    /// observer loss).
+    #[inline(never)]
+    pub(super) fn catch_tick(
+        &self,
+        c: &mut Catch,
+        obs: &mut ObserverStates<P::State, M::State>,
+        i_ab: AlphaBeta,
+    ) -> Next {
+        if !c.seeded {
+            return Next::Stay;
         }
         self.supervise(obs, i_ab, 0.0);
         if obs.health.usable() {
-            cold_path();
             let (_, _, omega_m, load_nm) = self.driving(obs, SinCos::ZERO);
             let i_q = self.foc.current_for_torque(load_nm.unwrap_or(0.0));
             let s = self.sensorless_at(omega_m, i_q);
-            return Some(Ok((ModeState::Sensorless(s), Reason::Caught)));
+            return Next::Switch(ModeState::Sensorless(s), Reason::Caught);
         }
-        // Steps, four to a check.
-        if c.steps >= 4 * self.catch.timeout_checks {
-            cold_path();
-            return Some(Err(Fault::ObserverLoss));
+        c.checks = c.checks.saturating_add(1);
+        if c.checks >= self.catch.timeout_checks {
+            return Next::Fault(Fault::ObserverLoss);
         }
-        None
+        Next::Stay
     }
 
     /// Before the seed: two samples of back-EMF above `v_min` in a row (a first sample taken
@@ -95,7 +104,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         obs: &mut ObserverStates<P::State, M::State>,
         i_ab: AlphaBeta,
         v_ab: AlphaBeta,
-    ) -> Option<Result<(ModeState, Reason), Fault>> {
+    ) -> Option<ModeState> {
         let s = &self.catch;
         let emf = sqrt(v_ab.alpha * v_ab.alpha + v_ab.beta * v_ab.beta);
         let first = c.v_first;
@@ -106,12 +115,12 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         if c.steps < 2 || !seen_first {
             // A first sample, or the last one too small: the rotor at rest once two are.
             if c.steps >= 3 && !seen {
-                return Some(Ok((ModeState::Align(Default::default()), Reason::AtRest)));
+                return Some(ModeState::Align(Default::default()));
             }
             return None;
         }
         if !seen {
-            return Some(Ok((ModeState::Align(Default::default()), Reason::AtRest)));
+            return Some(ModeState::Align(Default::default()));
         }
         // The back-EMF turns with the rotor: its turn between the two samples is the sign.
         let turn = first.alpha * v_ab.beta - first.beta * v_ab.alpha;

@@ -139,6 +139,11 @@ impl<PS, MS> DriveState<PS, MS> {
         self.slot
     }
 
+    /// The last step was the [`SLOTS`]th of its millisecond: [`Drive::tick`] is due now.
+    pub fn tick_due(&self) -> bool {
+        self.slot == Slot::AngleReadOut
+    }
+
     /// The voltage the last step's duties apply over the period \[V] (what the observers take
     /// next step), the inverter's dead time included ([`crate::foc::FocOutput::v_ab`]); zero
     /// before the first switching step.
@@ -212,11 +217,21 @@ enum Outcome {
     Run(Request),
     /// Apply the request, and switch to the mode for the next step.
     Switch(Request, ModeState, Reason),
-    /// Apply the request; within the mode, the driving observer changed.
-    Note(Request, Reason),
     /// Stop switching: a fault.
     Fault(Fault),
-    /// Stop switching: stopped at zero speed with a zero command (back to idle).
+}
+
+/// What a mode's [`Drive::tick`] decided.
+enum Next {
+    /// Carry on.
+    Stay,
+    /// Carry on; within the mode, the driving observer changed.
+    Note(Reason),
+    /// Switch to the mode from the next step on.
+    Switch(ModeState, Reason),
+    /// Stop switching: a fault.
+    Fault(Fault),
+    /// Stopped at zero speed with a zero command (back to idle).
     Stopped,
 }
 
@@ -276,8 +291,6 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             _ => {}
         }
         // 3.-5. Observers, the mode's step, FOC.
-        // The command within the ratings.
-        let cmd_rpm = clamp(cmd.speed_rpm, -self.max_speed_rpm, self.max_speed_rpm);
         let duties = match st.mode {
             ModeState::Idle | ModeState::Fault(_) => None,
             _ => {
@@ -288,8 +301,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                     _ => st.v_ab_last,
                 };
                 let ok = self.observe(st, i_ab, v_ab);
-                let (duties, r) =
-                    self.control(st, input.v_bus, cmd_rpm, i_ab, input.v_ab_terminal, ok);
+                let (duties, r) = self.control(st, input.v_bus, i_ab, input.v_ab_terminal, ok);
                 if r.is_some() {
                     reason = r;
                 }
@@ -298,14 +310,72 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         };
         st.slot = st.slot.next();
         let to = st.mode();
-        // Mode changes, and the changes of the driving observer within a mode.
-        let within = matches!(reason, Some(Reason::Failover | Reason::PrimaryDrives));
         DriveOutput {
             duties: if to == Mode::Fault { None } else { duties },
             transition: reason
-                .filter(|_| to != from || within)
+                .filter(|_| to != from)
                 .map(|reason| Transition { from, to, reason }),
         }
+    }
+
+    /// The drive's 1 kHz task: call it once after every [`SLOTS`]th [`Drive::step`] (when
+    /// [`DriveState::slot`] is back at its first), never while a step runs; on a board from a
+    /// context the step's interrupt cannot preempt in the middle of it (a critical section
+    /// in the main loop: a few µs of interrupt latency). It runs the observers' read-outs
+    /// (the flux observer's arctangent, the PLL), the health check and its seeds and failover
+    /// (`supervision.rs`), each mode's decisions (hand-over, hand-back, stall, stop, the
+    /// open-loop ramp) and the speed loop. The step applies its results from the next sample
+    /// on: a fault found here turns the PWM off there. Returns the mode change or the change
+    /// of the driving observer it made.
+    ///
+    /// Split from the step as a drive's medium-frequency task is from its current loop (ST's
+    /// motor-control SDK runs its speed loop and state machine so): the 4 kHz interrupt keeps
+    /// only what every sample needs.
+    #[inline(never)]
+    pub fn tick(&self, st: &mut StateOf<P, M>, cmd: &Command) -> Option<Transition> {
+        let from = st.mode();
+        if matches!(
+            st.mode,
+            ModeState::Idle | ModeState::Fault(_) | ModeState::Align(_)
+        ) {
+            return None;
+        }
+        let obs = &mut st.obs;
+        self.primary.read_out(&mut obs.primary, ReadOut::Angle);
+        self.monitor.read_out(&mut obs.monitor, ReadOut::Angle);
+        obs.sample = AngleSample {
+            theta_primary: self.primary.theta_e(&obs.primary),
+            theta_monitor: self.monitor.theta_e(&obs.monitor),
+        };
+        self.primary.read_out(&mut obs.primary, ReadOut::Speed);
+        self.monitor.read_out(&mut obs.monitor, ReadOut::Speed);
+        // The command within the ratings.
+        let cmd_rpm = clamp(cmd.speed_rpm, -self.max_speed_rpm, self.max_speed_rpm);
+        let i_ab = st.i_ab_last;
+        let next = match &mut st.mode {
+            ModeState::Catch(c) => self.catch_tick(c, obs, i_ab),
+            ModeState::OpenLoop(ol) => self.open_loop_tick(ol, obs, cmd_rpm, i_ab),
+            ModeState::Sensorless(s) => self.sensorless_tick(s, obs, cmd_rpm, i_ab),
+            ModeState::Idle | ModeState::Fault(_) | ModeState::Align(_) => Next::Stay,
+        };
+        let reason = match next {
+            Next::Stay => return None,
+            Next::Note(reason) => reason,
+            Next::Switch(mode, reason) => {
+                st.mode = mode;
+                reason
+            }
+            Next::Fault(f) => enter_fault(st, f),
+            Next::Stopped => {
+                *st = DriveState::default();
+                Reason::Stopped
+            }
+        };
+        Some(Transition {
+            from,
+            to: st.mode(),
+            reason,
+        })
     }
 
     /// One period on a power stage: its sample, [`Drive::step`], the duties (or PWM off)
@@ -393,29 +463,15 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         }
     }
 
-    /// Runs both observers on this sample (`i_ab` measured now, `v` applied over the period
-    /// that just ended), and their read-outs in their slots; false if either could not update.
+    /// Runs both observers' state equations on this sample (`i_ab` measured now, `v` applied
+    /// over the period that just ended); false if either could not update. Their read-outs
+    /// are [`Drive::tick`]'s.
     #[inline(always)]
     fn observe(&self, st: &mut StateOf<P, M>, i_ab: AlphaBeta, v: AlphaBeta) -> bool {
         st.i_ab_last = i_ab;
         let obs = &mut st.obs;
         let ok_p = self.primary.update(&mut obs.primary, i_ab, v);
         let ok_m = self.monitor.update(&mut obs.monitor, i_ab, v);
-        match st.slot {
-            Slot::AngleReadOut => {
-                self.primary.read_out(&mut obs.primary, ReadOut::Angle);
-                self.monitor.read_out(&mut obs.monitor, ReadOut::Angle);
-                obs.sample = AngleSample {
-                    theta_primary: self.primary.theta_e(&obs.primary),
-                    theta_monitor: self.monitor.theta_e(&obs.monitor),
-                };
-            }
-            Slot::SpeedReadOut => {
-                self.primary.read_out(&mut obs.primary, ReadOut::Speed);
-                self.monitor.read_out(&mut obs.monitor, ReadOut::Speed);
-            }
-            Slot::Supervision | Slot::SpeedLoop => {}
-        }
         ok_p && ok_m
     }
 
@@ -426,25 +482,21 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         &self,
         st: &mut StateOf<P, M>,
         v_bus: f32,
-        cmd_rpm: f32,
         i_ab: AlphaBeta,
         v_terminal: Option<AlphaBeta>,
         observers_ok: bool,
     ) -> (Option<crate::svpwm::Duties>, Option<Reason>) {
-        let slot = st.slot;
         let outcome = match &mut st.mode {
             ModeState::Catch(c) => {
                 // PWM off; the observers ran on the terminal voltage.
                 let v_ab = v_terminal.unwrap_or_default();
-                let check = slot == Slot::Supervision;
-                return match self.catch_step(c, &mut st.obs, check, i_ab, v_ab) {
+                return match self.catch_step(c, &mut st.obs, i_ab, v_ab) {
                     None if observers_ok => (None, None),
                     None => (None, Some(enter_fault(st, Fault::InvalidInput))),
-                    Some(Ok((mode, reason))) => {
+                    Some(mode) => {
                         st.mode = mode;
-                        (None, Some(reason))
+                        (None, Some(Reason::AtRest))
                     }
-                    Some(Err(f)) => (None, Some(enter_fault(st, f))),
                 };
             }
             ModeState::Align(a) => {
@@ -462,10 +514,11 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                     Outcome::Run(request)
                 }
             }
-            ModeState::OpenLoop(ol) => self.open_loop_step(ol, &mut st.obs, slot, cmd_rpm, i_ab),
-            ModeState::Sensorless(s) => {
-                self.sensorless_step(s, &mut st.obs, slot, cmd_rpm, i_ab, observers_ok)
+            ModeState::OpenLoop(ol) => Outcome::Run(self.open_loop_step(ol)),
+            ModeState::Sensorless(s) if observers_ok => {
+                Outcome::Run(self.sensorless_step(s, &st.obs))
             }
+            ModeState::Sensorless(_) => Outcome::Fault(Fault::ObserverLoss),
             ModeState::Idle | ModeState::Fault(_) => return (None, None),
         };
         let (request, reason) = match outcome {
@@ -475,13 +528,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 st.mode = mode;
                 (request, Some(reason))
             }
-            Outcome::Note(request, reason) => (request, Some(reason)),
             Outcome::Fault(f) => return (None, Some(enter_fault(st, f))),
-            Outcome::Stopped => {
-                cold_path();
-                *st = DriveState::default();
-                return (None, Some(Reason::Stopped));
-            }
         };
         let out = self.foc.run(&mut st.current, &request, i_ab, v_bus);
         st.v_ab_last = out.v_ab;

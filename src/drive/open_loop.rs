@@ -12,10 +12,9 @@
 //! limit, at any speed (a blocked rotor at a small command); stopped when the ramp is at zero
 //! with a zero command.
 
-use super::schedule::Slot;
 use super::sensorless::Sensorless;
 use super::supervision::{consecutive, Verdict};
-use super::{Drive, Fault, ModeState, ObserverStates, Outcome, Reason};
+use super::{Drive, Fault, ModeState, Next, ObserverStates, Reason};
 use crate::foc::{Reference, Request};
 use crate::frames::{AlphaBeta, Dq, SinCos};
 use crate::math::clamp;
@@ -104,54 +103,40 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         ol.out_rot = self.foc.output_rotation(omega_m);
     }
 
-    /// One open-loop step: the ramp (in [`Slot::SpeedLoop`]), the frame turned, the stop at
-    /// zero, the health check and the hand-over (in [`Slot::Supervision`]); the request is the
-    /// I/f current in θ_ol's frame.
+    /// One open-loop step: the frame turned by `N ω_ol T`; the request is the I/f current in
+    /// θ_ol's frame.
+    #[inline(always)]
+    pub(super) fn open_loop_step(&self, ol: &mut OpenLoop) -> Request {
+        ol.frame = ol.frame.rotated(ol.step_rot);
+        Request {
+            frame: ol.frame,
+            frame_out: ol.frame.rotated(ol.out_rot),
+            omega_m: ol.speed_rpm * RAD_S_PER_RPM,
+            reference: Reference::Current(Dq::new(self.open_loop.current_a, 0.0)),
+        }
+    }
+
+    /// The open loop's 1 kHz work ([`Drive::tick`]): the health check and the hand-over, the
+    /// time limit, the frame's length renewed, the ramp and the stop at zero.
     // Out of line (in flash on a board whose step runs from RAM): the start-up's, not the
     // running drive's.
     #[inline(never)]
-    pub(super) fn open_loop_step(
+    pub(super) fn open_loop_tick(
         &self,
         ol: &mut OpenLoop,
         obs: &mut ObserverStates<P::State, M::State>,
-        slot: Slot,
         cmd_rpm: f32,
         i_ab: AlphaBeta,
-    ) -> Outcome {
+    ) -> Next {
         let s = &self.open_loop;
-        // The I/f frequency ramp moves at the speed loop's rate (1 kHz); θ_ol advances by
-        // N ω_ol T every step, as the rotation `step_rot` of its sin/cos.
-        if slot == Slot::SpeedLoop {
-            ol.speed_rpm = slew(ol.speed_rpm, cmd_rpm, self.slew_per_slot_cycle_rpm);
-            self.set_open_loop_speed(ol);
-        }
         let omega_m = ol.speed_rpm * RAD_S_PER_RPM;
-        ol.frame = ol.frame.rotated(ol.step_rot);
-        let request = Request {
-            frame: ol.frame,
-            frame_out: ol.frame.rotated(ol.out_rot),
-            omega_m,
-            reference: Reference::Current(Dq::new(s.current_a, 0.0)),
-        };
-        match slot {
-            Slot::SpeedLoop if cmd_rpm == 0.0 && ol.speed_rpm == 0.0 => return Outcome::Stopped,
-            Slot::Supervision => {
-                let (verdict, _) = self.supervise(obs, i_ab, 0.0);
-                ol.checks = ol.checks.saturating_add(1);
-                match verdict {
-                    Verdict::Contradiction => return Outcome::Fault(Fault::ObserverLoss),
-                    Verdict::NoLock if ol.checks >= s.timeout_checks => {
-                        return Outcome::Fault(Fault::Stall)
-                    }
-                    Verdict::NoLock => return Outcome::Run(request),
-                    Verdict::Drive | Verdict::Switched => {}
-                }
-                if !obs.health.usable() {
-                    if ol.checks >= s.timeout_checks {
-                        return Outcome::Fault(Fault::Stall);
-                    }
-                    return Outcome::Run(request);
-                }
+        let (verdict, _) = self.supervise(obs, i_ab, 0.0);
+        ol.checks = ol.checks.saturating_add(1);
+        let timed_out = ol.checks >= s.timeout_checks;
+        match verdict {
+            Verdict::Contradiction => return Next::Fault(Fault::ObserverLoss),
+            _ if !obs.health.usable() && timed_out => return Next::Fault(Fault::Stall),
+            _ if obs.health.usable() => {
                 let (_, _, omega_hat, _) = self.driving(obs, SinCos::ZERO);
                 // Pulled out: the rotor is not where the ramp is (above the hand-back speed:
                 // below it a rotor still accelerating from rest lags the ramp too).
@@ -166,17 +151,23 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 let seen_following = ol.following >= s.pullout_checks;
                 if (reached && seen_following) || ol.pulled_out >= s.pullout_checks {
                     let sl = self.enter_sensorless(ol, obs);
-                    return Outcome::Switch(request, ModeState::Sensorless(sl), Reason::HandOver);
+                    return Next::Switch(ModeState::Sensorless(sl), Reason::HandOver);
                 }
-                if ol.checks >= s.timeout_checks {
-                    return Outcome::Fault(Fault::Stall);
+                if timed_out {
+                    return Next::Fault(Fault::Stall);
                 }
             }
-            // The four rotations since the last time moved its length by a few 1e-7.
-            Slot::SpeedReadOut => ol.frame = ol.frame.renormalized(),
             _ => {}
         }
-        Outcome::Run(request)
+        // The rotations since the last time moved the frame's length by a few 1e-7.
+        ol.frame = ol.frame.renormalized();
+        // The I/f frequency ramp.
+        ol.speed_rpm = slew(ol.speed_rpm, cmd_rpm, self.slew_per_slot_cycle_rpm);
+        self.set_open_loop_speed(ol);
+        if cmd_rpm == 0.0 && ol.speed_rpm == 0.0 {
+            return Next::Stopped;
+        }
+        Next::Stay
     }
 
     /// The hand-over: the speed loop starts from the torque the open-loop current makes in the
