@@ -49,6 +49,14 @@ pub struct CyclesReport {
     /// Worst sensorless step (sliding observer primary) of four runs whose angles cross ±π
     /// (the wraps of eq (22), the PLL and the angle comparisons take their other branch).
     pub step_seam_cycles_est: u64,
+    /// Worst 1 kHz task (`Drive::tick`: read-outs, speed loop, supervision, mode decisions)
+    /// of the sensorless runs with the sliding observer primary (the board's main loop runs it
+    /// once a millisecond, outside the step's interrupt).
+    pub tick_cycles_est: u64,
+    /// Worst 1 kHz task with the flux observer primary.
+    pub tick_flux_primary_cycles_est: u64,
+    /// Worst 1 kHz task in open loop.
+    pub tick_open_loop_cycles_est: u64,
     /// Cycle estimate of one sliding torque observer update.
     pub sliding_cycles_est: u64,
     /// Cycle estimate of one flux observer update plus its PLL.
@@ -491,6 +499,9 @@ pub fn measure(root: &Path) -> anyhow::Result<CyclesReport> {
         step_open_loop_cycles_est: worst("step_open_loop")?.1,
         step_saturated_cycles_est: worst("step_saturated")?.1,
         step_seam_cycles_est: seam.1,
+        tick_cycles_est: worst("tick")?.1,
+        tick_flux_primary_cycles_est: worst("tick_flux_primary")?.1,
+        tick_open_loop_cycles_est: worst("tick_open_loop")?.1,
         sliding_cycles_est: worst("sliding")?.1,
         flux_cycles_est: worst("flux_pll")?.1,
         foc_svpwm_cycles_est: worst("foc_svpwm")?.1,

@@ -133,19 +133,10 @@ fn cycles(args: CyclesArgs) -> anyhow::Result<String> {
                 "step, both observers, sliding primary (worst over a turn)",
                 r.step_cycles_est,
             ),
-            (
-                "  its 1 kHz part: flux angle read-out",
-                r.step_monitor_angle_cycles_est,
-            ),
-            (
-                "  its 1 kHz part: supervision",
-                r.step_supervision_cycles_est,
-            ),
-            (
-                "  its 1 kHz part: PLL / speed read-out",
-                r.step_pll_cycles_est,
-            ),
-            ("  its 1 kHz part: speed loop", r.step_speed_loop_cycles_est),
+            ("  in slot 1 of 4", r.step_monitor_angle_cycles_est),
+            ("  in slot 2 of 4", r.step_supervision_cycles_est),
+            ("  in slot 3 of 4", r.step_pll_cycles_est),
+            ("  in slot 4 of 4", r.step_speed_loop_cycles_est),
             ("  worst of four runs across ±π", r.step_seam_cycles_est),
             (
                 "step, flux observer primary",
@@ -153,6 +144,15 @@ fn cycles(args: CyclesArgs) -> anyhow::Result<String> {
             ),
             ("step, open loop (start-up)", r.step_open_loop_cycles_est),
             ("step, voltage at its limit", r.step_saturated_cycles_est),
+            (
+                "1 kHz task (Drive::tick), sliding primary",
+                r.tick_cycles_est,
+            ),
+            (
+                "1 kHz task, flux primary",
+                r.tick_flux_primary_cycles_est,
+            ),
+            ("1 kHz task, open loop", r.tick_open_loop_cycles_est),
             ("sliding torque observer update", r.sliding_cycles_est),
             ("flux observer + PLL update", r.flux_cycles_est),
             ("FOC current loop + SVPWM", r.foc_svpwm_cycles_est),

@@ -16,7 +16,7 @@
 use super::supervision::Lock;
 use super::{Drive, Fault, ModeState, Next, ObserverStates, Reason};
 use crate::frames::{AlphaBeta, SinCos};
-use crate::math::{atan2, sqrt};
+use crate::math::{atan2, rsqrt_normal};
 use crate::observer::{Observer, Rotor};
 use core::f32::consts::FRAC_PI_2;
 
@@ -106,12 +106,13 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         v_ab: AlphaBeta,
     ) -> Option<ModeState> {
         let s = &self.catch;
-        let emf = sqrt(v_ab.alpha * v_ab.alpha + v_ab.beta * v_ab.beta);
+        let emf2 = v_ab.alpha * v_ab.alpha + v_ab.beta * v_ab.beta;
         let first = c.v_first;
-        let emf_first = sqrt(first.alpha * first.alpha + first.beta * first.beta);
+        let emf2_first = first.alpha * first.alpha + first.beta * first.beta;
         c.v_first = v_ab;
-        // A back-EMF seen (false for a NaN sample too).
-        let (seen, seen_first) = (emf >= s.v_min, emf_first >= s.v_min);
+        // A back-EMF seen (false for a NaN sample too); squares compared.
+        let v_min2 = s.v_min * s.v_min;
+        let (seen, seen_first) = (emf2 >= v_min2, emf2_first >= v_min2);
         if c.steps < 2 || !seen_first {
             // A first sample, or the last one too small: the rotor at rest once two are.
             if c.steps >= 3 && !seen {
@@ -125,6 +126,8 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         // The back-EMF turns with the rotor: its turn between the two samples is the sign.
         let turn = first.alpha * v_ab.beta - first.beta * v_ab.alpha;
         let sign = if turn < 0.0 { -1.0 } else { 1.0 };
+        // |v| ≥ v_min > 0: a normal square.
+        let emf = emf2 * rsqrt_normal(emf2, 3);
         let omega_m = sign * emf * s.omega_m_per_v;
         let theta_mid = atan2(v_ab.beta, v_ab.alpha) - sign * FRAC_PI_2;
         let rotor = Rotor {

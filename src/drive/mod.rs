@@ -48,7 +48,7 @@ use crate::foc::{CurrentLoopState, Foc, Request};
 use crate::frames::{AlphaBeta, SinCos};
 use crate::load_observer::LoadObserver;
 use crate::math::atan2;
-use crate::math::clamp;
+use crate::math::{clamp, wrap_pi};
 use crate::observer::{Observer, ReadOut, Rotor};
 use crate::power_stage::PowerStage;
 use crate::units::{DEG_PER_RAD, RAD_S_PER_RPM, RPM_PER_RAD_S};
@@ -423,42 +423,46 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             fault: st.fault(),
             ..Telemetry::default()
         };
-        // The angles of this very sample (the step reads them out at 1 kHz).
-        let mut obs = st.obs;
-        self.primary.read_out(&mut obs.primary, ReadOut::Angle);
-        self.monitor.read_out(&mut obs.monitor, ReadOut::Angle);
-        obs.sample = AngleSample {
-            theta_primary: self.primary.theta_e(&obs.primary),
-            theta_monitor: self.monitor.theta_e(&obs.monitor),
+        // The angles of this very sample (the 1 kHz task reads them out once a millisecond),
+        // the residuals of the last health check.
+        let (mut ps, mut ms) = (st.obs.primary, st.obs.monitor);
+        self.primary.read_out(&mut ps, ReadOut::Angle);
+        self.monitor.read_out(&mut ms, ReadOut::Angle);
+        let (theta_p, theta_m) = (self.primary.theta_e(&ps), self.monitor.theta_e(&ms));
+        let (omega_p, omega_mon) = (self.primary.omega_m(&ps), self.monitor.omega_m(&ms));
+        let health = &st.obs.health;
+        let driving = health.driving;
+        let (theta_d, omega_d) = match driving {
+            Role::Primary => (theta_p, omega_p),
+            Role::Monitor => (theta_m, omega_mon),
         };
-        let v = self.views(&obs);
-        let driving = obs.health.driving;
         let (theta, omega_m, speed_ref_rpm) = match &st.mode {
             ModeState::Idle | ModeState::Fault(_) => return off,
             ModeState::Align(_) => (0.0, 0.0, 0.0),
-            ModeState::Catch(_) => (v.theta(driving), v.omega(driving), 0.0),
+            ModeState::Catch(_) => (theta_d, omega_d, 0.0),
             ModeState::OpenLoop(ol) => {
                 let f = ol.frame();
                 let speed = ol.speed_rpm();
                 (atan2(f.sin, f.cos), speed * RAD_S_PER_RPM, speed)
             }
-            ModeState::Sensorless(s) => (v.theta(driving), v.omega(driving), s.speed_ref_rpm()),
+            ModeState::Sensorless(s) => (theta_d, omega_d, s.speed_ref_rpm()),
         };
         let i_dq = st.i_ab_last.to_dq(SinCos::of(theta));
+        let [residual_primary, residual_monitor] = health.residuals();
         Telemetry {
             speed_ref_rpm,
             speed_rpm: omega_m * RPM_PER_RAD_S,
-            theta_e_primary: v.theta_primary,
-            theta_e_monitor: v.theta_monitor,
+            theta_e_primary: theta_p,
+            theta_e_monitor: theta_m,
             theta_e_control: theta,
             i_d: i_dq.d,
             i_q: i_dq.q,
-            load_nm: self.primary.load_nm(&obs.primary),
+            load_nm: self.primary.load_nm(&ps),
             driving,
-            residual_primary: v.residual_primary,
-            residual_monitor: v.residual_monitor,
-            disagreement_deg: v.disagreement() * DEG_PER_RAD,
-            speed_disagreement_rpm: v.speed_disagreement_rpm(),
+            residual_primary,
+            residual_monitor,
+            disagreement_deg: wrap_pi(theta_p - theta_m).abs() * DEG_PER_RAD,
+            speed_disagreement_rpm: (omega_p - omega_mon).abs() * RPM_PER_RAD_S,
             ..off
         }
     }
@@ -503,7 +507,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 let (request, done) = self.align.step(a);
                 if done {
                     // Rotor at θ_e = 0, at rest: start the observers there, both locked.
-                    self.reset_observers(&mut st.obs, i_ab, SinCos::ZERO, 0.0);
+                    self.seed_observers(&mut st.obs, Seed::BOTH, i_ab, Rotor::default());
                     st.obs.health = Health::AT_KNOWN_STATE;
                     Outcome::Switch(
                         request,
@@ -625,32 +629,26 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             omega_m,
             load_nm: load.unwrap_or(load_nm),
         };
+        self.seed_observers(obs, seed, i_ab, rotor);
+    }
+
+    /// Restarts the observers `seed` names at the rotor state `rotor`, `i_ab` the currents
+    /// now \[A].
+    // Out of line, like the other mode changes: rare, kept off the every-step path.
+    #[inline(never)]
+    fn seed_observers(
+        &self,
+        obs: &mut ObserverStates<P::State, M::State>,
+        seed: Seed,
+        i_ab: AlphaBeta,
+        rotor: Rotor,
+    ) {
         if seed.primary {
             self.primary.seed(&mut obs.primary, i_ab, rotor);
         }
         if seed.monitor {
             self.monitor.seed(&mut obs.monitor, i_ab, rotor);
         }
-    }
-
-    /// Restarts both observers at a known rotor state (`sc`: sin/cos of θ_e, `omega_m`
-    /// \[rad/s]).
-    // Out of line, like the other mode changes: rare, kept off the every-step path.
-    #[inline(never)]
-    fn reset_observers(
-        &self,
-        obs: &mut ObserverStates<P::State, M::State>,
-        i_ab: AlphaBeta,
-        sc: SinCos,
-        omega_m: f32,
-    ) {
-        let rotor = Rotor {
-            theta_e: atan2(sc.sin, sc.cos),
-            omega_m,
-            load_nm: 0.0,
-        };
-        self.primary.seed(&mut obs.primary, i_ab, rotor);
-        self.monitor.seed(&mut obs.monitor, i_ab, rotor);
     }
 }
 

@@ -116,6 +116,8 @@ pub(super) struct Health {
     agree: u32,
     /// At the last check, an observer was usable (it is `driving`).
     usable: bool,
+    /// The residuals of the last check: the primary's, the monitor's.
+    residuals: [f32; 2],
 }
 
 impl Health {
@@ -130,7 +132,13 @@ impl Health {
         strikes: 0,
         agree: 0,
         usable: true,
+        residuals: [0.0; 2],
     };
+
+    /// The residuals of the last check: the primary's, the monitor's.
+    pub(super) fn residuals(&self) -> [f32; 2] {
+        self.residuals
+    }
 
     /// At the last check, the driving observer was usable.
     pub(super) fn usable(&self) -> bool {
@@ -164,14 +172,6 @@ impl Views {
         (self.omega_primary - self.omega_monitor).abs() * RPM_PER_RAD_S
     }
 
-    /// The angle estimate of `role` [rad, electrical].
-    pub(super) fn theta(&self, role: Role) -> f32 {
-        match role {
-            Role::Primary => self.theta_primary,
-            Role::Monitor => self.theta_monitor,
-        }
-    }
-
     /// The speed estimate of `role` [rad/s, mechanical].
     pub(super) fn omega(&self, role: Role) -> f32 {
         match role {
@@ -194,13 +194,21 @@ pub(super) enum Verdict {
     Contradiction,
 }
 
-/// Which observer to seed from which, as the health check asks.
+/// Which observers to seed (from the driving one, as the health check asks).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub(super) struct Seed {
-    /// Seed the primary from the monitor.
+    /// Seed the primary.
     pub(super) primary: bool,
-    /// Seed the monitor from the primary.
+    /// Seed the monitor.
     pub(super) monitor: bool,
+}
+
+impl Seed {
+    /// Both.
+    pub(super) const BOTH: Self = Self {
+        primary: true,
+        monitor: true,
+    };
 }
 
 impl Settings {
@@ -239,6 +247,7 @@ impl Settings {
     /// (module doc). `h.driving` is the observer to drive after it.
     #[inline(always)]
     pub(super) fn check(&self, h: &mut Health, v: &Views) -> (Verdict, Seed) {
+        h.residuals = [v.residual_primary, v.residual_monitor];
         self.judge(&mut h.primary, v.residual_primary);
         self.judge(&mut h.monitor, v.residual_monitor);
         let in_range = |omega: f32, min: f32| omega.abs() >= min;

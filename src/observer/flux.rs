@@ -101,6 +101,7 @@ impl FluxConfig {
             ts,
             r_ohm: m.r_ohm,
             l_h: m.l_h,
+            phi: m.flux_wb,
             phi2,
             inv_phi2: 1.0 / phi2,
             half_gamma_ts: 0.5 * gamma * ts,
@@ -114,6 +115,7 @@ pub struct FluxObserver {
     ts: f32,
     r_ohm: f32,
     l_h: f32,
+    phi: f32,
     phi2: f32,
     inv_phi2: f32,
     half_gamma_ts: f32,
@@ -234,7 +236,7 @@ impl FluxObserver {
     /// Sets the estimate to a known rotor angle: `x̂ = L i + Φ c(θ_e)` (eq (4)).
     pub fn reset(&self, st: &mut FluxState, i_ab: AlphaBeta, theta_e: f32) {
         let (s, c) = crate::math::sin_cos(theta_e);
-        let phi = crate::math::sqrt(self.phi2);
+        let phi = self.phi;
         let eta = AlphaBeta::new(phi * c, phi * s);
         *st = FluxState {
             x_hat: AlphaBeta::new(

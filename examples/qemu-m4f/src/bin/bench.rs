@@ -67,6 +67,9 @@ mod firmware {
         bench_begin_flux_pll, bench_end_flux_pll, 4u32;
         bench_begin_foc_svpwm, bench_end_foc_svpwm, 5u32;
         bench_begin_step_flux_primary, bench_end_step_flux_primary, 6u32;
+        bench_begin_tick, bench_end_tick, 12u32;
+        bench_begin_tick_flux_primary, bench_end_tick_flux_primary, 13u32;
+        bench_begin_tick_open_loop, bench_end_tick_open_loop, 14u32;
     }
 
     /// Steps measured per case.
@@ -84,6 +87,16 @@ mod firmware {
         cmd: &Command,
     ) -> DriveOutput {
         drive.step(st, input, cmd)
+    }
+
+    /// The drive's 1 kHz task as the board's main loop runs it (`Control::tick`).
+    #[inline(never)]
+    fn control_tick<P: Observer, M: Observer>(
+        drive: &Drive<P, M>,
+        st: &mut StateOf<P, M>,
+        cmd: &Command,
+    ) {
+        black_box(drive.tick(st, cmd));
     }
 
     /// The blocks alone, each in a function of its own like [`control_step`].
@@ -179,6 +192,7 @@ mod firmware {
             mut st: StateOf<P, M>,
             (start, v_bus, cmd): (f32, f32, &Command),
             markers: &dyn Fn(Slot) -> (extern "C" fn(), extern "C" fn()),
+            tick_markers: (extern "C" fn(), extern "C" fn()),
         ) {
             for k in 1..=STEPS {
                 let input = DriveInput {
@@ -192,6 +206,11 @@ mod firmware {
                 let out = control_step(drive, &mut st, &input, cmd);
                 black_box(&out);
                 end();
+                if st.tick_due() {
+                    tick_markers.0();
+                    control_tick(drive, &mut st, cmd);
+                    tick_markers.1();
+                }
                 defmt::info!(
                     "{=str} step {}: mode {}, duties {}",
                     name,
@@ -218,6 +237,7 @@ mod firmware {
             drive.running_state(i0, rotor(theta0, 0.0)),
             at_48v,
             &per_slot,
+            (bench_begin_tick, bench_end_tick),
         );
         // The flux observer feeding the controller (the sliding observer as the monitor).
         run(
@@ -226,6 +246,7 @@ mod firmware {
             drive_flux.running_state(i0, rotor(theta0, 0.0)),
             at_48v,
             &|_| (bench_begin_step_flux_primary, bench_end_step_flux_primary),
+            (bench_begin_tick_flux_primary, bench_end_tick_flux_primary),
         );
         // Start-up: open loop at 60 rpm, past half the hand-over speed (the observers have
         // restarted), below the hand-over: reached from idle through the alignment (0.2 s)
@@ -237,6 +258,9 @@ mod firmware {
         let mut open_loop = StateOf::<SlidingObserver, FluxPll>::default();
         for k in 0..1200 {
             control_step(&drive, &mut open_loop, &input(theta0, k), &open_loop_cmd);
+            if open_loop.tick_due() {
+                control_tick(&drive, &mut open_loop, &open_loop_cmd);
+            }
         }
         if open_loop.mode() != Mode::OpenLoop {
             defmt::error!("not in open loop: {}", open_loop.mode());
@@ -248,6 +272,7 @@ mod firmware {
             open_loop,
             (theta0, 48.0, &open_loop_cmd),
             &|_| (bench_begin_step_open_loop, bench_end_step_open_loop),
+            (bench_begin_tick_open_loop, bench_end_tick_open_loop),
         );
         // The voltage at its limit: at 1000 rpm the back-EMF alone is ~24 V and the bus gives
         // 37/√3 = 21.4 V; with 1.5 A of i_q command (the load's current) the current loop asks
@@ -259,6 +284,7 @@ mod firmware {
             drive.running_state(i0, rotor(theta0, load_1a5)),
             (theta0, 37.0, &cmd),
             &|_| (bench_begin_step_saturated, bench_end_step_saturated),
+            (bench_begin_tick, bench_end_tick),
         );
         // The angles crossing ±π: the sliding observer's θ̂ (eq (22)) wraps in each slot in
         // turn, the PLL's angle in its slot.
@@ -271,6 +297,7 @@ mod firmware {
                 drive.running_state(i_start, rotor(start, 0.0)),
                 (start, 48.0, &cmd),
                 &|_| (bench_begin_step_seam, bench_end_step_seam),
+                (bench_begin_tick, bench_end_tick),
             );
         }
         let mut s_state = SlidingState::default();
