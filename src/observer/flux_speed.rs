@@ -8,7 +8,7 @@
 //! built for the rate it is run at.
 
 use crate::frames::{AlphaBeta, SinCos};
-use crate::math::{max, wrap_pi};
+use crate::math::max;
 use crate::observer::flux::{FluxObserver, FluxState};
 use crate::observer::ii::{IiObserver, IiState};
 use crate::observer::pll::{Pll, PllState};
@@ -83,14 +83,14 @@ impl Observer for FluxPll {
     }
 
     /// The larger of the flux magnitude's residual ([`FluxObserver::magnitude_residual`]) and
-    /// the PLL's error on the coming angle over 90°: the angle is the flux observer's, the
+    /// the PLL's error at its last update over 90°: the angle is the flux observer's, the
     /// PLL only differentiates it, so its error says the speed estimate is slipping, not that
     /// the angle is wrong. Its tracking error under an acceleration α is `α/ω_n²`: 25° for
     /// rated torque applied at once to the Sinano motor (4.3e4 rad/s² electrical), 0.2° on
     /// the 1000 rpm/s ramp; a slipping PLL swings through ±180°.
     #[inline(always)]
     fn residual(&self, st: &FluxPllState) -> f32 {
-        let pll_error = wrap_pi(st.flux.theta_e - st.pll.z1).abs() * (1.0 / FRAC_PI_2);
+        let pll_error = st.pll.error.abs() * (1.0 / FRAC_PI_2);
         max(self.flux.magnitude_residual(&st.flux), pll_error)
     }
 

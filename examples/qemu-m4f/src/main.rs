@@ -142,7 +142,13 @@ mod firmware {
         for k in 0..steps {
             let t = k as f32 / RATE_HZ;
             let out = drive.step_on(&mut st, &mut plant, &cmd);
-            if let Some(tr) = out.transition {
+            // The 1 kHz task after every fourth step.
+            let ticked = if st.tick_due() {
+                drive.tick(&mut st, &cmd)
+            } else {
+                None
+            };
+            for tr in [out.transition, ticked].into_iter().flatten() {
                 defmt::info!("t = {=f32} s: {} -> {} ({})", t, tr.from, tr.to, tr.reason);
                 if tr.to == Mode::Sensorless {
                     handovers += 1;

@@ -123,6 +123,10 @@ mod firmware {
             };
             let out = drive.step(&mut st, &input, &cmd);
             sink(out.duties.map_or(0.0, |d| d.a + d.b + d.c));
+            // The 1 kHz task, whenever the unknown flag asks (any state it can see).
+            if flags[3] || st.tick_due() {
+                sink(drive.tick(&mut st, &cmd).map_or(0.0, |_| 1.0));
+            }
             sink(drive.telemetry(&st).speed_rpm);
             if flags[2] && flags[1] {
                 break;
