@@ -498,6 +498,9 @@ fn check_sequence<P: Observer, M: Observer>(
     let mut st = StateOf::<P, M>::default();
     for (input, cmd) in seq {
         let out = drive.step(&mut st, input, cmd);
+        if st.tick_due() {
+            drive.tick(&mut st, cmd);
+        }
         if let Some(d) = out.duties {
             for x in [d.a, d.b, d.c] {
                 prop_assert!((0.0..=1.0).contains(&x), "duty {x}");
@@ -574,6 +577,9 @@ fn open_loop_frame_turns_at_the_ramp_speed_and_stays_unit_length() {
     for _ in 0..steps {
         let was_open_loop = st.mode() == Mode::OpenLoop;
         drive.step(&mut st, &input, &cmd);
+        if st.tick_due() {
+            drive.tick(&mut st, &cmd);
+        }
         if st.mode() != Mode::OpenLoop {
             assert!(!was_open_loop, "left open loop: {:?}", st.mode());
             continue;

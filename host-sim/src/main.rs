@@ -148,10 +148,7 @@ fn cycles(args: CyclesArgs) -> anyhow::Result<String> {
                 "1 kHz task (Drive::tick), sliding primary",
                 r.tick_cycles_est,
             ),
-            (
-                "1 kHz task, flux primary",
-                r.tick_flux_primary_cycles_est,
-            ),
+            ("1 kHz task, flux primary", r.tick_flux_primary_cycles_est),
             ("1 kHz task, open loop", r.tick_open_loop_cycles_est),
             ("sliding torque observer update", r.sliding_cycles_est),
             ("flux observer + PLL update", r.flux_cycles_est),

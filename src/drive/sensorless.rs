@@ -103,8 +103,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             }
             Verdict::NoLock | Verdict::Contradiction => return Next::Fault(Fault::ObserverLoss),
         }
-        if cmd_rpm == 0.0 && s.speed_ref_rpm == 0.0 && speed_rpm.abs() < self.supervision.stop_rpm
-        {
+        if cmd_rpm == 0.0 && s.speed_ref_rpm == 0.0 && speed_rpm.abs() < self.supervision.stop_rpm {
             return Next::Stopped;
         }
         s.out_rot = self.foc.output_rotation(omega_m);
