@@ -575,11 +575,12 @@ fn open_loop_frame_turns_at_the_ramp_speed_and_stays_unit_length() {
     let (mut theta_ref, mut worst_angle, mut worst_len) = (0.0f64, 0.0f64, 0.0f64);
     let steps = 50 * 4000;
     for _ in 0..steps {
-        let was_open_loop = st.mode() == Mode::OpenLoop;
-        drive.step(&mut st, &input, &cmd);
+        // The 1 kHz task between steps (it sets the ramp's speed the coming steps turn at).
         if st.tick_due() {
             drive.tick(&mut st, &cmd);
         }
+        let was_open_loop = st.mode() == Mode::OpenLoop;
+        drive.step(&mut st, &input, &cmd);
         if st.mode() != Mode::OpenLoop {
             assert!(!was_open_loop, "left open loop: {:?}", st.mode());
             continue;

@@ -360,14 +360,17 @@ impl DriveConfig {
         }
     }
 
-    /// The speed loop's load-torque observer: the motor's mechanics, as fast as the speed
-    /// loop, at its rate (unvalidated).
+    /// The speed loop's load-torque observer: the motor's mechanics at the speed loop's rate,
+    /// its bandwidth a fifth of the PLL's (10 Hz): it works on the PLL's speed estimate, whose
+    /// phase lag must stay small at its bandwidth (22° at a fifth of the PLL's natural
+    /// frequency, 43° at 20 Hz, where the speed loop with it oscillated on Ortega's test
+    /// motor after a flying start) (unvalidated).
     pub(super) fn load_observer_config(&self) -> LoadObserverConfig {
         LoadObserverConfig {
             j_kgm2: self.motor.j_kgm2,
             b_nms: self.motor.b_nms,
             torque_constant: self.motor.torque_constant(),
-            bandwidth_hz: self.speed_bandwidth_hz,
+            bandwidth_hz: PLL_BANDWIDTH_HZ / 5.0,
             rate_hz: self.rate_hz / SLOTS as f32,
         }
     }
