@@ -70,13 +70,20 @@ fn every_cell_bus_limited(scenario: &str, loaded: &str) {
                 assert!(s.pass, "{label}: {:?}", s.reasons);
                 continue;
             }
-            assert!(s.fault.is_none() && !s.lost_lock, "{label}: {:?}", s.reasons);
+            assert!(
+                s.fault.is_none() && !s.lost_lock,
+                "{label}: {:?}",
+                s.reasons
+            );
             let others_pass = s
                 .reasons
                 .iter()
                 .all(|why| why.starts_with(&format!("window {loaded}:")));
             assert!(others_pass, "{label}: {:?}", s.reasons);
-            assert!(speed >= 0.95 * bus_rpm, "{label}: {speed} rpm, bus {bus_rpm} rpm");
+            assert!(
+                speed >= 0.95 * bus_rpm,
+                "{label}: {speed} rpm, bus {bus_rpm} rpm"
+            );
         }
     }
 }
@@ -135,7 +142,10 @@ fn a_reversal_under_a_brake_takes_under_a_second() {
             .last()
             .map(|row| row.t)
             .unwrap();
-        println!("{label}: within 2 % of {target} rpm from {:.3} s (commanded at 2 s)", settled);
+        println!(
+            "{label}: within 2 % of {target} rpm from {:.3} s (commanded at 2 s)",
+            settled
+        );
         assert!(settled - 2.0 < 1.0, "{label}: {settled}");
         let open_loop = r
             .rows
@@ -150,16 +160,25 @@ fn a_reversal_under_a_brake_takes_under_a_second() {
 fn a_command_beyond_the_ratings_is_limited() {
     for observer in PRIMARIES {
         let m = preset("sinano").unwrap();
-        let mut spec = Spec::built_in("sup-catch-50").unwrap().build("sinano", m).unwrap();
+        let mut spec = Spec::built_in("sup-catch-50")
+            .unwrap()
+            .build("sinano", m)
+            .unwrap();
         spec.speed_cmd_rpm = pmsm_host_sim::profile::Pwl::constant(1e30);
         spec.initial_speed_rpm = 0.0;
         spec.windows.clear();
         spec.duration_s = 2.5;
         let r = run(SimConfig::new(spec, observer)).unwrap();
         let fastest = r.rows.iter().map(|row| row.speed_rpm).fold(0.0, f64::max);
-        println!("{}: fastest {fastest:.1} rpm for a 1e30 rpm command", observer.name());
+        println!(
+            "{}: fastest {fastest:.1} rpm for a 1e30 rpm command",
+            observer.name()
+        );
         assert!(r.drive_fault.is_none(), "{:?}", r.drive_fault);
-        assert!(fastest <= 1.02 * f64::from(m.ratings.speed_rpm), "{fastest}");
+        assert!(
+            fastest <= 1.02 * f64::from(m.ratings.speed_rpm),
+            "{fastest}"
+        );
     }
 }
 
