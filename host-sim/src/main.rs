@@ -133,10 +133,6 @@ fn cycles(args: CyclesArgs) -> anyhow::Result<String> {
                 "step, both observers, sliding primary (worst over a turn)",
                 r.step_cycles_est,
             ),
-            ("  in slot 1 of 4", r.step_monitor_angle_cycles_est),
-            ("  in slot 2 of 4", r.step_supervision_cycles_est),
-            ("  in slot 3 of 4", r.step_pll_cycles_est),
-            ("  in slot 4 of 4", r.step_speed_loop_cycles_est),
             ("  worst of four runs across ±π", r.step_seam_cycles_est),
             (
                 "step, flux observer primary",

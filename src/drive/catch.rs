@@ -13,7 +13,7 @@
 //! switches start is the usual flying-start of sensorless drives (e.g. ST's motor-control
 //! SDK "on-the-fly start-up", VESC's observer on the sensed phase voltages).
 
-use super::supervision::Lock;
+use super::supervision::{Lock, Seed};
 use super::{Drive, Fault, ModeState, Next, ObserverStates, Reason};
 use crate::frames::{AlphaBeta, SinCos};
 use crate::math::{atan2, rsqrt_normal};
@@ -48,8 +48,10 @@ pub(super) struct Catch {
 
 impl<P: Observer, M: Observer> Drive<P, M> {
     /// One catch step with the PWM off, `v_ab` the terminal voltage of the period that just
-    /// ended \[V], `i_ab` the currents \[A]: the seed (from the second step on). Returns the
-    /// alignment when the rotor is at rest.
+    /// ended \[V], `i_ab` the currents \[A]. Before the seed: two samples of back-EMF above
+    /// `v_min` in a row (a first sample taken before any period was measured reads zero), or
+    /// the rotor at rest (returns the alignment); then both observers seeded at the
+    /// back-EMF's rotor.
     // Out of line, like the mode changes: only between an enable and the start.
     #[inline(never)]
     pub(super) fn catch_step(
@@ -63,48 +65,6 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         if c.seeded {
             return None;
         }
-        self.catch_seed(c, obs, i_ab, v_ab)
-    }
-
-    /// Catch's 1 kHz work ([`Drive::tick`]): after the seed, the health check until an
-    /// observer locks (closed loop at its speed with zero current) or the time limit (an
-    /// observer loss).
-    #[inline(never)]
-    pub(super) fn catch_tick(
-        &self,
-        c: &mut Catch,
-        obs: &mut ObserverStates<P::State, M::State>,
-        i_ab: AlphaBeta,
-    ) -> Next {
-        if !c.seeded {
-            return Next::Stay;
-        }
-        self.supervise(obs, i_ab, 0.0);
-        if obs.health.usable() {
-            let (_, _, omega_m, load_nm) = self.driving(obs, SinCos::ZERO);
-            let i_q = self.foc.current_for_torque(load_nm.unwrap_or(0.0));
-            let s = self.sensorless_at(omega_m, i_q);
-            return Next::Switch(ModeState::Sensorless(s), Reason::Caught);
-        }
-        c.checks = c.checks.saturating_add(1);
-        if c.checks >= self.catch.timeout_checks {
-            return Next::Fault(Fault::ObserverLoss);
-        }
-        Next::Stay
-    }
-
-    /// Before the seed: two samples of back-EMF above `v_min` in a row (a first sample taken
-    /// before any period was measured reads zero), or the rotor at rest; then both observers
-    /// seeded at the back-EMF's rotor.
-    // Out of line, like the mode changes: once a start.
-    #[inline(never)]
-    fn catch_seed(
-        &self,
-        c: &mut Catch,
-        obs: &mut ObserverStates<P::State, M::State>,
-        i_ab: AlphaBeta,
-        v_ab: AlphaBeta,
-    ) -> Option<ModeState> {
         let s = &self.catch;
         let emf2 = v_ab.alpha * v_ab.alpha + v_ab.beta * v_ab.beta;
         let first = c.v_first;
@@ -135,11 +95,37 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             omega_m,
             load_nm: 0.0,
         };
-        self.primary.seed(&mut obs.primary, i_ab, rotor);
-        self.monitor.seed(&mut obs.monitor, i_ab, rotor);
+        self.seed_observers(obs, Seed::BOTH, i_ab, rotor);
         obs.health.primary = Lock::default();
         obs.health.monitor = Lock::default();
         c.seeded = true;
         None
+    }
+
+    /// Catch's 1 kHz work ([`Drive::tick`]): after the seed, the health check until an
+    /// observer locks (closed loop at its speed with zero current) or the time limit (an
+    /// observer loss).
+    #[inline(never)]
+    pub(super) fn catch_tick(
+        &self,
+        c: &mut Catch,
+        obs: &mut ObserverStates<P::State, M::State>,
+        i_ab: AlphaBeta,
+    ) -> Next {
+        if !c.seeded {
+            return Next::Stay;
+        }
+        self.supervise(obs, i_ab, 0.0);
+        if obs.health.usable() {
+            let (_, _, omega_m, load_nm) = self.driving(obs, SinCos::ZERO);
+            let i_q = self.foc.current_for_torque(load_nm.unwrap_or(0.0));
+            let s = self.sensorless_at(omega_m, i_q);
+            return Next::Switch(ModeState::Sensorless(s), Reason::Caught);
+        }
+        c.checks = c.checks.saturating_add(1);
+        if c.checks >= self.catch.timeout_checks {
+            return Next::Fault(Fault::ObserverLoss);
+        }
+        Next::Stay
     }
 }

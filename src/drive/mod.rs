@@ -6,7 +6,7 @@
 //!    same step and is latched until cleared;
 //! 2. the commands: enable, disable, clear a fault;
 //! 3. both observers ([`Observer`]) every step while the inverter is on, the primary feeding
-//!    the controller and the monitor watching it, their read-outs in their slots;
+//!    the controller and the monitor watching it (their read-outs are the 1 kHz task's);
 //! 4. the mode's step, each mode in a file of its own with its state in its variant of the
 //!    mode: idle → `catch.rs` (PWM off: is the rotor turning? a flying start goes straight
 //!    to sensorless control) → `align.rs` → `open_loop.rs` start (I/f) → `sensorless.rs`
@@ -103,7 +103,7 @@ impl<PS: Default, MS: Default> Default for DriveState<PS, MS> {
     fn default() -> Self {
         Self {
             mode: ModeState::Idle,
-            slot: Slot::AngleReadOut,
+            slot: Slot::First,
             obs: ObserverStates::default(),
             current: CurrentLoopState::default(),
             i_ab_last: AlphaBeta::default(),
@@ -141,7 +141,7 @@ impl<PS, MS> DriveState<PS, MS> {
 
     /// The last step was the [`SLOTS`]th of its millisecond: [`Drive::tick`] is due now.
     pub fn tick_due(&self) -> bool {
-        self.slot == Slot::AngleReadOut
+        self.slot == Slot::First
     }
 
     /// The voltage the last step's duties apply over the period \[V] (what the observers take
@@ -197,13 +197,13 @@ enum ModeState {
 struct ObserverStates<PS, MS> {
     primary: PS,
     monitor: MS,
-    /// The angles of the last [`Slot::AngleReadOut`] step's sample.
+    /// The angles the last [`Drive::tick`] read out.
     sample: AngleSample,
     /// Each observer's lock, which drives.
     health: Health,
 }
 
-/// The angles the 1 kHz comparisons take, all of one sample (the [`Slot::AngleReadOut`]
+/// The angles the 1 kHz comparisons take, all of one sample (the last tick's
 /// step's) [rad, electrical].
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 struct AngleSample {
@@ -319,7 +319,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     }
 
     /// The drive's 1 kHz task: call it once after every [`SLOTS`]th [`Drive::step`] (when
-    /// [`DriveState::slot`] is back at its first), never while a step runs; on a board from a
+    /// [`DriveState::tick_due`]), never while a step runs; on a board from a
     /// context the step's interrupt cannot preempt in the middle of it (a critical section
     /// in the main loop: a few µs of interrupt latency). It runs the observers' read-outs
     /// (the flux observer's arctangent, the PLL), the health check and its seeds and failover
@@ -539,7 +539,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         (Some(out.duties), reason)
     }
 
-    /// The observers' estimates: the angles of the last [`Slot::AngleReadOut`] sample, the
+    /// The observers' estimates: the angles of the last tick's sample, the
     /// speeds and residuals now, their speed ranges.
     #[inline(always)]
     fn views(&self, obs: &ObserverStates<P::State, M::State>) -> Views {
@@ -564,30 +564,12 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         lead: SinCos,
     ) -> (SinCos, SinCos, f32, Option<f32>) {
         match obs.health.driving {
-            Role::Primary => {
-                let (o, st) = (&self.primary, &obs.primary);
-                let f = o.sin_cos(st);
-                (
-                    f,
-                    o.sin_cos_output(st, f, lead),
-                    o.omega_m(st),
-                    o.load_nm(st),
-                )
-            }
-            Role::Monitor => {
-                let (o, st) = (&self.monitor, &obs.monitor);
-                let f = o.sin_cos(st);
-                (
-                    f,
-                    o.sin_cos_output(st, f, lead),
-                    o.omega_m(st),
-                    o.load_nm(st),
-                )
-            }
+            Role::Primary => estimate(&self.primary, &obs.primary, lead),
+            Role::Monitor => estimate(&self.monitor, &obs.monitor, lead),
         }
     }
 
-    /// The health check of [`Slot::Supervision`] (`supervision.rs`) and the seeds it asks
+    /// The health check of [`Drive::tick`] (`supervision.rs`) and the seeds it asks
     /// for: a seeded observer starts at the driving one's angle now, speed and load (its
     /// own estimate, else `load_nm` \[N·m], the torque the controller makes). Returns the
     /// verdict and, when the driving observer changed, why.
@@ -650,6 +632,19 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             self.monitor.seed(&mut obs.monitor, i_ab, rotor);
         }
     }
+}
+
+/// `o`'s frame now, its output frame turned by `lead`, its speed [rad/s, mechanical] and its
+/// load-torque estimate \[N·m], if it has one.
+#[inline(always)]
+fn estimate<O: Observer>(o: &O, st: &O::State, lead: SinCos) -> (SinCos, SinCos, f32, Option<f32>) {
+    let frame = o.sin_cos(st);
+    (
+        frame,
+        o.sin_cos_output(st, frame, lead),
+        o.omega_m(st),
+        o.load_nm(st),
+    )
 }
 
 /// Latches `fault`: PWM off until cleared.

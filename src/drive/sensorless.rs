@@ -24,7 +24,7 @@ pub(super) struct Sensorless {
     /// The speed loop's i_q command \[A].
     i_q_ref: f32,
     /// sin/cos of the output angle's lead at the driving observer's speed
-    /// (`Foc::output_rotation`), renewed in [`Slot::SpeedReadOut`] (the speed read-outs move at
+    /// (`Foc::output_rotation`), renewed by the 1 kHz task (the speed read-outs move at
     /// 1 kHz).
     out_rot: SinCos,
     /// Consecutive checks of a collapsed speed at the current limit.

@@ -1,7 +1,7 @@
 //! Supervision, apart from control: each observer's health from its own evidence
 //! ([`Observer::residual`](crate::observer::Observer::residual)), which observer drives, which
-//! is re-seeded, and the checks that end in a fault (observer loss, stall), each once per slot
-//! cycle (1 kHz) on the estimates of one sample.
+//! is re-seeded, and the checks that end in a fault (observer loss, stall), each once a
+//! millisecond in the drive's 1 kHz task (`Drive::tick`) on the estimates of one sample.
 //!
 //! The rules, for any pair of observers:
 //! - an observer is *healthy* after `lock_checks` checks in a row with the running mean of its
