@@ -54,6 +54,7 @@ fn main() {
     let sample = DriveInput {
         i_abc: Abc::default(),
         v_bus: 48.0,
+        v_ab_terminal: None,
         overrun: false,
     };
     let run = Command {

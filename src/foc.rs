@@ -10,9 +10,18 @@
 //!
 //! Decoupling and back-EMF feed-forward, Ortega Sec V iv (dq model (3)):
 //! `v_d = PI_d − ω_e L i_q`, `v_q = PI_q + ω_e L i_d + ω_e ψ_f`.
+//!
+//! The inverter's dead time is compensated between the loop and SVPWM ([`crate::dead_time`]):
+//! the voltage it takes is added to the command, and the voltage reported for the observers
+//! is what the inverter applies. The loop's voltage limit is the circle the compensated
+//! inverter applies in every direction, `(1 − 2·t_d·f_pwm)·V_bus/√3` (`V_bus/√3` without
+//! dead time, [`DeadTimeConfig::v_max_per_bus`]): a command on it plus the compensation stays
+//! inside SVPWM's linear range, so the vector is applied as the loop computed it and its
+//! anti-windup knows when it is cut.
 
+use crate::dead_time::{DeadTime, DeadTimeConfig};
 use crate::frames::{Abc, AlphaBeta, Dq, SinCos};
-use crate::math::{all_finite, INV_SQRT3};
+use crate::math::all_finite;
 use crate::motor::MotorParams;
 use crate::param::{Allowed, Checks, ParamError};
 use crate::pi::{Pi, PiConfig, PiState};
@@ -41,6 +50,9 @@ pub struct FocConfig {
     /// The voltage is held for one period while the rotor turns; the inverse Park uses
     /// `θ_e + advance·ω_e·Ts`. Default 0.5 (the middle of the period in which it is applied).
     pub angle_advance_periods: f32,
+    /// The inverter's dead time, compensated. Default [`DeadTimeConfig::NONE`] (an ideal
+    /// inverter).
+    pub dead_time: DeadTimeConfig,
 }
 
 impl FocConfig {
@@ -54,6 +66,7 @@ impl FocConfig {
             speed_bandwidth_hz: 20.0,
             i_max_a,
             angle_advance_periods: 0.5,
+            dead_time: DeadTimeConfig::NONE,
         }
     }
 
@@ -91,6 +104,12 @@ impl FocConfig {
             self.angle_advance_periods,
             Allowed::FINITE,
         );
+        let dead = [
+            "dead_time.pwm_hz",
+            "dead_time.dead_time_s",
+            "dead_time.band_a",
+        ];
+        self.dead_time.check(&mut c, dead);
         c.done()?;
         let ts = 1.0 / rate;
         let kt = motor.torque_constant();
@@ -114,6 +133,8 @@ impl FocConfig {
             pole_pairs: motor.n(),
             speed_divider: self.speed_divider,
             advance_s: self.angle_advance_periods * ts,
+            v_max_per_bus: self.dead_time.v_max_per_bus(),
+            dead_time: DeadTime::new(&self.dead_time),
         })
     }
 }
@@ -269,6 +290,10 @@ pub struct Foc {
     pole_pairs: f32,
     speed_divider: u32,
     advance_s: f32,
+    /// The current loop's voltage limit per volt of bus, `(1 − 2·t_d·f_pwm)/√3`
+    /// ([`DeadTimeConfig::v_max_per_bus`]).
+    v_max_per_bus: f32,
+    dead_time: DeadTime,
 }
 
 /// Running state of [`Foc`].
@@ -329,7 +354,9 @@ impl CurrentSample {
 pub struct FocOutput {
     /// PWM duties, each in `[0, 1]`.
     pub duties: Duties,
-    /// The stator voltage these duties apply on average over the period \[V] (for observers).
+    /// The stator voltage these duties apply on average over the period \[V] (for observers),
+    /// the inverter's dead time included (to the accuracy of its smooth sign,
+    /// [`crate::dead_time`]); zero volts when the loop's inputs were unusable.
     pub v_ab: AlphaBeta,
     /// Measured currents in the stationary frame \[A].
     pub i_ab: AlphaBeta,
@@ -414,9 +441,19 @@ impl Foc {
         self.speed.update(speed, omega_m_ref - omega_m, ff_a)
     }
 
+    /// The dead-time compensation this FOC applies ([`crate::dead_time`]).
+    pub fn dead_time(&self) -> &DeadTime {
+        &self.dead_time
+    }
+
     /// The q current that makes `torque_nm` \[N·m] in the papers' model, `τ/(N ψ_f)` \[A].
     pub fn current_for_torque(&self, torque_nm: f32) -> f32 {
         torque_nm * self.inv_kt
+    }
+
+    /// The torque the q current `i_q_a` \[A] makes in the papers' model, `N ψ_f i_q` \[N·m].
+    pub fn torque_for_current(&self, i_q_a: f32) -> f32 {
+        i_q_a / self.inv_kt
     }
 
     /// One period of a drive mode's [`Request`]: the current loop on a current reference, or
@@ -442,7 +479,7 @@ impl Foc {
             }
             Reference::Voltage(v_dq) => {
                 cold_path();
-                let v_max = v_bus * INV_SQRT3;
+                let v_max = v_bus * self.v_max_per_bus;
                 self.modulate(
                     limit(v_dq, v_max),
                     &sample,
@@ -480,7 +517,7 @@ impl Foc {
     ) -> FocOutput {
         let i_dq = input.i_ab.to_dq(sc);
         let omega_e = self.pole_pairs * input.omega_m;
-        let v_max = input.v_bus * INV_SQRT3;
+        let v_max = input.v_bus * self.v_max_per_bus;
         let out = self.current.update(state, i_dq, i_dq_ref, omega_e, v_max);
         FocOutput {
             i_dq_ref,
@@ -488,8 +525,8 @@ impl Foc {
         }
     }
 
-    /// SVPWM of the loop's output `out` at the output angle `sc_out`; `i_dq` the measured
-    /// currents in the control frame, reported.
+    /// SVPWM of the loop's output `out` at the output angle `sc_out`, the dead time
+    /// compensated; `i_dq` the measured currents in the control frame, reported.
     #[inline(always)]
     fn modulate(
         &self,
@@ -500,16 +537,32 @@ impl Foc {
     ) -> FocOutput {
         let v_ab_cmd = out.v_dq.to_alpha_beta(sc_out);
         // The loop has limited the vector to the circle and found the bus usable: SVPWM need
-        // not check either again (`svpwm_limited`).
-        let pwm = if out.valid {
-            svpwm_limited(v_ab_cmd, input.v_bus)
+        // not check either again (`svpwm_limited`): the limit leaves room for the compensation
+        // `e` inside the hexagon (`DeadTimeConfig::v_max_per_bus`), and a vector beyond it
+        // would take SVPWM's own cut.
+        let (pwm, v_ab) = if out.valid {
+            // Average-voltage compensation (Choi & Sul; Muñoz & Lipo): modulate `v + E` so
+            // that the inverter, which takes `E`, applies `v`; it applies what SVPWM applies
+            // less `E`.
+            let e = self.dead_time.error(input.i_ab, input.v_bus);
+            let v = AlphaBeta::new(v_ab_cmd.alpha + e.alpha, v_ab_cmd.beta + e.beta);
+            let pwm = svpwm_limited(v, input.v_bus);
+            // Not cut: SVPWM applied `v` itself, the inverter `v_cmd` (exactly).
+            let applied = if pwm.saturated {
+                cold_path();
+                let a = pwm.v_ab_applied;
+                AlphaBeta::new(a.alpha - e.alpha, a.beta - e.beta)
+            } else {
+                v_ab_cmd
+            };
+            (pwm, applied)
         } else {
             cold_path();
-            Svpwm::OFF
+            (Svpwm::OFF, AlphaBeta::default())
         };
         FocOutput {
             duties: pwm.duties,
-            v_ab: pwm.v_ab_applied,
+            v_ab,
             i_ab: input.i_ab,
             i_dq,
             i_dq_ref: Dq::default(),

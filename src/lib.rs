@@ -5,15 +5,18 @@
 //! plant model.
 //!
 //! Papers implemented: Horng & Chin, *sliding torque observer*; Ortega, Praly, Astolfi, Lee,
-//! Nam, *gradient flux observer*. Equation numbers in comments refer to them.
+//! Nam, *gradient flux observer*. Equation numbers in comments refer to them. The inverter's
+//! dead time is compensated as in Choi & Sul (1995) and Muñoz & Lipo (1999), see [`dead_time`].
 #![no_std]
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
 
 pub mod bounds;
+pub mod dead_time;
 pub mod drive;
 pub mod foc;
 pub mod frames;
+pub mod load_observer;
 pub mod math;
 pub mod motor;
 pub mod observer;

@@ -6,7 +6,7 @@
 //! inverter's voltage hexagon; larger commands are scaled back onto that circle.
 
 use crate::frames::{Abc, AlphaBeta};
-use crate::math::{all_finite, clamp, max, min, rsqrt, INV_SQRT3};
+use crate::math::{all_finite, clamp, max, min, rsqrt_normal, INV_SQRT3};
 use core::hint::cold_path;
 
 /// Duty cycles of the three half bridges.
@@ -76,7 +76,8 @@ pub fn svpwm(v_ab: AlphaBeta, v_bus: f32) -> Svpwm {
         // Normalise by the larger component first so huge commands cannot overflow.
         let inv_m = 1.0 / max(libm::fabsf(v_ab.alpha), libm::fabsf(v_ab.beta));
         let unit = AlphaBeta::new(v_ab.alpha * inv_m, v_ab.beta * inv_m);
-        let k = v_max * rsqrt(unit.alpha * unit.alpha + unit.beta * unit.beta);
+        // |unit|² is in [1, 2]: normal, no check needed.
+        let k = v_max * rsqrt_normal(unit.alpha * unit.alpha + unit.beta * unit.beta, 3);
         AlphaBeta::new(unit.alpha * k, unit.beta * k)
     } else {
         v_ab

@@ -6,7 +6,7 @@ use pmsm_host_sim::scenario::{self, Scenario};
 use pmsm_host_sim::sim::{run, SimConfig};
 use pmsm_host_sim::summary::Summary;
 use pmsm_sensorless::drive::{Command, Drive, DriveConfig, DriveInput, DriveState, Mode, StateOf};
-use pmsm_sensorless::frames::Abc;
+use pmsm_sensorless::frames::{Abc, AlphaBeta};
 use pmsm_sensorless::motor::HORNG_SINANO;
 use pmsm_sensorless::observer::flux_speed::FluxPll;
 use pmsm_sensorless::observer::sliding::SlidingObserver;
@@ -39,6 +39,7 @@ fn no_current_48v() -> DriveInput {
     DriveInput {
         i_abc: Abc::default(),
         v_bus: 48.0,
+        v_ab_terminal: None,
         overrun: false,
     }
 }
@@ -90,12 +91,14 @@ fn start_stop_reverse_and_test_motor_with_both_observers() {
 #[test]
 fn faults_turn_the_pwm_off_in_time() {
     // Overcurrent, bus and invalid samples within one step of the cause; observer loss within
-    // the disagreement time (20 ms = 80 steps) plus the steps the disagreement needs to build.
+    // the time without a healthy observer (20 ms = 80 steps) after both were lost: each
+    // observer's mean residual (8 ms time constant) must reach ½ and stay there 3 checks
+    // (10 ms = 40 steps, supervision.rs).
     let cases = [
         (scenario::fault_overcurrent(), "overcurrent", 1),
         (scenario::fault_bus_undervoltage(), "bus_undervoltage", 1),
         (scenario::fault_nan_current(), "invalid_input", 1),
-        (scenario::fault_observer_loss(), "observer_loss", 80 + 20),
+        (scenario::fault_observer_loss(), "observer_loss", 80 + 40),
     ];
     for (sc, fault, max_steps) in cases {
         for kind in [ObserverKind::SlidingTorque, ObserverKind::Flux] {
@@ -132,8 +135,11 @@ fn faults_turn_the_pwm_off_in_time() {
     }
 }
 
+/// A reversal 500 → −500 rpm commanded at once goes through zero speed in sensorless
+/// control, on the flux observer (the sliding observer hands over to it below its range and
+/// back above it): no open loop, no alignment, no fault, no loss of lock.
 #[test]
-fn direct_reversal_passes_through_open_loop() {
+fn direct_reversal_stays_sensorless_through_zero() {
     let mut sc = scenario::start_stop_reverse();
     sc.speed_cmd_rpm = Pwl::new(vec![(0.0, 500.0), (1.5, 500.0), (1.5, -500.0)]);
     sc.duration_s = 3.5;
@@ -145,9 +151,17 @@ fn direct_reversal_passes_through_open_loop() {
         let s = summary(sc.clone(), kind, 0.0);
         let reasons: Vec<_> = s.transitions.iter().map(|t| t.reason.as_str()).collect();
         println!("{}: {reasons:?}", kind.name());
-        assert_eq!(
-            reasons,
-            ["Enabled", "Aligned", "HandOver", "HandBack", "HandOver"]
+        let after_start: Vec<_> = s
+            .transitions
+            .iter()
+            .skip_while(|t| t.reason != "HandOver")
+            .skip(1)
+            .collect();
+        assert!(
+            after_start
+                .iter()
+                .all(|t| t.reason == "Failover" || t.reason == "PrimaryDrives"),
+            "{reasons:?}"
         );
         assert!(!s.lost_lock && s.fault.is_none());
         for w in s.windows.values() {
@@ -203,12 +217,8 @@ fn impossible_settings_name_the_field_value_and_range() {
             0.5 * i_max,
         ),
         (|c| c.start.handover_rpm = 10.0, "start.handover_rpm", 10.0),
-        // Longer than the 1 s timeout: hand-over could never happen.
-        (
-            |c| c.start.handover_hold_s = 2.0,
-            "start.handover_hold_s",
-            2.0,
-        ),
+        // Longer than a second: an observer would hardly ever count as healthy.
+        (|c| c.health.lock_time_s = 2.0, "health.lock_time_s", 2.0),
         (|c| c.motor.l_h = f32::NAN, "l_h", f32::NAN),
         (|c| c.rate_hz = 0.0, "rate_hz", 0.0),
     ];
@@ -218,13 +228,26 @@ fn impossible_settings_name_the_field_value_and_range() {
         refused(c, field, value);
     }
     // K_s = 1000π above (K_s,max)_E2 = 2456 A/s at a rated speed of 500 rpm (and the rated
-    // power with it, 0.695 N·m × 500 rpm).
+    // power with it, 0.695 N·m × 500 rpm): the sliding window is empty. A sliding primary is
+    // refused; the flux primary runs alone, with a warning naming K_s and its limit.
     let mut c = base;
     c.ratings.speed_rpm = 500.0;
     c.ratings.power_w = 36.0;
-    let msg = refused(c, "ks", 1000.0 * core::f32::consts::PI);
+    let ks = 1000.0 * core::f32::consts::PI;
+    let e = c.build_sliding_primary().unwrap_err();
+    assert_eq!((e.field, e.value), ("ks", ks), "{e}");
+    let msg = e.to_string();
     assert!(msg.contains("(K_s,max)_E2"), "{msg}");
     assert!(msg.contains("2456"), "{msg}");
+    assert!(c.build_flux_primary().is_ok());
+    let w = c.derived().unwrap().warnings;
+    let w = w
+        .iter()
+        .flatten()
+        .find(|w| w.field == "ks")
+        .expect("a K_s warning");
+    assert_eq!(w.value, ks);
+    assert!((w.limit - 2456.0).abs() < 1.0, "{w:?}");
 }
 
 #[test]
@@ -426,13 +449,15 @@ fn step_input() -> impl Strategy<Value = (DriveInput, Command)> {
         wild_f32(),
         prop::bool::weighted(0.9),
         prop::bool::weighted(0.05),
+        prop::option::of((wild_f32(), wild_f32())),
     )
         .prop_map(
-            |(a, b, c, v_bus, overrun, speed_rpm, enable, clear_fault)| {
+            |(a, b, c, v_bus, overrun, speed_rpm, enable, clear_fault, v_t)| {
                 (
                     DriveInput {
                         i_abc: Abc::new(a, b, c),
                         v_bus,
+                        v_ab_terminal: v_t.map(|(alpha, beta)| AlphaBeta::new(alpha, beta)),
                         overrun,
                     },
                     Command {
@@ -473,6 +498,9 @@ fn check_sequence<P: Observer, M: Observer>(
     let mut st = StateOf::<P, M>::default();
     for (input, cmd) in seq {
         let out = drive.step(&mut st, input, cmd);
+        if st.tick_due() {
+            drive.tick(&mut st, cmd);
+        }
         if let Some(d) = out.duties {
             for x in [d.a, d.b, d.c] {
                 prop_assert!((0.0..=1.0).contains(&x), "duty {x}");
@@ -530,11 +558,14 @@ fn telemetry_reads_the_state_the_step_left() {
 }
 
 /// The open-loop frame is kept as the sin/cos of θ_ol, turned by `N ω_ol T` every step: over a
-/// long open-loop run (50 s below the hand-over speed, so the drive stays in open loop) its
+/// long open-loop run (50 s without current, so no observer locks and the drive stays in open
+/// loop, its time limit set past that) its
 /// length stays 1 and its angle follows the f64 integral of `N ω_ol T`.
 #[test]
 fn open_loop_frame_turns_at_the_ramp_speed_and_stays_unit_length() {
-    let cfg = DriveConfig::new(&HORNG_SINANO);
+    let mut cfg = DriveConfig::new(&HORNG_SINANO);
+    // The open loop's time limit past the 50 s (no current: no observer locks).
+    cfg.start.handover_timeout_s = 60.0;
     let drive = cfg.build_sliding_primary().unwrap();
     let n = f64::from(HORNG_SINANO.params.n());
     let ts = 1.0 / f64::from(cfg.rate_hz);
@@ -544,6 +575,10 @@ fn open_loop_frame_turns_at_the_ramp_speed_and_stays_unit_length() {
     let (mut theta_ref, mut worst_angle, mut worst_len) = (0.0f64, 0.0f64, 0.0f64);
     let steps = 50 * 4000;
     for _ in 0..steps {
+        // The 1 kHz task between steps (it sets the ramp's speed the coming steps turn at).
+        if st.tick_due() {
+            drive.tick(&mut st, &cmd);
+        }
         let was_open_loop = st.mode() == Mode::OpenLoop;
         drive.step(&mut st, &input, &cmd);
         if st.mode() != Mode::OpenLoop {

@@ -26,20 +26,12 @@ use std::process::Command;
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct CyclesReport {
     /// Instructions of the drive's costliest sensorless step (both observers live, sliding
-    /// observer primary, 48 V bus): the worst over an electrical turn (each slot below 16
-    /// times) and of the steps at the ±π seam. The bench's currents do not follow the
+    /// observer primary, 48 V bus): the worst over an electrical turn and of the steps at the
+    /// ±π seam. The bench's currents do not follow the
     /// voltage, so in the later steps the current loop cuts its vector to the limit.
     pub step_instructions: u64,
     /// Cycle estimate of that step.
     pub step_cycles_est: u64,
-    /// The step whose 1 kHz part is the flux angle and the angle comparison.
-    pub step_monitor_angle_cycles_est: u64,
-    /// The step whose 1 kHz part is the supervision.
-    pub step_supervision_cycles_est: u64,
-    /// The step whose 1 kHz part is the PLL.
-    pub step_pll_cycles_est: u64,
-    /// The step whose 1 kHz part is the speed loop.
-    pub step_speed_loop_cycles_est: u64,
     /// Worst step over a turn when the flux observer feeds the controller (`Primary::Flux`).
     pub step_flux_primary_cycles_est: u64,
     /// Worst step over a turn in open loop (start-up; both observers running).
@@ -49,6 +41,14 @@ pub struct CyclesReport {
     /// Worst sensorless step (sliding observer primary) of four runs whose angles cross ±π
     /// (the wraps of eq (22), the PLL and the angle comparisons take their other branch).
     pub step_seam_cycles_est: u64,
+    /// Worst 1 kHz task (`Drive::tick`: read-outs, speed loop, supervision, mode decisions)
+    /// of the sensorless runs with the sliding observer primary (the board's main loop runs it
+    /// once a millisecond, outside the step's interrupt).
+    pub tick_cycles_est: u64,
+    /// Worst 1 kHz task with the flux observer primary.
+    pub tick_flux_primary_cycles_est: u64,
+    /// Worst 1 kHz task in open loop.
+    pub tick_open_loop_cycles_est: u64,
     /// Cycle estimate of one sliding torque observer update.
     pub sliding_cycles_est: u64,
     /// Cycle estimate of one flux observer update plus its PLL.
@@ -461,17 +461,9 @@ pub fn measure(root: &Path) -> anyhow::Result<CyclesReport> {
             .with_context(|| format!("section {name} not found in the trace"))?;
         Ok(v.iter().fold((0, 0), |a, &(n, c)| (a.0.max(n), a.1.max(c))))
     };
-    let slots = [
-        worst("step_monitor_angle")?,
-        worst("step_supervision")?,
-        worst("step_pll")?,
-        worst("step_speed_loop")?,
-    ];
     let seam = worst("step_seam")?;
-    let (step_n, step_c) = slots
-        .iter()
-        .chain([&seam])
-        .copied()
+    let (step_n, step_c) = [worst("step")?, seam]
+        .into_iter()
         .max_by_key(|s| s.1)
         .unwrap_or((0, 0));
     let (flash_bytes, ram_bytes, ramfunc_bytes) = sizes(&llvm_tool(root, "llvm-size")?, &board)?;
@@ -483,14 +475,13 @@ pub fn measure(root: &Path) -> anyhow::Result<CyclesReport> {
     Ok(CyclesReport {
         step_instructions: step_n,
         step_cycles_est: step_c,
-        step_monitor_angle_cycles_est: slots[0].1,
-        step_supervision_cycles_est: slots[1].1,
-        step_pll_cycles_est: slots[2].1,
-        step_speed_loop_cycles_est: slots[3].1,
         step_flux_primary_cycles_est: worst("step_flux_primary")?.1,
         step_open_loop_cycles_est: worst("step_open_loop")?.1,
         step_saturated_cycles_est: worst("step_saturated")?.1,
         step_seam_cycles_est: seam.1,
+        tick_cycles_est: worst("tick")?.1,
+        tick_flux_primary_cycles_est: worst("tick_flux_primary")?.1,
+        tick_open_loop_cycles_est: worst("tick_open_loop")?.1,
         sliding_cycles_est: worst("sliding")?.1,
         flux_cycles_est: worst("flux_pll")?.1,
         foc_svpwm_cycles_est: worst("foc_svpwm")?.1,

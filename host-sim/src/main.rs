@@ -133,19 +133,6 @@ fn cycles(args: CyclesArgs) -> anyhow::Result<String> {
                 "step, both observers, sliding primary (worst over a turn)",
                 r.step_cycles_est,
             ),
-            (
-                "  its 1 kHz part: flux angle read-out",
-                r.step_monitor_angle_cycles_est,
-            ),
-            (
-                "  its 1 kHz part: supervision",
-                r.step_supervision_cycles_est,
-            ),
-            (
-                "  its 1 kHz part: PLL / speed read-out",
-                r.step_pll_cycles_est,
-            ),
-            ("  its 1 kHz part: speed loop", r.step_speed_loop_cycles_est),
             ("  worst of four runs across ±π", r.step_seam_cycles_est),
             (
                 "step, flux observer primary",
@@ -153,6 +140,12 @@ fn cycles(args: CyclesArgs) -> anyhow::Result<String> {
             ),
             ("step, open loop (start-up)", r.step_open_loop_cycles_est),
             ("step, voltage at its limit", r.step_saturated_cycles_est),
+            (
+                "1 kHz task (Drive::tick), sliding primary",
+                r.tick_cycles_est,
+            ),
+            ("1 kHz task, flux primary", r.tick_flux_primary_cycles_est),
+            ("1 kHz task, open loop", r.tick_open_loop_cycles_est),
             ("sliding torque observer update", r.sliding_cycles_est),
             ("flux observer + PLL update", r.flux_cycles_est),
             ("FOC current loop + SVPWM", r.foc_svpwm_cycles_est),
@@ -188,6 +181,13 @@ struct GainsArgs {
     /// Control rate (Hz).
     #[arg(long, default_value_t = 4000.0)]
     rate_hz: f64,
+    /// The power stage's dead time (µs) the drive compensates (default: the B-G431B-ESC1's
+    /// 0.5).
+    #[arg(long)]
+    dead_time_us: Option<f64>,
+    /// The power stage's PWM frequency (Hz) (default: the B-G431B-ESC1's 20000).
+    #[arg(long)]
+    pwm_hz: Option<f64>,
     /// Print JSON: `{"motor", "values": [{"name", "value", "unit", "formula"}], "warnings":
     /// [{"field", "value", "limit", "what"}]}`.
     #[arg(long)]
@@ -240,6 +240,13 @@ fn gains(args: GainsArgs) -> anyhow::Result<String> {
     let (name, m) = args.motor.resolve()?;
     let mut cfg = DriveConfig::new(&m);
     cfg.rate_hz = args.rate_hz as f32;
+    if let Some(us) = args.dead_time_us {
+        cfg.power_stage.dead_time_s = (us * 1e-6) as f32;
+    }
+    if let Some(hz) = args.pwm_hz {
+        cfg.power_stage.pwm_hz = hz as f32;
+    }
+    let ps = cfg.power_stage;
     let d = cfg.derived().map_err(|e| anyhow::anyhow!("{name}: {e}"))?;
     let p = m.params;
     let r = m.ratings;
@@ -408,10 +415,33 @@ fn gains(args: GainsArgs) -> anyhow::Result<String> {
             ),
         ),
         (
+            "dead-time voltage",
+            d.dead_time_voltage_v,
+            "V",
+            format!(
+                "t_d f_pwm V_bus per phase, compensated by the current's sign; t_d = {} ns, \
+                 f_pwm = {} Hz, bus_v = {} V",
+                // To the picosecond: the f32 setting read back in f64 is 499.99998 ns.
+                pmsm_host_sim::number((f64::from(ps.dead_time_s) * 1e12).round() / 1e3),
+                ps.pwm_hz,
+                r.bus_v
+            ),
+        ),
+        (
+            "dead-time sign band",
+            ps.dead_time_band_a,
+            "A",
+            share(
+                ps.dead_time_band_a,
+                d.rated_torque_current_a,
+                "rated-torque current",
+            ),
+        ),
+        (
             "largest phase voltage",
             d.v_max_v,
             "V",
-            format!("bus_v/√3; bus_v = {} V", r.bus_v),
+            format!("(1 − 2 t_d f_pwm) bus_v/√3; bus_v = {} V", r.bus_v),
         ),
         (
             "voltage of rated torque at rated speed",
@@ -423,7 +453,7 @@ fn gains(args: GainsArgs) -> anyhow::Result<String> {
             "rated torque up to",
             d.rated_torque_speed_rpm,
             "rpm",
-            "where that voltage reaches bus_v/√3".into(),
+            "where that voltage reaches the largest phase voltage".into(),
         ),
     ];
     let rows: Vec<GainRow> = rows

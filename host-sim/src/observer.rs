@@ -224,6 +224,11 @@ impl Observer for Encoder {
     fn omega_m(&self, st: &EncoderState) -> f32 {
         st.rotor.omega_m
     }
+    /// The true rotor: no evidence against it.
+    fn residual(&self, _st: &Self::State) -> f32 {
+        0.0
+    }
+
     fn seed(&self, st: &mut EncoderState, _i_ab: AlphaBeta, rotor: Rotor) {
         *st = EncoderState {
             rotor,

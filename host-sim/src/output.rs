@@ -6,7 +6,7 @@ use anyhow::Context;
 use std::path::{Path, PathBuf};
 
 /// Column names of the CSV, with units.
-pub const CSV_HEADER: [&str; 17] = [
+pub const CSV_HEADER: [&str; 21] = [
     "t_s",
     "speed_cmd_rpm",
     "omega_m_rpm",
@@ -24,10 +24,15 @@ pub const CSV_HEADER: [&str; 17] = [
     "ks_min_a_per_s",
     "mode",
     "theta_e_monitor_deg",
+    "driving",
+    "residual_primary",
+    "residual_monitor",
+    "transition",
 ];
 
-/// Writes the time series; optional columns (`load_hat_nm`, and the sliding observers'
-/// `s_a_a`, `ks_a_per_s`, `ks_min_a_per_s`) are empty when the observer has no such value.
+/// Writes the time series; optional columns (`load_hat_nm`, the sliding observers'
+/// `s_a_a`, `ks_a_per_s`, `ks_min_a_per_s`, the drive's `driving`, residuals and
+/// `transition`) are empty when the run has no such value.
 pub fn write_csv(run: &Run, path: &Path) -> anyhow::Result<()> {
     let mut w =
         csv::Writer::from_path(path).with_context(|| format!("creating {}", path.display()))?;
@@ -52,6 +57,14 @@ pub fn write_csv(run: &Run, path: &Path) -> anyhow::Result<()> {
             opt(r.ks_min),
             r.mode.map(|m| format!("{m:?}")).unwrap_or_default(),
             opt(r.theta_e_monitor_deg),
+            r.health
+                .map(|h| format!("{:?}", h.driving))
+                .unwrap_or_default(),
+            opt(r.health.map(|h| h.residual_primary)),
+            opt(r.health.map(|h| h.residual_monitor)),
+            r.transition
+                .map(|t| format!("{:?}->{:?}: {:?}", t.from, t.to, t.reason))
+                .unwrap_or_default(),
         ])?;
     }
     w.flush()

@@ -323,8 +323,17 @@ impl Plant {
 
     /// Advances with every switch off ([`DiodeBridge`]): `n_sub` sub-steps of `h` seconds,
     /// each with the diode pattern of its start, the blocked diodes' currents zeroed after it.
-    pub fn advance_off(&mut self, bridge: &DiodeBridge, tau_l: impl Load, h: f64, n_sub: usize) {
+    /// Returns the stator voltage `(v_α, v_β)` \[V] over the call, the mean of each sub-step's
+    /// at its start: what a board's terminal-voltage sensing reads.
+    pub fn advance_off(
+        &mut self,
+        bridge: &DiodeBridge,
+        tau_l: impl Load,
+        h: f64,
+        n_sub: usize,
+    ) -> (f64, f64) {
         let p = self.params;
+        let mut v_sum = (0.0, 0.0);
         for k in 0..n_sub {
             let x = &self.state;
             let (s, c) = x.theta_e(&p).sin_cos();
@@ -332,11 +341,16 @@ impl Plant {
             let e = (kn * x.omega_m * s, -kn * x.omega_m * c);
             let e_abc = crate::inverter::inverse_clarke(e.0, e.1);
             let pole = bridge.pattern(self.i_abc(), e_abc);
+            let clamped = Clamped { pole };
+            let v = clamped.v_alpha_beta((x.i_alpha, x.i_beta), e);
+            v_sum = (v_sum.0 + v.0, v_sum.1 + v.1);
             let t0 = k as f64 * h;
-            self.advance(&Clamped { pole }, |t, w| tau_l(t0 + t, w), h, 1);
+            self.advance(&clamped, |t, w| tau_l(t0 + t, w), h, 1);
             let i = DiodeBridge::block(&pole, self.i_abc(), bridge.v_bus);
             (self.state.i_alpha, self.state.i_beta) = crate::inverter::clarke(i);
         }
+        let n = n_sub as f64;
+        (v_sum.0 / n, v_sum.1 / n)
     }
 
     /// Phase currents `(a, b, c)` \[A] (inverse amplitude-invariant Clarke).

@@ -11,9 +11,10 @@ use crate::plant::{Plant, PlantParams};
 use crate::scenario::Injection;
 use crate::scenario::Scenario;
 use pmsm_sensorless::bounds::ks_min;
+use pmsm_sensorless::dead_time::DeadTimeConfig;
 use pmsm_sensorless::drive::{
-    Command, Drive, DriveConfig, DriveInput, DriveOutput, Fault, Limits, Mode, Reason, StateOf,
-    Telemetry, Transition,
+    Command, Drive, DriveConfig, DriveInput, DriveOutput, Fault, Limits, Mode, Reason, Role,
+    StateOf, Telemetry, Transition,
 };
 use pmsm_sensorless::foc::FocConfig;
 use pmsm_sensorless::frames::AlphaBeta;
@@ -110,6 +111,9 @@ pub struct SimConfig {
     pub cold_start: bool,
     /// Flux-observer γ replacing the recommended one \[1/(Wb²·s)].
     pub gamma: Option<f32>,
+    /// The board senses the terminal voltage (the B-G431B-ESC1's back-EMF dividers): the
+    /// drive gets it while its PWM is off and can catch a turning rotor.
+    pub sense_terminal_voltage: bool,
 }
 
 impl SimConfig {
@@ -135,6 +139,7 @@ impl SimConfig {
             sensorless_from_rpm: None,
             cold_start: false,
             gamma: None,
+            sense_terminal_voltage: true,
         }
     }
 }
@@ -180,6 +185,21 @@ pub struct Row {
     /// The controller ran on its observer's estimate (the drive in `Sensorless`; a bare run
     /// after its hand-over from the encoder; never for the encoder itself).
     pub sensorless: bool,
+    /// Drive runs: which observer drives, and each one's residual (`Observer::residual`).
+    pub health: Option<RowHealth>,
+    /// Drive runs: the transition this step made.
+    pub transition: Option<Transition>,
+}
+
+/// The drive's health figures of one row.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RowHealth {
+    /// Which observer drives.
+    pub driving: Role,
+    /// The primary's residual (1: the edge of lock).
+    pub residual_primary: f64,
+    /// The monitor's residual.
+    pub residual_monitor: f64,
 }
 
 impl Row {
@@ -249,6 +269,8 @@ enum Controller {
 trait SimDrive {
     /// [`Drive::step`].
     fn step(&mut self, input: &DriveInput, cmd: &Command) -> DriveOutput;
+    /// [`Drive::tick`] when it is due after the last step (once a millisecond).
+    fn tick(&mut self, cmd: &Command) -> Option<Transition>;
     /// [`Drive::telemetry`].
     fn telemetry(&self) -> Telemetry;
     /// The voltage the last step's duties apply \[V].
@@ -263,6 +285,13 @@ struct Running<P: Observer, M: Observer> {
 impl<P: Observer, M: Observer> SimDrive for Running<P, M> {
     fn step(&mut self, input: &DriveInput, cmd: &Command) -> DriveOutput {
         self.drive.step(&mut self.state, input, cmd)
+    }
+    fn tick(&mut self, cmd: &Command) -> Option<Transition> {
+        if self.state.tick_due() {
+            self.drive.tick(&mut self.state, cmd)
+        } else {
+            None
+        }
     }
     fn telemetry(&self) -> Telemetry {
         self.drive.telemetry(&self.state)
@@ -297,6 +326,9 @@ pub struct Sim {
     inverter: Inverter,
     sensor: CurrentSensor,
     v_ab_last: AlphaBeta,
+    /// The terminal voltage of the period that just ended (the plant's with the PWM off, the
+    /// commanded one with it on) \[V].
+    v_terminal: AlphaBeta,
     k: usize,
     ts: f64,
     transitions: Vec<(f64, Transition)>,
@@ -329,6 +361,10 @@ impl Sim {
             };
             let mut cfg = DriveConfig::new(&motor);
             cfg.rate_hz = config.rate_hz as f32;
+            // The board's figures as the user configures them: the plant's own (an ideal
+            // plant, dead time 0, gets no compensation).
+            cfg.power_stage.pwm_hz = config.pwm_hz as f32;
+            cfg.power_stage.dead_time_s = config.dead_time_s as f32;
             let err = |e| anyhow::anyhow!("drive configuration: {e}");
             let drive = match config.observer {
                 ObserverKind::SlidingTorque => running(cfg.build_sliding_primary().map_err(err)?),
@@ -345,6 +381,14 @@ impl Sim {
         } else {
             let mut foc_cfg = FocConfig::new(controller_motor, sc.i_max_a() as f32);
             foc_cfg.current_rate_hz = config.rate_hz as f32;
+            // The plant's dead time compensated, as the drive does (the drive's smooth-sign
+            // band: 5 % of the rated-torque current).
+            let band_a = DriveConfig::new(&sc.motor).power_stage.dead_time_band_a;
+            foc_cfg.dead_time = DeadTimeConfig {
+                dead_time_s: config.dead_time_s as f32,
+                pwm_hz: config.pwm_hz as f32,
+                band_a,
+            };
             let foc = foc_cfg
                 .build()
                 .map_err(|e| anyhow::anyhow!("controller configuration: {e}"))?;
@@ -385,6 +429,7 @@ impl Sim {
             },
             sensor,
             v_ab_last: AlphaBeta::default(),
+            v_terminal: AlphaBeta::default(),
             k: 0,
             ts: 1.0 / config.rate_hz,
             transitions: Vec::new(),
@@ -453,6 +498,7 @@ impl Sim {
         }
         let v_bus = self.inverter.v_bus;
         let speed_cmd_rpm = self.config.scenario.speed_cmd_rpm.at(t);
+        let (mut health, mut transition) = (None, None);
         let (duties, est, mode, monitor) = match &mut self.controller {
             Controller::Bare(bare) => {
                 let (out, est) = bare.step(&BareInput {
@@ -490,23 +536,41 @@ impl Sim {
                     &DriveInput {
                         i_abc,
                         v_bus: bus,
+                        v_ab_terminal: self
+                            .config
+                            .sense_terminal_voltage
+                            .then_some(self.v_terminal),
                         overrun: false,
                     },
                     &cmd,
                 );
-                if let Some(tr) = out.transition {
+                // The step, then the 1 kHz task when due (as a board runs it after the
+                // interrupt).
+                for tr in [out.transition, drive.tick(&cmd)].into_iter().flatten() {
+                    transition = Some(tr);
                     self.transitions.push((t, tr));
                     if let Reason::Fault(f) = tr.reason {
                         self.causes.fault.get_or_insert((self.k, f));
                     }
                 }
                 let tel = drive.telemetry();
+                health = Some(RowHealth {
+                    driving: tel.driving,
+                    residual_primary: tel.residual_primary as f64,
+                    residual_monitor: tel.residual_monitor as f64,
+                });
+                // The angle the controller runs on: the driving observer's while sensorless.
+                let sensorless = tel.mode == Mode::Sensorless;
                 let est = Estimate {
-                    theta_e: tel.theta_e_primary,
+                    theta_e: if sensorless {
+                        tel.theta_e_control
+                    } else {
+                        tel.theta_e_primary
+                    },
                     omega_m: tel.speed_rpm * pmsm_sensorless::units::RAD_S_PER_RPM,
                     load_nm: tel.load_nm,
                     sliding: None,
-                    sensorless: tel.mode == Mode::Sensorless,
+                    sensorless,
                 };
                 self.v_ab_last = drive.v_ab_applied();
                 let monitor = (tel.theta_e_monitor as f64).to_degrees();
@@ -547,21 +611,27 @@ impl Sim {
             mode,
             theta_e_monitor_deg: monitor,
             sensorless: est.sensorless,
+            health,
+            transition,
         };
         let n_sub = self.config.substeps;
         let h = self.ts / n_sub as f64;
         let load = |dt: f64, w: f64| sc.load_at(t + dt, w);
-        match duties {
-            Some(d) => self.plant.advance(&self.inverter.hold(d), load, h, n_sub),
+        self.v_terminal = match duties {
+            Some(d) => {
+                self.plant.advance(&self.inverter.hold(d), load, h, n_sub);
+                self.v_ab_last
+            }
             None => {
                 // All switches off: the currents flow through the freewheeling diodes into
                 // the bus until they die out, and a back-EMF above the bus brakes the rotor.
                 let bridge = DiodeBridge {
                     v_bus: self.inverter.v_bus,
                 };
-                self.plant.advance_off(&bridge, load, h, n_sub);
+                let v = self.plant.advance_off(&bridge, load, h, n_sub);
+                AlphaBeta::new(v.0 as f32, v.1 as f32)
             }
-        }
+        };
         self.k += 1;
         let s = &self.plant.state;
         if [s.i_alpha, s.i_beta, s.theta_m, s.omega_m]

@@ -4,10 +4,11 @@
 use super::open_loop;
 use super::schedule::SLOTS;
 use super::supervision;
-use super::{align, Drive};
+use super::{align, catch, Drive};
 use crate::bounds::{ks_max_e2, ks_max_t};
+use crate::dead_time::DeadTimeConfig;
 use crate::foc::FocConfig;
-use crate::frames::SinCos;
+use crate::load_observer::LoadObserverConfig;
 use crate::math::INV_SQRT3;
 use crate::motor::{Motor, MotorParams, Ratings};
 use crate::observer::flux::FluxConfig;
@@ -52,30 +53,49 @@ pub struct StartConfig {
     pub open_loop_current_a: f32,
     /// Speed-reference slew rate, also the open-loop frequency ramp \[rpm/s].
     pub accel_rpm_per_s: f32,
-    /// Hand-over to the observer is allowed above this |speed| \[rpm].
+    /// The open loop hands over to a healthy observer once its ramp has reached this |speed|
+    /// (or the command, if lower; at once when the observer sees the rotor pulled out of the
+    /// ramp) \[rpm]; the sliding observer drives only above it.
     pub handover_rpm: f32,
-    /// The observer's angle must agree with θ_ol within this [deg, electrical]...
-    pub handover_tol_deg: f32,
-    /// ...for this long \[s].
-    pub handover_hold_s: f32,
-    /// Back to open loop when both |speed reference| and |ω̂| are below this \[rpm].
+    /// Back to open loop only when no observer is healthy and both |speed reference| and
+    /// |ω̂| are below this \[rpm]; the slowest rotor a flying start catches.
     pub handback_rpm: f32,
-    /// Stall if no hand-over within this time after the ramp passed `handover_rpm` \[s].
+    /// Stall if no observer has locked this long after the ramp reached the hand-over speed
+    /// \[s] (the open loop's time limit, whatever the speed).
     pub handover_timeout_s: f32,
+    /// With a zero command, stopped (PWM off) when the estimated |speed| is below this \[rpm].
+    pub stop_rpm: f32,
 }
 
-/// Health supervision settings.
+/// Health supervision settings (`supervision.rs`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct HealthConfig {
-    /// Largest tolerated angle disagreement between the two observers [deg, electrical].
+    /// An observer is healthy after its residual has stayed below ½ this long \[s].
+    pub lock_time_s: f32,
+    /// A healthy observer is lost after its residual has stayed at or above 1 this long: the
+    /// other one drives \[s].
+    pub failover_time_s: f32,
+    /// Largest tolerated angle disagreement between two healthy observers [deg, electrical].
     pub max_disagreement_deg: f32,
-    /// Largest tolerated speed disagreement \[rpm].
+    /// Largest tolerated speed disagreement between two healthy observers \[rpm].
     pub max_speed_disagreement_rpm: f32,
-    /// A disagreement must last this long to be an observer loss \[s].
+    /// No healthy observer (or a contradiction) this long is an observer loss \[s].
     pub loss_time_s: f32,
     /// Speed collapse: the speed loop at its current limit with |ω̂| below half the reference
     /// for this long is a stall \[s].
     pub stall_time_s: f32,
+}
+
+/// The board's power stage as the drive compensates it (see [`crate::dead_time`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PowerStageConfig {
+    /// PWM (switching) frequency \[Hz], positive.
+    pub pwm_hz: f32,
+    /// Dead time per switching edge \[s], in `[0, 0.1/pwm_hz]`; 0 for no compensation.
+    pub dead_time_s: f32,
+    /// Width of the compensation's smooth sign \[A], > 0: a phase current of this or more
+    /// gets the full `t_d·f_pwm`.
+    pub dead_time_band_a: f32,
 }
 
 /// Everything the drive is built from. [`DriveConfig::new`] derives it from a motor.
@@ -95,6 +115,8 @@ pub struct DriveConfig {
     pub start: StartConfig,
     /// Health supervision.
     pub health: HealthConfig,
+    /// The power stage's PWM frequency and dead time, compensated.
+    pub power_stage: PowerStageConfig,
     /// The motor's ratings: the ranges of the limits are set from them, and the sliding gain
     /// must stay below (K_s,max)_E2 at the rated speed.
     pub ratings: Ratings,
@@ -104,10 +126,18 @@ impl DriveConfig {
     /// Defaults from the motor's ratings: current command limit 1.5× the current of rated
     /// torque, trip at 1.5× that, sensing range 2× the trip; bus trips at 0.75 and 1.25 of the
     /// rated bus; align and open-loop currents 0.5 and 0.6 of the rated-torque current for
-    /// 0.2 s and up the ramp; the ramp climbs the rated speed in a second; hand-over above
-    /// 10 % of rated speed when the angle agrees within 30° for 20 ms; hand-back below 6 %;
-    /// observer loss after 30° or 10 % of rated speed disagreement for 20 ms; stall after 1 s
-    /// without hand-over or 0.1 s at the current limit below half the speed reference.
+    /// 0.2 s and up the ramp; the ramp climbs the rated speed in a second; hand-over at 10 %
+    /// of rated speed; hand-back (without a healthy observer) below 6 %; stopped below 2 %;
+    /// an observer healthy after 20 ms of mean residual below ¼, lost after 3 ms at ½;
+    /// observer loss after 20 ms without a healthy one or of 30° or 10 % of rated speed
+    /// contradiction; stall after 0.5 s of open loop without lock or 0.1 s at the current
+    /// limit below half the speed reference. The power stage is the B-G431B-ESC1's (20 kHz
+    /// PWM, 500 ns dead time); the dead-time
+    /// compensation's smooth sign reaches full at 5 % of the rated-torque current: five
+    /// standard deviations of the 1 %-of-rated-current noise a board's sensing has
+    /// (`DESIGN.md`), so noise at a zero crossing moves the compensation by a fifth of it
+    /// per sample, not from one sign to the other; and a phase current of rated-torque
+    /// amplitude is below the band only 3 % of an electrical turn (|sin| < 0.05).
     pub fn new(motor: &Motor) -> Self {
         let i_rated = motor.rated_torque_current_a();
         let i_max = 1.5 * i_rated;
@@ -132,16 +162,22 @@ impl DriveConfig {
                 open_loop_current_a: 0.6 * i_rated,
                 accel_rpm_per_s: speed,
                 handover_rpm: 0.1 * speed,
-                handover_tol_deg: 30.0,
-                handover_hold_s: 0.02,
                 handback_rpm: 0.06 * speed,
-                handover_timeout_s: 1.0,
+                handover_timeout_s: 0.5,
+                stop_rpm: 0.02 * speed,
             },
             health: HealthConfig {
+                lock_time_s: 0.02,
+                failover_time_s: 0.003,
                 max_disagreement_deg: 30.0,
                 max_speed_disagreement_rpm: 0.1 * speed,
                 loss_time_s: 0.02,
                 stall_time_s: 0.1,
+            },
+            power_stage: PowerStageConfig {
+                pwm_hz: 20_000.0,
+                dead_time_s: 500e-9,
+                dead_time_band_a: 0.05 * i_rated,
             },
             ratings: motor.ratings,
         }
@@ -203,14 +239,12 @@ impl DriveConfig {
         )
         .because("handback..rated/2, EMF < bus_min_v/sqrt3");
         c.check("start.handover_rpm", s.handover_rpm, handover);
-        let tol = Allowed::strictly_between(0.0, 90.0);
-        c.check("start.handover_tol_deg", s.handover_tol_deg, tol);
-        c.check(
-            "start.handover_hold_s",
-            s.handover_hold_s,
-            Allowed::above_up_to(0.0, 1.0),
-        );
-        let timeout = Allowed::above_up_to(s.handover_hold_s, 60.0).because("above hold, 60 s");
+        let stop = Allowed::above_up_to(0.0, s.handback_rpm).because("up to handback_rpm");
+        c.check("start.stop_rpm", s.stop_rpm, stop);
+        let check_time = Allowed::between(1.0 / 1000.0, 1.0).because("a check (1 ms) to 1 s");
+        c.check("health.lock_time_s", h.lock_time_s, check_time);
+        c.check("health.failover_time_s", h.failover_time_s, check_time);
+        let timeout = Allowed::above_up_to(h.lock_time_s, 60.0).because("above lock_time_s, 60 s");
         c.check("start.handover_timeout_s", s.handover_timeout_s, timeout);
         let angle = Allowed::above_up_to(0.0, 90.0).because("lost lock");
         c.check("health.max_disagreement_deg", h.max_disagreement_deg, angle);
@@ -220,15 +254,19 @@ impl DriveConfig {
             h.max_speed_disagreement_rpm,
             speed,
         );
-        c.check(
-            "health.loss_time_s",
-            h.loss_time_s,
-            Allowed::above_up_to(0.0, 1.0),
-        );
+        c.check("health.loss_time_s", h.loss_time_s, check_time);
         c.check(
             "health.stall_time_s",
             h.stall_time_s,
             Allowed::above_up_to(0.0, 5.0),
+        );
+        self.dead_time_config().check(
+            &mut c,
+            [
+                "power_stage.pwm_hz",
+                "power_stage.dead_time_s",
+                "power_stage.dead_time_band_a",
+            ],
         );
         c.done()?;
         Ok(m)
@@ -240,8 +278,29 @@ impl DriveConfig {
     /// paper's constant K_s = 1000π exceeds it below about 620 rpm on the Sinano motor, where
     /// the (always unstable) second equilibrium exists, as in the paper's own experiment.
     pub fn sliding_torque(&self) -> Result<SlidingObserver, ParamError> {
+        self.checked_sliding(self.sliding_config())
+    }
+
+    /// The sliding observer as a monitor: [`DriveConfig::sliding_torque`], or, for a motor
+    /// whose `K_s` window is empty, the observer built never to drive nor be judged
+    /// (`min_speed_rad_s` infinite): the flux observer runs alone ([`Derived::warnings`]
+    /// says so).
+    ///
+    /// [`Derived::warnings`]: super::Derived::warnings
+    pub fn sliding_monitor(&self) -> Result<SlidingObserver, ParamError> {
+        match self.sliding_torque() {
+            Err(e) if e.field == "ks" => SlidingConfig {
+                min_speed_rad_s: f32::INFINITY,
+                ..self.sliding_config()
+            }
+            .build(),
+            other => other,
+        }
+    }
+
+    /// `cfg` built, its `K_s` checked inside its bounds (see [`DriveConfig::sliding_torque`]).
+    fn checked_sliding(&self, cfg: SlidingConfig) -> Result<SlidingObserver, ParamError> {
         let m = self.validate()?;
-        let cfg = self.sliding_config();
         if let SlidingGain::Constant(ks) = cfg.ks {
             let eps = cfg.epsilon_a;
             let rated = self.ratings.speed_rpm * RAD_S_PER_RPM;
@@ -266,11 +325,13 @@ impl DriveConfig {
         Ok(FluxPll::new(flux, pll, m.n()))
     }
 
-    /// The sliding torque observer's settings (unvalidated).
+    /// The sliding torque observer's settings (unvalidated): it drives above the hand-over
+    /// speed.
     pub(super) fn sliding_config(&self) -> SlidingConfig {
         SlidingConfig {
             rate_hz: self.rate_hz,
             emf_advance_periods: ADVANCE_PERIODS,
+            min_speed_rad_s: self.start.handover_rpm * RAD_S_PER_RPM,
             ..SlidingConfig::torque(self.motor)
         }
     }
@@ -289,6 +350,31 @@ impl DriveConfig {
         }
     }
 
+    /// The dead-time compensation's settings (unvalidated).
+    pub(super) fn dead_time_config(&self) -> DeadTimeConfig {
+        let p = self.power_stage;
+        DeadTimeConfig {
+            dead_time_s: p.dead_time_s,
+            pwm_hz: p.pwm_hz,
+            band_a: p.dead_time_band_a,
+        }
+    }
+
+    /// The speed loop's load-torque observer: the motor's mechanics at the speed loop's rate,
+    /// its bandwidth a fifth of the PLL's (10 Hz): it works on the PLL's speed estimate, whose
+    /// phase lag must stay small at its bandwidth (22° at a fifth of the PLL's natural
+    /// frequency, 43° at 20 Hz, where the speed loop with it oscillated on Ortega's test
+    /// motor after a flying start) (unvalidated).
+    pub(super) fn load_observer_config(&self) -> LoadObserverConfig {
+        LoadObserverConfig {
+            j_kgm2: self.motor.j_kgm2,
+            b_nms: self.motor.b_nms,
+            torque_constant: self.motor.torque_constant(),
+            bandwidth_hz: PLL_BANDWIDTH_HZ / 5.0,
+            rate_hz: self.rate_hz / SLOTS as f32,
+        }
+    }
+
     /// The FOC's settings (unvalidated).
     pub(super) fn foc_config(&self) -> FocConfig {
         FocConfig {
@@ -297,6 +383,7 @@ impl DriveConfig {
             current_rate_hz: self.rate_hz,
             speed_divider: SLOTS,
             angle_advance_periods: ADVANCE_PERIODS,
+            dead_time: self.dead_time_config(),
             ..FocConfig::new(self.motor, self.limits.i_max_a)
         }
     }
@@ -308,9 +395,10 @@ impl DriveConfig {
     }
 
     /// The drive with the flux observer (and its PLL) feeding the controller and the sliding
-    /// torque observer watching it.
+    /// torque observer watching it ([`DriveConfig::sliding_monitor`]: alone, for a motor whose
+    /// `K_s` window is empty).
     pub fn build_flux_primary(&self) -> Result<Drive<FluxPll, SlidingObserver>, ParamError> {
-        self.build(self.flux_pll()?, self.sliding_torque()?)
+        self.build(self.flux_pll()?, self.sliding_monitor()?)
     }
 
     /// Validates every setting and derives the FOC gains and each mode's coefficients;
@@ -332,7 +420,15 @@ impl DriveConfig {
             monitor,
             foc,
             slew_per_slot_cycle_rpm: s.accel_rpm_per_s * ts * SLOTS as f32,
+            load_observer: self.load_observer_config().build()?,
+            max_speed_rpm: self.ratings.speed_rpm,
             limits: l,
+            catch: catch::Settings {
+                v_min: m.torque_constant() * s.handback_rpm * RAD_S_PER_RPM,
+                omega_m_per_v: 1.0 / m.torque_constant(),
+                half_n_ts: 0.5 * m.n() * ts,
+                timeout_checks: 5 * slot_cycles(h.lock_time_s).max(1),
+            },
             align: align::Settings {
                 current_a: s.align_current_a,
                 steps: steps(s.align_time_s).max(1),
@@ -341,18 +437,23 @@ impl DriveConfig {
                 current_a: s.open_loop_current_a,
                 n_ts: m.n() * ts,
                 handover_rpm: s.handover_rpm,
+                timeout_checks: slot_cycles(
+                    s.handover_rpm / s.accel_rpm_per_s + s.handover_timeout_s,
+                )
+                .max(1),
+                pullout_checks: slot_cycles(h.lock_time_s).max(1),
             },
             supervision: supervision::Settings {
-                handover_rpm: s.handover_rpm,
-                handover_cos: SinCos::of(s.handover_tol_deg * RAD_PER_DEG).cos,
-                handover_checks: slot_cycles(s.handover_hold_s).max(1),
-                handover_timeout_checks: slot_cycles(s.handover_timeout_s).max(1),
-                handback_rpm: s.handback_rpm,
+                lock_checks: slot_cycles(h.lock_time_s).max(1),
+                failover_checks: slot_cycles(h.failover_time_s).max(1),
+                reseed_checks: 2 * slot_cycles(h.lock_time_s).max(1),
+                loss_checks: slot_cycles(h.loss_time_s).max(1),
                 max_disagreement: h.max_disagreement_deg * RAD_PER_DEG,
                 max_speed_disagreement_rpm: h.max_speed_disagreement_rpm,
-                loss_checks: slot_cycles(h.loss_time_s).max(1),
                 stall_checks: slot_cycles(h.stall_time_s).max(1),
                 i_limit_a: 0.99 * l.i_max_a,
+                handback_rpm: s.handback_rpm,
+                stop_rpm: s.stop_rpm,
             },
         })
     }

@@ -1,7 +1,7 @@
 //! What goes into and out of the drive: the sample, the command, the output, the modes as the
 //! outside sees them, faults, transitions and the log record.
 
-use crate::frames::Abc;
+use crate::frames::{Abc, AlphaBeta};
 use crate::svpwm::Duties;
 
 /// Operating mode.
@@ -11,6 +11,8 @@ pub enum Mode {
     /// PWM off, waiting for enable.
     #[default]
     Idle,
+    /// PWM off, the observers watching the terminal voltage: is the rotor turning?
+    Catch,
     /// d-axis current at θ_e = 0 pulls the rotor to a known angle.
     Align,
     /// Current-controlled open loop with a frequency ramp.
@@ -33,10 +35,12 @@ pub enum Fault {
     BusOvervoltage,
     /// A non-finite sample, or a current beyond the sensing range.
     InvalidInput,
-    /// The observers disagreed beyond the limits for longer than `loss_time_s`, or one of them
-    /// could not update (its state would have become non-finite) while sensorless.
+    /// No observer healthy for `loss_time_s` while sensorless above the hand-back speed, the
+    /// two healthy observers contradicting each other for that long, or an observer that could
+    /// not update (its state would have become non-finite).
     ObserverLoss,
-    /// No hand-over after the ramp, or the speed collapsed under load.
+    /// No observer locked within the open loop's time limit, or the speed collapsed at the
+    /// current limit (a locked rotor, a load beyond the motor).
     Stall,
     /// The caller reported that the previous step overran its period.
     Overrun,
@@ -48,14 +52,23 @@ pub enum Fault {
 pub enum Reason {
     /// Enable command.
     Enabled,
+    /// The terminal voltage showed a turning rotor and an observer locked on it: closed loop
+    /// without alignment (flying start).
+    Caught,
+    /// The rotor is at rest (or too slow to see): align it.
+    AtRest,
     /// Alignment time elapsed.
     Aligned,
-    /// The observer agreed with the open-loop angle above the observable speed.
+    /// An observer is healthy on its own evidence: closed loop on it.
     HandOver,
-    /// Speed and reference fell below the hand-back speed (stop or reversal).
+    /// No observer healthy at low speed: back to open loop.
     HandBack,
-    /// The open-loop ramp reached zero speed with a zero command.
+    /// Stopped at zero speed (estimated) with a zero command.
     Stopped,
+    /// The primary observer lost its health: the healthy monitor drives (within the mode).
+    Failover,
+    /// The primary observer is healthy (again): it drives (within the mode).
+    PrimaryDrives,
     /// Enable withdrawn.
     Disabled,
     /// A fault.
@@ -76,6 +89,17 @@ pub struct Transition {
     pub reason: Reason,
 }
 
+/// Which observer feeds the controller.
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Role {
+    /// The primary (the configured one).
+    #[default]
+    Primary,
+    /// The monitor, while the primary is not healthy.
+    Monitor,
+}
+
 /// Samples of one period.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DriveInput {
@@ -83,6 +107,12 @@ pub struct DriveInput {
     pub i_abc: Abc,
     /// DC bus voltage \[V].
     pub v_bus: f32,
+    /// The stator voltage over the period that just ended, measured at the terminals (αβ of
+    /// the phase voltages, common mode removed) \[V], on boards that sense it (the
+    /// B-G431B-ESC1's back-EMF dividers); `None` elsewhere. Read only while the PWM is off:
+    /// with it the drive catches a turning rotor without current (mode `Catch`); without it an
+    /// enable always aligns.
+    pub v_ab_terminal: Option<AlphaBeta>,
     /// The previous step did not finish within its period.
     pub overrun: bool,
 }
@@ -125,6 +155,13 @@ pub struct Telemetry {
     pub i_q: f32,
     /// The primary observer's load-torque estimate \[N·m], if it has one.
     pub load_nm: Option<f32>,
+    /// Which observer drives (in sensorless control).
+    pub driving: Role,
+    /// Health: the primary's and the monitor's residual, each observer's own evidence of lock
+    /// (below 1 consistent with the measurements; see `Observer::residual`).
+    pub residual_primary: f32,
+    /// See `residual_primary`.
+    pub residual_monitor: f32,
     /// Health: |θ̂_primary − θ̂_monitor| [deg, electrical].
     pub disagreement_deg: f32,
     /// Health: |ω̂_primary − ω̂_monitor| \[rpm].

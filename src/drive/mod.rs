@@ -6,17 +6,21 @@
 //!    same step and is latched until cleared;
 //! 2. the commands: enable, disable, clear a fault;
 //! 3. both observers ([`Observer`]) every step while the inverter is on, the primary feeding
-//!    the controller and the monitor watching it, their read-outs in their slots;
+//!    the controller and the monitor watching it (their read-outs are the 1 kHz task's);
 //! 4. the mode's step, each mode in a file of its own with its state in its variant of the
-//!    mode: idle → `align.rs` → `open_loop.rs` start (I/f) →
-//!    `sensorless.rs` control → back to open loop through zero speed → idle;
-//!    fault from anywhere. Each mode returns a [`Request`] (a frame and a current or voltage
-//!    reference) and, rarely, the mode to switch to;
-//! 5. the one FOC call site, [`Foc::run`]: current loop and SVPWM.
+//!    mode: idle → `catch.rs` (PWM off: is the rotor turning? a flying start goes straight
+//!    to sensorless control) → `align.rs` → `open_loop.rs` start (I/f) → `sensorless.rs`
+//!    control, through zero speed on the observer → stopped at zero → idle; back to open loop
+//!    only where no observer is healthy at low speed; fault from anywhere. Each mode returns a
+//!    [`Request`] (a frame and a current or voltage reference) and, rarely, the mode to switch
+//!    to;
+//! 5. the one FOC call site, [`Foc::run`]: current loop, dead-time compensation
+//!    ([`crate::dead_time`], the board's figures in [`PowerStageConfig`]) and SVPWM.
 //!
 //! The 1 kHz work is spread over the four steps of each millisecond
 //! (`schedule.rs`); the checks of supervision
-//! (`supervision.rs`) take the angles of one sample.
+//! (`supervision.rs`: each observer's health from its own evidence, which one drives, which
+//! is re-seeded) take the estimates of one sample.
 //!
 //! The drive is generic over its two observers (`Drive<P, M>`, monomorphised): the step
 //! compiles to one function, with no per-block register save and restore and no structs
@@ -25,6 +29,7 @@
 //! reads it from the state at the log's rate.
 
 mod align;
+mod catch;
 mod config;
 mod io;
 mod open_loop;
@@ -34,22 +39,25 @@ mod schedule;
 mod sensorless;
 mod supervision;
 
-pub use config::{DriveConfig, HealthConfig, Limits, StartConfig};
-pub use io::{Command, DriveInput, DriveOutput, Fault, Mode, Reason, Telemetry, Transition};
+pub use config::{DriveConfig, HealthConfig, Limits, PowerStageConfig, StartConfig};
+pub use io::{Command, DriveInput, DriveOutput, Fault, Mode, Reason, Role, Telemetry, Transition};
 pub use report::{Derived, Warning};
 pub use schedule::{Slot, SLOTS};
 
 use crate::foc::{CurrentLoopState, Foc, Request};
 use crate::frames::{AlphaBeta, SinCos};
+use crate::load_observer::LoadObserver;
 use crate::math::atan2;
+use crate::math::{clamp, wrap_pi};
 use crate::observer::{Observer, ReadOut, Rotor};
 use crate::power_stage::PowerStage;
 use crate::units::{DEG_PER_RAD, RAD_S_PER_RPM, RPM_PER_RAD_S};
 use align::Align;
+use catch::Catch;
 use core::hint::cold_path;
 use open_loop::OpenLoop;
 use sensorless::Sensorless;
-use supervision::Views;
+use supervision::{Health, Seed, Verdict, Views};
 
 /// A built drive: the observers, the FOC and every mode's per-step coefficients. `P` feeds the
 /// controller, `M` watches it.
@@ -61,7 +69,12 @@ pub struct Drive<P, M> {
     /// Speed-reference slew per slot cycle (the speed loop's period), also the open-loop
     /// frequency ramp \[rpm].
     slew_per_slot_cycle_rpm: f32,
+    /// The speed loop's load-torque observer, for a driving observer without one.
+    load_observer: LoadObserver,
+    /// The speed command is limited to ± this \[rpm] (the rated speed).
+    max_speed_rpm: f32,
     limits: Limits,
+    catch: catch::Settings,
     align: align::Settings,
     open_loop: open_loop::Settings,
     supervision: supervision::Settings,
@@ -90,7 +103,7 @@ impl<PS: Default, MS: Default> Default for DriveState<PS, MS> {
     fn default() -> Self {
         Self {
             mode: ModeState::Idle,
-            slot: Slot::AngleReadOut,
+            slot: Slot::First,
             obs: ObserverStates::default(),
             current: CurrentLoopState::default(),
             i_ab_last: AlphaBeta::default(),
@@ -105,6 +118,7 @@ impl<PS, MS> DriveState<PS, MS> {
     pub fn mode(&self) -> Mode {
         match self.mode {
             ModeState::Idle => Mode::Idle,
+            ModeState::Catch(_) => Mode::Catch,
             ModeState::Align(_) => Mode::Align,
             ModeState::OpenLoop(_) => Mode::OpenLoop,
             ModeState::Sensorless(_) => Mode::Sensorless,
@@ -125,8 +139,14 @@ impl<PS, MS> DriveState<PS, MS> {
         self.slot
     }
 
+    /// The last step was the [`SLOTS`]th of its millisecond: [`Drive::tick`] is due now.
+    pub fn tick_due(&self) -> bool {
+        self.slot == Slot::First
+    }
+
     /// The voltage the last step's duties apply over the period \[V] (what the observers take
-    /// next step); zero before the first switching step.
+    /// next step), the inverter's dead time included ([`crate::foc::FocOutput::v_ab`]); zero
+    /// before the first switching step.
     pub fn v_ab_applied(&self) -> AlphaBeta {
         self.v_ab_last
     }
@@ -139,6 +159,11 @@ impl<PS, MS> DriveState<PS, MS> {
     /// The monitor observer's state.
     pub fn monitor(&self) -> &MS {
         &self.obs.monitor
+    }
+
+    /// Which observer drives the controller.
+    pub fn driving(&self) -> Role {
+        self.obs.health.driving
     }
 
     /// sin/cos of the open-loop angle θ_ol, in open loop.
@@ -155,6 +180,8 @@ impl<PS, MS> DriveState<PS, MS> {
 enum ModeState {
     /// PWM off, waiting for enable.
     Idle,
+    /// PWM off, the observers on the terminal voltage.
+    Catch(Catch),
     /// Rotor alignment.
     Align(Align),
     /// Open-loop start.
@@ -165,16 +192,18 @@ enum ModeState {
     Fault(Fault),
 }
 
-/// Both observers' states and the angles of one sample.
+/// Both observers' states, the angles of one sample and their health (which drives).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 struct ObserverStates<PS, MS> {
     primary: PS,
     monitor: MS,
-    /// The angles of the last [`Slot::AngleReadOut`] step's sample.
+    /// The angles the last [`Drive::tick`] read out.
     sample: AngleSample,
+    /// Each observer's lock, which drives.
+    health: Health,
 }
 
-/// The angles the 1 kHz comparisons take, all of one sample (the [`Slot::AngleReadOut`]
+/// The angles the 1 kHz comparisons take, all of one sample (the last tick's
 /// step's) [rad, electrical].
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 struct AngleSample {
@@ -190,7 +219,19 @@ enum Outcome {
     Switch(Request, ModeState, Reason),
     /// Stop switching: a fault.
     Fault(Fault),
-    /// Stop switching: stopped at zero speed with a zero command (back to idle).
+}
+
+/// What a mode's [`Drive::tick`] decided.
+enum Next {
+    /// Carry on.
+    Stay,
+    /// Carry on; within the mode, the driving observer changed.
+    Note(Reason),
+    /// Switch to the mode from the next step on.
+    Switch(ModeState, Reason),
+    /// Stop switching: a fault.
+    Fault(Fault),
+    /// Stopped at zero speed with a zero command (back to idle).
     Stopped,
 }
 
@@ -229,8 +270,14 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             ModeState::Fault(_) => {}
             ModeState::Idle if starting => {
                 cold_path();
+                // With the terminal voltage sensed, first see whether the rotor turns.
+                let mode = if input.v_ab_terminal.is_some() {
+                    ModeState::Catch(Catch::default())
+                } else {
+                    ModeState::Align(Align::default())
+                };
                 *st = DriveState {
-                    mode: ModeState::Align(Align::default()),
+                    mode,
                     ..DriveState::default()
                 };
                 reason = Some(Reason::Enabled);
@@ -248,8 +295,13 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             ModeState::Idle | ModeState::Fault(_) => None,
             _ => {
                 let i_ab = input.i_abc.to_alpha_beta();
-                let ok = self.observe(st, i_ab);
-                let (duties, r) = self.control(st, input.v_bus, cmd.speed_rpm, i_ab, ok);
+                // PWM off (catching): the voltage is the terminals'.
+                let v_ab = match (&st.mode, input.v_ab_terminal) {
+                    (ModeState::Catch(_), Some(v)) => v,
+                    _ => st.v_ab_last,
+                };
+                let ok = self.observe(st, i_ab, v_ab);
+                let (duties, r) = self.control(st, input.v_bus, i_ab, input.v_ab_terminal, ok);
                 if r.is_some() {
                     reason = r;
                 }
@@ -264,6 +316,66 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 .filter(|_| to != from)
                 .map(|reason| Transition { from, to, reason }),
         }
+    }
+
+    /// The drive's 1 kHz task: call it once after every [`SLOTS`]th [`Drive::step`] (when
+    /// [`DriveState::tick_due`]), never while a step runs; on a board from a
+    /// context the step's interrupt cannot preempt in the middle of it (a critical section
+    /// in the main loop: a few µs of interrupt latency). It runs the observers' read-outs
+    /// (the flux observer's arctangent, the PLL), the health check and its seeds and failover
+    /// (`supervision.rs`), each mode's decisions (hand-over, hand-back, stall, stop, the
+    /// open-loop ramp) and the speed loop. The step applies its results from the next sample
+    /// on: a fault found here turns the PWM off there. Returns the mode change or the change
+    /// of the driving observer it made.
+    ///
+    /// Split from the step as a drive's medium-frequency task is from its current loop (ST's
+    /// motor-control SDK runs its speed loop and state machine so): the 4 kHz interrupt keeps
+    /// only what every sample needs.
+    #[inline(never)]
+    pub fn tick(&self, st: &mut StateOf<P, M>, cmd: &Command) -> Option<Transition> {
+        let from = st.mode();
+        if matches!(
+            st.mode,
+            ModeState::Idle | ModeState::Fault(_) | ModeState::Align(_)
+        ) {
+            return None;
+        }
+        let obs = &mut st.obs;
+        self.primary.read_out(&mut obs.primary, ReadOut::Angle);
+        self.monitor.read_out(&mut obs.monitor, ReadOut::Angle);
+        obs.sample = AngleSample {
+            theta_primary: self.primary.theta_e(&obs.primary),
+            theta_monitor: self.monitor.theta_e(&obs.monitor),
+        };
+        self.primary.read_out(&mut obs.primary, ReadOut::Speed);
+        self.monitor.read_out(&mut obs.monitor, ReadOut::Speed);
+        // The command within the ratings.
+        let cmd_rpm = clamp(cmd.speed_rpm, -self.max_speed_rpm, self.max_speed_rpm);
+        let i_ab = st.i_ab_last;
+        let next = match &mut st.mode {
+            ModeState::Catch(c) => self.catch_tick(c, obs, i_ab),
+            ModeState::OpenLoop(ol) => self.open_loop_tick(ol, obs, cmd_rpm, i_ab),
+            ModeState::Sensorless(s) => self.sensorless_tick(s, obs, cmd_rpm, i_ab),
+            ModeState::Idle | ModeState::Fault(_) | ModeState::Align(_) => Next::Stay,
+        };
+        let reason = match next {
+            Next::Stay => return None,
+            Next::Note(reason) => reason,
+            Next::Switch(mode, reason) => {
+                st.mode = mode;
+                reason
+            }
+            Next::Fault(f) => enter_fault(st, f),
+            Next::Stopped => {
+                *st = DriveState::default();
+                Reason::Stopped
+            }
+        };
+        Some(Transition {
+            from,
+            to: st.mode(),
+            reason,
+        })
     }
 
     /// One period on a power stage: its sample, [`Drive::step`], the duties (or PWM off)
@@ -294,11 +406,9 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             theta_primary: self.primary.theta_e(&st.obs.primary),
             theta_monitor: self.monitor.theta_e(&st.obs.monitor),
         };
-        st.mode = ModeState::Sensorless(Sensorless::new(
-            rotor.omega_m * RPM_PER_RAD_S,
-            self.foc.current_for_torque(rotor.load_nm),
-            self.foc.output_rotation(rotor.omega_m),
-        ));
+        st.obs.health = Health::AT_KNOWN_STATE;
+        let i_q = self.foc.current_for_torque(rotor.load_nm);
+        st.mode = ModeState::Sensorless(self.sensorless_at(rotor.omega_m, i_q));
         st
     }
 
@@ -313,66 +423,59 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             fault: st.fault(),
             ..Telemetry::default()
         };
-        // The angles of this very sample (the step reads them out at 1 kHz).
+        // The angles of this very sample (the 1 kHz task reads them out once a millisecond),
+        // the residuals of the last health check.
         let (mut ps, mut ms) = (st.obs.primary, st.obs.monitor);
         self.primary.read_out(&mut ps, ReadOut::Angle);
         self.monitor.read_out(&mut ms, ReadOut::Angle);
-        let v = Views {
-            theta_primary: self.primary.theta_e(&ps),
-            omega_primary: self.primary.omega_m(&ps),
-            theta_monitor: self.monitor.theta_e(&ms),
-            omega_monitor: self.monitor.omega_m(&ms),
+        let (theta_p, theta_m) = (self.primary.theta_e(&ps), self.monitor.theta_e(&ms));
+        let (omega_p, omega_mon) = (self.primary.omega_m(&ps), self.monitor.omega_m(&ms));
+        let health = &st.obs.health;
+        let driving = health.driving;
+        let (theta_d, omega_d) = match driving {
+            Role::Primary => (theta_p, omega_p),
+            Role::Monitor => (theta_m, omega_mon),
         };
         let (theta, omega_m, speed_ref_rpm) = match &st.mode {
             ModeState::Idle | ModeState::Fault(_) => return off,
             ModeState::Align(_) => (0.0, 0.0, 0.0),
+            ModeState::Catch(_) => (theta_d, omega_d, 0.0),
             ModeState::OpenLoop(ol) => {
                 let f = ol.frame();
                 let speed = ol.speed_rpm();
                 (atan2(f.sin, f.cos), speed * RAD_S_PER_RPM, speed)
             }
-            ModeState::Sensorless(s) => (v.theta_primary, v.omega_primary, s.speed_ref_rpm()),
+            ModeState::Sensorless(s) => (theta_d, omega_d, s.speed_ref_rpm()),
         };
         let i_dq = st.i_ab_last.to_dq(SinCos::of(theta));
+        let [residual_primary, residual_monitor] = health.residuals();
         Telemetry {
             speed_ref_rpm,
             speed_rpm: omega_m * RPM_PER_RAD_S,
-            theta_e_primary: v.theta_primary,
-            theta_e_monitor: v.theta_monitor,
+            theta_e_primary: theta_p,
+            theta_e_monitor: theta_m,
             theta_e_control: theta,
             i_d: i_dq.d,
             i_q: i_dq.q,
             load_nm: self.primary.load_nm(&ps),
-            disagreement_deg: v.disagreement() * DEG_PER_RAD,
-            speed_disagreement_rpm: v.speed_disagreement_rpm(),
+            driving,
+            residual_primary,
+            residual_monitor,
+            disagreement_deg: wrap_pi(theta_p - theta_m).abs() * DEG_PER_RAD,
+            speed_disagreement_rpm: (omega_p - omega_mon).abs() * RPM_PER_RAD_S,
             ..off
         }
     }
 
-    /// Runs both observers on this sample, and their read-outs in their slots; false if
-    /// either could not update.
+    /// Runs both observers' state equations on this sample (`i_ab` measured now, `v` applied
+    /// over the period that just ended); false if either could not update. Their read-outs
+    /// are [`Drive::tick`]'s.
     #[inline(always)]
-    fn observe(&self, st: &mut StateOf<P, M>, i_ab: AlphaBeta) -> bool {
-        let v = st.v_ab_last;
+    fn observe(&self, st: &mut StateOf<P, M>, i_ab: AlphaBeta, v: AlphaBeta) -> bool {
         st.i_ab_last = i_ab;
         let obs = &mut st.obs;
         let ok_p = self.primary.update(&mut obs.primary, i_ab, v);
         let ok_m = self.monitor.update(&mut obs.monitor, i_ab, v);
-        match st.slot {
-            Slot::AngleReadOut => {
-                self.primary.read_out(&mut obs.primary, ReadOut::Angle);
-                self.monitor.read_out(&mut obs.monitor, ReadOut::Angle);
-                obs.sample = AngleSample {
-                    theta_primary: self.primary.theta_e(&obs.primary),
-                    theta_monitor: self.monitor.theta_e(&obs.monitor),
-                };
-            }
-            Slot::SpeedReadOut => {
-                self.primary.read_out(&mut obs.primary, ReadOut::Speed);
-                self.monitor.read_out(&mut obs.monitor, ReadOut::Speed);
-            }
-            Slot::Supervision | Slot::SpeedLoop => {}
-        }
         ok_p && ok_m
     }
 
@@ -383,17 +486,29 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         &self,
         st: &mut StateOf<P, M>,
         v_bus: f32,
-        cmd_rpm: f32,
         i_ab: AlphaBeta,
+        v_terminal: Option<AlphaBeta>,
         observers_ok: bool,
     ) -> (Option<crate::svpwm::Duties>, Option<Reason>) {
-        let slot = st.slot;
         let outcome = match &mut st.mode {
+            ModeState::Catch(c) => {
+                // PWM off; the observers ran on the terminal voltage.
+                let v_ab = v_terminal.unwrap_or_default();
+                return match self.catch_step(c, &mut st.obs, i_ab, v_ab) {
+                    None if observers_ok => (None, None),
+                    None => (None, Some(enter_fault(st, Fault::InvalidInput))),
+                    Some(mode) => {
+                        st.mode = mode;
+                        (None, Some(Reason::AtRest))
+                    }
+                };
+            }
             ModeState::Align(a) => {
                 let (request, done) = self.align.step(a);
                 if done {
-                    // Rotor at θ_e = 0, at rest: start the observers there.
-                    self.reset_observers(&mut st.obs, i_ab, SinCos::ZERO, 0.0);
+                    // Rotor at θ_e = 0, at rest: start the observers there, both locked.
+                    self.seed_observers(&mut st.obs, Seed::BOTH, i_ab, Rotor::default());
+                    st.obs.health = Health::AT_KNOWN_STATE;
                     Outcome::Switch(
                         request,
                         ModeState::OpenLoop(OpenLoop::AT_REST),
@@ -403,10 +518,11 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                     Outcome::Run(request)
                 }
             }
-            ModeState::OpenLoop(ol) => self.open_loop_step(ol, &mut st.obs, slot, cmd_rpm, i_ab),
-            ModeState::Sensorless(s) => {
-                self.sensorless_step(s, &st.obs, slot, cmd_rpm, observers_ok)
+            ModeState::OpenLoop(ol) => Outcome::Run(self.open_loop_step(ol)),
+            ModeState::Sensorless(s) if observers_ok => {
+                Outcome::Run(self.sensorless_step(s, &st.obs))
             }
+            ModeState::Sensorless(_) => Outcome::Fault(Fault::ObserverLoss),
             ModeState::Idle | ModeState::Fault(_) => return (None, None),
         };
         let (request, reason) = match outcome {
@@ -417,48 +533,118 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 (request, Some(reason))
             }
             Outcome::Fault(f) => return (None, Some(enter_fault(st, f))),
-            Outcome::Stopped => {
-                cold_path();
-                *st = DriveState::default();
-                return (None, Some(Reason::Stopped));
-            }
         };
         let out = self.foc.run(&mut st.current, &request, i_ab, v_bus);
         st.v_ab_last = out.v_ab;
         (Some(out.duties), reason)
     }
 
-    /// The observers' estimates: the angles of the last [`Slot::AngleReadOut`] sample and the
-    /// speeds now.
+    /// The observers' estimates: the angles of the last tick's sample, the
+    /// speeds and residuals now, their speed ranges.
     #[inline(always)]
-    fn sample_views(&self, obs: &ObserverStates<P::State, M::State>) -> Views {
+    fn views(&self, obs: &ObserverStates<P::State, M::State>) -> Views {
         Views {
             theta_primary: obs.sample.theta_primary,
             omega_primary: self.primary.omega_m(&obs.primary),
+            residual_primary: self.primary.residual(&obs.primary),
+            min_speed_primary: self.primary.min_speed_m(),
             theta_monitor: obs.sample.theta_monitor,
             omega_monitor: self.monitor.omega_m(&obs.monitor),
+            residual_monitor: self.monitor.residual(&obs.monitor),
+            min_speed_monitor: self.monitor.min_speed_m(),
         }
     }
 
-    /// Restarts both observers at a known rotor state (`sc`: sin/cos of θ_e, `omega_m`
-    /// \[rad/s]).
-    // Out of line, like the other mode changes: rare, kept off the every-step path.
+    /// The driving observer's frame now, its output frame turned by `lead`, its speed
+    /// [rad/s, mechanical] and its load-torque estimate \[N·m], if it has one.
+    #[inline(always)]
+    fn driving(
+        &self,
+        obs: &ObserverStates<P::State, M::State>,
+        lead: SinCos,
+    ) -> (SinCos, SinCos, f32, Option<f32>) {
+        match obs.health.driving {
+            Role::Primary => estimate(&self.primary, &obs.primary, lead),
+            Role::Monitor => estimate(&self.monitor, &obs.monitor, lead),
+        }
+    }
+
+    /// The health check of [`Drive::tick`] (`supervision.rs`) and the seeds it asks
+    /// for: a seeded observer starts at the driving one's angle now, speed and load (its
+    /// own estimate, else `load_nm` \[N·m], the torque the controller makes). Returns the
+    /// verdict and, when the driving observer changed, why.
+    // Out of line: a thousandth of a second's work, called from three modes.
     #[inline(never)]
-    fn reset_observers(
+    fn supervise(
         &self,
         obs: &mut ObserverStates<P::State, M::State>,
         i_ab: AlphaBeta,
-        sc: SinCos,
-        omega_m: f32,
-    ) {
-        let rotor = Rotor {
-            theta_e: atan2(sc.sin, sc.cos),
-            omega_m,
-            load_nm: 0.0,
+        load_nm: f32,
+    ) -> (Verdict, Option<Reason>) {
+        let views = self.views(obs);
+        let (verdict, seed) = self.supervision.check(&mut obs.health, &views);
+        if seed != Seed::default() {
+            self.seed_from_driving(obs, seed, i_ab, load_nm);
+        }
+        let reason = match (verdict, obs.health.driving) {
+            (Verdict::Switched, Role::Monitor) => Some(Reason::Failover),
+            (Verdict::Switched, Role::Primary) => Some(Reason::PrimaryDrives),
+            _ => None,
         };
-        self.primary.seed(&mut obs.primary, i_ab, rotor);
-        self.monitor.seed(&mut obs.monitor, i_ab, rotor);
+        (verdict, reason)
     }
+
+    /// Seeds the observers `seed` names from the driving one (see [`Drive::supervise`]).
+    // Out of line, like the mode changes: rare, kept off the every-step path.
+    #[inline(never)]
+    fn seed_from_driving(
+        &self,
+        obs: &mut ObserverStates<P::State, M::State>,
+        seed: Seed,
+        i_ab: AlphaBeta,
+        load_nm: f32,
+    ) {
+        cold_path();
+        let (frame, _, omega_m, load) = self.driving(obs, SinCos::ZERO);
+        let rotor = Rotor {
+            theta_e: atan2(frame.sin, frame.cos),
+            omega_m,
+            load_nm: load.unwrap_or(load_nm),
+        };
+        self.seed_observers(obs, seed, i_ab, rotor);
+    }
+
+    /// Restarts the observers `seed` names at the rotor state `rotor`, `i_ab` the currents
+    /// now \[A].
+    // Out of line, like the other mode changes: rare, kept off the every-step path.
+    #[inline(never)]
+    fn seed_observers(
+        &self,
+        obs: &mut ObserverStates<P::State, M::State>,
+        seed: Seed,
+        i_ab: AlphaBeta,
+        rotor: Rotor,
+    ) {
+        if seed.primary {
+            self.primary.seed(&mut obs.primary, i_ab, rotor);
+        }
+        if seed.monitor {
+            self.monitor.seed(&mut obs.monitor, i_ab, rotor);
+        }
+    }
+}
+
+/// `o`'s frame now, its output frame turned by `lead`, its speed [rad/s, mechanical] and its
+/// load-torque estimate \[N·m], if it has one.
+#[inline(always)]
+fn estimate<O: Observer>(o: &O, st: &O::State, lead: SinCos) -> (SinCos, SinCos, f32, Option<f32>) {
+    let frame = o.sin_cos(st);
+    (
+        frame,
+        o.sin_cos_output(st, frame, lead),
+        o.omega_m(st),
+        o.load_nm(st),
+    )
 }
 
 /// Latches `fault`: PWM off until cleared.

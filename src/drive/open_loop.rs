@@ -1,13 +1,20 @@
 //! Open loop (I/f start): a current of fixed magnitude along the d axis of a frame at angle
 //! θ_ol whose frequency ramps; the rotor follows it, lagging by `asin(τ/(N ψ_f I_ol))`. The
 //! frame is kept as sin/cos of θ_ol, turned by `N ω_ol T` each step (no trigonometry on the
-//! step's path). Half-way to the hand-over speed the observers are restarted at θ_ol; above
-//! it, supervision hands over to sensorless control once the primary follows θ_ol.
+//! step's path).
+//!
+//! Supervised by the observers (the flux observer, seeded at the aligned rotor, sees the rotor
+//! from the first turn; `supervision.rs`): closed loop on the first usable observer once the
+//! ramp has reached the hand-over speed (or the command, if lower) with the rotor seen
+//! following it, at once when that observer sees the rotor pulled out of the ramp above the
+//! hand-back speed (its speed off ω_ol by half: the load is more than the I/f current carries,
+//! and the speed loop has up to `i_max_a`); a stall when no hand-over came within the time
+//! limit, at any speed (a blocked rotor at a small command); stopped when the ramp is at zero
+//! with a zero command.
 
-use super::schedule::Slot;
 use super::sensorless::Sensorless;
-use super::supervision::{HandOver, HandOverCount};
-use super::{Drive, ModeState, ObserverStates, Outcome};
+use super::supervision::{consecutive, Verdict};
+use super::{Drive, Fault, ModeState, Next, ObserverStates, Reason};
 use crate::foc::{Reference, Request};
 use crate::frames::{AlphaBeta, Dq, SinCos};
 use crate::math::clamp;
@@ -22,8 +29,13 @@ pub(super) struct Settings {
     pub(super) current_a: f32,
     /// N·T \[s]: θ_ol's advance per step per rad/s of ω_ol.
     pub(super) n_ts: f32,
-    /// The hand-over speed \[rpm]: the observers restart at half of it.
+    /// The hand-over speed \[rpm].
     pub(super) handover_rpm: f32,
+    /// Checks in open loop before a stall: the ramp to the hand-over speed and the hand-over
+    /// time limit.
+    pub(super) timeout_checks: u32,
+    /// Checks of a rotor pulled out of the ramp, or following it, before the hand-over.
+    pub(super) pullout_checks: u32,
 }
 
 /// The state of [`Mode::OpenLoop`](super::Mode::OpenLoop).
@@ -37,10 +49,12 @@ pub(super) struct OpenLoop {
     out_rot: SinCos,
     /// ω_ol [rpm, mechanical].
     speed_rpm: f32,
-    /// cos(θ̂_primary − θ_ol) at the last [`Slot::AngleReadOut`] sample.
-    ol_cos: f32,
-    /// The hand-over's counts.
-    hand_over: HandOverCount,
+    /// Checks in open loop.
+    checks: u32,
+    /// Consecutive checks with the rotor pulled out of the ramp.
+    pulled_out: u32,
+    /// Consecutive checks with the rotor following the ramp.
+    following: u32,
 }
 
 impl OpenLoop {
@@ -50,8 +64,9 @@ impl OpenLoop {
         step_rot: SinCos::ZERO,
         out_rot: SinCos::ZERO,
         speed_rpm: 0.0,
-        ol_cos: 1.0,
-        hand_over: HandOverCount::ZERO,
+        checks: 0,
+        pulled_out: 0,
+        following: 0,
     };
 
     /// sin/cos of θ_ol.
@@ -88,94 +103,87 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         ol.out_rot = self.foc.output_rotation(omega_m);
     }
 
-    /// One open-loop step: the ramp (in [`Slot::SpeedLoop`]), the frame turned, the
-    /// observers' restart half-way to the hand-over speed, the stop at zero, the hand-over
-    /// check (in [`Slot::Supervision`]); the request is the I/f current in θ_ol's frame.
+    /// One open-loop step: the frame turned by `N ω_ol T`; the request is the I/f current in
+    /// θ_ol's frame.
     #[inline(always)]
-    pub(super) fn open_loop_step(
-        &self,
-        ol: &mut OpenLoop,
-        obs: &mut ObserverStates<P::State, M::State>,
-        slot: Slot,
-        cmd_rpm: f32,
-        i_ab: AlphaBeta,
-    ) -> Outcome {
-        let s = &self.open_loop;
-        // The I/f frequency ramp moves at the speed loop's rate (1 kHz); θ_ol advances by
-        // N ω_ol T every step, as the rotation `step_rot` of its sin/cos.
-        let before = ol.speed_rpm;
-        if slot == Slot::SpeedLoop {
-            ol.speed_rpm = slew(before, cmd_rpm, self.slew_per_slot_cycle_rpm);
-            self.set_open_loop_speed(ol);
-        }
-        let omega_m = ol.speed_rpm * RAD_S_PER_RPM;
+    pub(super) fn open_loop_step(&self, ol: &mut OpenLoop) -> Request {
         ol.frame = ol.frame.rotated(ol.step_rot);
-        let mut next = None;
-        match slot {
-            Slot::SpeedLoop => {
-                let half = 0.5 * s.handover_rpm;
-                if before.abs() < half && ol.speed_rpm.abs() >= half {
-                    // Half-way to the hand-over speed the rotor turns with θ_ol (behind it by
-                    // the load angle): restart the observers there, where they can see it.
-                    self.reset_observers(obs, i_ab, ol.frame, omega_m);
-                }
-                if cmd_rpm == 0.0 && ol.speed_rpm == 0.0 {
-                    return Outcome::Stopped;
-                }
-            }
-            // The primary's angle against θ_ol, at the sample the angles are kept at.
-            Slot::AngleReadOut => {
-                let p = self.primary.sin_cos(&obs.primary);
-                ol.ol_cos = p.cos * ol.frame.cos + p.sin * ol.frame.sin;
-            }
-            Slot::Supervision => {
-                let views = self.sample_views(obs);
-                match self
-                    .supervision
-                    .hand_over(&mut ol.hand_over, &views, ol.speed_rpm, ol.ol_cos)
-                {
-                    HandOver::Wait => {}
-                    HandOver::Go => {
-                        let s = self.enter_sensorless(ol, obs, views.omega_primary);
-                        next = Some(ModeState::Sensorless(s));
-                    }
-                    HandOver::Stall => return Outcome::Fault(super::Fault::Stall),
-                }
-            }
-            // The four rotations since the last time moved its length by a few 1e-7.
-            Slot::SpeedReadOut => ol.frame = ol.frame.renormalized(),
-        }
-        let request = Request {
+        Request {
             frame: ol.frame,
             frame_out: ol.frame.rotated(ol.out_rot),
-            omega_m,
-            reference: Reference::Current(Dq::new(s.current_a, 0.0)),
-        };
-        match next {
-            Some(mode) => Outcome::Switch(request, mode, super::Reason::HandOver),
-            None => Outcome::Run(request),
+            omega_m: ol.speed_rpm * RAD_S_PER_RPM,
+            reference: Reference::Current(Dq::new(self.open_loop.current_a, 0.0)),
         }
     }
 
+    /// The open loop's 1 kHz work ([`Drive::tick`]): the health check and the hand-over, the
+    /// time limit, the frame's length renewed, the ramp and the stop at zero.
+    // Out of line (in flash on a board whose step runs from RAM): the start-up's, not the
+    // running drive's.
+    #[inline(never)]
+    pub(super) fn open_loop_tick(
+        &self,
+        ol: &mut OpenLoop,
+        obs: &mut ObserverStates<P::State, M::State>,
+        cmd_rpm: f32,
+        i_ab: AlphaBeta,
+    ) -> Next {
+        let s = &self.open_loop;
+        let omega_m = ol.speed_rpm * RAD_S_PER_RPM;
+        let (verdict, _) = self.supervise(obs, i_ab, 0.0);
+        ol.checks = ol.checks.saturating_add(1);
+        let timed_out = ol.checks >= s.timeout_checks;
+        match verdict {
+            Verdict::Contradiction => return Next::Fault(Fault::ObserverLoss),
+            _ if !obs.health.usable() && timed_out => return Next::Fault(Fault::Stall),
+            _ if obs.health.usable() => {
+                let (_, _, omega_hat, _) = self.driving(obs, SinCos::ZERO);
+                // Pulled out: the rotor is not where the ramp is (above the hand-back speed:
+                // below it a rotor still accelerating from rest lags the ramp too).
+                let off = (omega_hat - omega_m).abs() > 0.5 * omega_m.abs();
+                let fast = ol.speed_rpm.abs() >= self.supervision.handback_rpm;
+                ol.pulled_out = consecutive(ol.pulled_out, off && fast);
+                // Seen following the ramp at the hand-over speed (or the command, if lower):
+                // below it a blocked rotor shows no back-EMF, so the observer must see it turn
+                // with the I/f current's frame, which it does even at a standstill.
+                let reached = ol.speed_rpm.abs() >= s.handover_rpm.min(cmd_rpm.abs());
+                ol.following = consecutive(ol.following, !off && ol.speed_rpm != 0.0);
+                let seen_following = ol.following >= s.pullout_checks;
+                if (reached && seen_following) || ol.pulled_out >= s.pullout_checks {
+                    let sl = self.enter_sensorless(ol, obs);
+                    return Next::Switch(ModeState::Sensorless(sl), Reason::HandOver);
+                }
+                if timed_out {
+                    return Next::Fault(Fault::Stall);
+                }
+            }
+            _ => {}
+        }
+        // The rotations since the last time moved the frame's length by a few 1e-7.
+        ol.frame = ol.frame.renormalized();
+        // The I/f frequency ramp.
+        ol.speed_rpm = slew(ol.speed_rpm, cmd_rpm, self.slew_per_slot_cycle_rpm);
+        self.set_open_loop_speed(ol);
+        if cmd_rpm == 0.0 && ol.speed_rpm == 0.0 {
+            return Next::Stopped;
+        }
+        Next::Stay
+    }
+
     /// The hand-over: the speed loop starts from the torque the open-loop current makes in the
-    /// primary's frame, the reference from its speed `omega_m` \[rad/s].
+    /// driving observer's frame, the reference from its speed.
     // Out of line, like the other mode changes: rare, kept off the every-step path.
     #[inline(never)]
     fn enter_sensorless(
         &self,
         ol: &OpenLoop,
         obs: &ObserverStates<P::State, M::State>,
-        omega_m: f32,
     ) -> Sensorless {
         cold_path();
+        let (p, _, omega_m, _) = self.driving(obs, SinCos::ZERO);
         // sin(θ_ol − θ̂) of this sample.
-        let p = self.primary.sin_cos(&obs.primary);
         let sin_load_angle = ol.frame.sin * p.cos - ol.frame.cos * p.sin;
-        Sensorless::new(
-            omega_m * RPM_PER_RAD_S,
-            self.open_loop.current_a * sin_load_angle,
-            self.foc.output_rotation(omega_m),
-        )
+        self.sensorless_at(omega_m, self.open_loop.current_a * sin_load_angle)
     }
 }
 

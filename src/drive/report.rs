@@ -5,7 +5,6 @@
 use super::DriveConfig;
 use crate::bounds::{ks_max_e2, ks_max_t};
 use crate::foc::FocGains;
-use crate::math::INV_SQRT3;
 use crate::observer::flux::{gamma_max_discrete, gamma_max_single_equilibrium};
 use crate::observer::sliding::SlidingGain;
 use crate::param::ParamError;
@@ -68,14 +67,19 @@ pub struct Derived {
     pub align_current_a: f32,
     /// Open-loop (I/f) current \[A].
     pub open_loop_current_a: f32,
-    /// The largest phase voltage on the rated bus, `V_bus/√3` \[V].
+    /// The dead time's average pole-voltage error on the rated bus, `t_d·f_pwm·V_bus` \[V]
+    /// (Choi & Sul; what the compensation adds per phase, [`crate::dead_time`]).
+    pub dead_time_voltage_v: f32,
+    /// The largest phase voltage the current loop commands on the rated bus,
+    /// `(1 − 2·t_d·f_pwm)·V_bus/√3` \[V]: SVPWM's `V_bus/√3` less the room the dead-time
+    /// compensation needs ([`crate::dead_time::DeadTimeConfig::v_max_per_bus`]).
     pub v_max_v: f32,
     /// The voltage rated torque at rated speed needs, `|R i + jω_e(L i) + ω_e ψ_f|` \[V].
     pub v_rated_point_v: f32,
     /// The speed up to which the rated bus drives rated torque \[rpm].
     pub rated_torque_speed_rpm: f32,
     /// What will struggle, each once.
-    pub warnings: [Option<Warning>; 2],
+    pub warnings: [Option<Warning>; 3],
 }
 
 /// A setting the drive accepts but will struggle with: the setting, its value, the limit it
@@ -111,7 +115,8 @@ impl DriveConfig {
         let pll = self.pll_config();
         let (pll_kp, pll_ki) = pll.gains();
         let i_rated = self.ratings.torque_nm / kt;
-        let v_max = self.ratings.bus_v * INV_SQRT3;
+        let dead_time = self.dead_time_config();
+        let v_max = self.ratings.bus_v * dead_time.v_max_per_bus();
         let speed_rated = self.ratings.speed_rpm * RAD_S_PER_RPM;
         let v_rated_point = voltage(&m, i_rated, speed_rated);
         let rated_torque_speed_rpm = rpm(speed_for_voltage(&m, i_rated, v_max));
@@ -123,12 +128,26 @@ impl DriveConfig {
                 what: "below this speed K_s is above (K_s,max)_E2: the sliding observer's \
                        unstable second equilibrium exists (Horng & Chin Sec 4)",
             }),
+            // K_s outside its window: the sliding observer cannot be trusted anywhere.
+            self.sliding_torque().err().map(|e| Warning {
+                field: "ks",
+                value: e.value,
+                limit: if e.value > e.allowed.max {
+                    e.allowed.max
+                } else {
+                    e.allowed.min
+                },
+                what: "outside its window (Horng & Chin Sec 4): the sliding observer never \
+                       drives; the flux observer runs alone (build_flux_primary), a sliding \
+                       primary is refused",
+            }),
             (rated_torque_speed_rpm < self.ratings.speed_rpm).then_some(Warning {
                 field: "ratings.speed_rpm",
                 value: self.ratings.speed_rpm,
                 limit: rated_torque_speed_rpm,
-                what: "above this speed rated torque needs more than bus_v/sqrt(3): the \
-                       current loop saturates under full load",
+                what: "above this speed rated torque needs more than the largest phase voltage \
+                       (bus_v/sqrt(3) less the dead time's): the current loop saturates under \
+                       full load",
             }),
         ];
         Ok(Derived {
@@ -161,6 +180,7 @@ impl DriveConfig {
             i_sense_max_a: l.i_sense_max_a,
             align_current_a: s.align_current_a,
             open_loop_current_a: s.open_loop_current_a,
+            dead_time_voltage_v: dead_time.duty() * self.ratings.bus_v,
             v_max_v: v_max,
             v_rated_point_v: v_rated_point,
             rated_torque_speed_rpm,

@@ -1,44 +1,164 @@
-//! Supervision, apart from control: the hand-over from open loop to sensorless control and the
-//! sensorless health checks (observer loss, stall, hand-back), each once per slot cycle
-//! (1 kHz) on the angles of one sample.
+//! Supervision, apart from control: each observer's health from its own evidence
+//! ([`Observer::residual`](crate::observer::Observer::residual)), which observer drives, which
+//! is re-seeded, and the checks that end in a fault (observer loss, stall), each once a
+//! millisecond in the drive's 1 kHz task (`Drive::tick`) on the estimates of one sample.
+//!
+//! The rules, for any pair of observers:
+//! - an observer is *healthy* after `lock_checks` checks in a row with the running mean of its
+//!   residual (about 8 ms) below ¼, and lost after `failover_checks` in a row with it at or
+//!   above ½ (hysteresis: noise around one threshold does not flip it; the mean: a residual
+//!   that swings, as an observer whose model no longer fits it does, still counts). The
+//!   levels are measured: locked, with 1 % current noise and 500 ns of uncompensated dead
+//!   time, the mean stays below 0.2 (Sinano) to 0.4 (Ortega's test motor); a sliding observer
+//!   losing lock on a load release reaches 5, a flux observer whose motor lost half its flux
+//!   swings between 0.35 and 1;
+//! - it is *usable* when healthy and its |ω̂| is at least its `min_speed_m` (the sliding
+//!   observer is unobservable at zero speed);
+//! - the primary drives when usable, else the usable monitor (failover), else nothing: after
+//!   `loss_checks` without a usable observer, back to open loop at low speed or an observer
+//!   loss above it; a sick monitor never trips a usable primary;
+//! - a lost observer is re-seeded from the driving one once the driving one's speed is in its
+//!   range, and again every `reseed_checks` while it does not lock;
+//! - two usable observers that contradict each other (angle or speed beyond the limits) for
+//!   `loss_checks` re-seed the one not driving; the third such contradiction within a run of
+//!   agreement is an observer loss: the model no longer holds (e.g. the magnets' flux is gone)
+//!   and neither can be told right.
+//!
+//! The health of an observer is judged as fault-detection practice does with residuals: a
+//! signal that is near zero when the model fits the measurements, a threshold, and a
+//! persistence count (Isermann, *Fault-Diagnosis Systems*, Springer 2006, ch. 10 and 14).
 
+use super::io::Role;
 use crate::math::wrap_pi;
 use crate::units::RPM_PER_RAD_S;
 use core::hint::cold_path;
 
+/// The weight of a check's residual in its running mean.
+const MEAN_WEIGHT: f32 = 1.0 / 8.0;
+/// A healthy observer whose mean residual stays at or above this is lost.
+const LOST: f32 = 0.5;
+/// An observer whose mean residual stays below this has locked.
+const LOCKED: f32 = 0.25;
+/// Residuals are taken up to this (a NaN or infinite one counts as this).
+const RESIDUAL_CAP: f32 = 100.0;
+
 /// Supervision's thresholds, in the units and counts the checks use.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Settings {
-    /// Hand-over is allowed above this |open-loop speed| \[rpm].
-    pub(super) handover_rpm: f32,
-    /// cos of the hand-over angle tolerance.
-    pub(super) handover_cos: f32,
-    /// Checks in agreement before the hand-over.
-    pub(super) handover_checks: u32,
-    /// Checks above the hand-over speed before a stall.
-    pub(super) handover_timeout_checks: u32,
-    /// Back to open loop below this |speed| and |reference| \[rpm].
-    pub(super) handback_rpm: f32,
-    /// Largest tolerated angle disagreement [rad, electrical].
-    pub(super) max_disagreement: f32,
-    /// Largest tolerated speed disagreement \[rpm].
-    pub(super) max_speed_disagreement_rpm: f32,
-    /// Checks of disagreement before an observer loss.
+    /// Checks with the residual below ½ before an observer is healthy.
+    pub(super) lock_checks: u32,
+    /// Checks with the residual at or above 1 before a healthy observer is lost.
+    pub(super) failover_checks: u32,
+    /// Checks between two seeds of an observer that does not lock.
+    pub(super) reseed_checks: u32,
+    /// Checks without a usable observer (or of contradiction) before acting.
     pub(super) loss_checks: u32,
-    /// Checks of collapsed speed before a stall.
+    /// Largest tolerated angle disagreement of two usable observers [rad, electrical].
+    pub(super) max_disagreement: f32,
+    /// Largest tolerated speed disagreement of two usable observers \[rpm].
+    pub(super) max_speed_disagreement_rpm: f32,
+    /// Checks of collapsed speed at the current limit before a stall.
     pub(super) stall_checks: u32,
     /// |i_q command| at or above this is the speed loop at its limit \[A].
     pub(super) i_limit_a: f32,
+    /// Without a usable observer, below this |speed| and |reference| open loop takes over
+    /// again \[rpm].
+    pub(super) handback_rpm: f32,
+    /// With a zero command, stopped below this estimated |speed| \[rpm].
+    pub(super) stop_rpm: f32,
 }
 
-/// Both observers' estimates of the rotor, the angles of one sample [rad, electrical] and the
-/// speeds now [rad/s, mechanical].
+/// One observer's health, counted over the checks.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(super) struct Lock {
+    /// Healthy: locked on its own evidence.
+    healthy: bool,
+    /// Consecutive checks toward the other state (good ones while unhealthy, bad ones while
+    /// healthy).
+    count: u32,
+    /// Checks since the last seed (saturating).
+    since_seed: u32,
+    /// Running mean of the residual.
+    mean: f32,
+}
+
+impl Lock {
+    /// Healthy from the start: an observer seeded at a known rotor state (the aligned rotor).
+    pub(super) const SEEDED_AT_KNOWN_STATE: Self = Self {
+        healthy: true,
+        count: 0,
+        since_seed: 0,
+        mean: 0.0,
+    };
+
+    /// Seeded now from another estimate: unhealthy until it has shown lock.
+    pub(super) fn seeded(&mut self) {
+        *self = Self::default();
+    }
+}
+
+/// What the health of both observers says, once per check.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(super) struct Health {
+    /// The primary's and the monitor's lock.
+    pub(super) primary: Lock,
+    /// See `primary`.
+    pub(super) monitor: Lock,
+    /// Which drives.
+    pub(super) driving: Role,
+    /// Consecutive checks without a usable observer.
+    no_lock: u32,
+    /// Consecutive checks of contradiction between two usable observers.
+    contradict: u32,
+    /// Contradictions resolved by a re-seed since the observers last agreed for long.
+    strikes: u32,
+    /// Consecutive checks of agreement (resets the strikes).
+    agree: u32,
+    /// At the last check, an observer was usable (it is `driving`).
+    usable: bool,
+    /// The residuals of the last check: the primary's, the monitor's.
+    residuals: [f32; 2],
+}
+
+impl Health {
+    /// Both observers seeded at a known rotor state (the aligned rotor): healthy, the primary
+    /// driving.
+    pub(super) const AT_KNOWN_STATE: Self = Self {
+        primary: Lock::SEEDED_AT_KNOWN_STATE,
+        monitor: Lock::SEEDED_AT_KNOWN_STATE,
+        driving: Role::Primary,
+        no_lock: 0,
+        contradict: 0,
+        strikes: 0,
+        agree: 0,
+        usable: true,
+        residuals: [0.0; 2],
+    };
+
+    /// The residuals of the last check: the primary's, the monitor's.
+    pub(super) fn residuals(&self) -> [f32; 2] {
+        self.residuals
+    }
+
+    /// At the last check, the driving observer was usable.
+    pub(super) fn usable(&self) -> bool {
+        self.usable
+    }
+}
+
+/// Both observers' estimates of one check: the angles of one sample [rad, electrical], the
+/// speeds now [rad/s, mechanical], the residuals, each observer's lowest usable speed
+/// [rad/s, mechanical].
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Views {
     pub(super) theta_primary: f32,
     pub(super) omega_primary: f32,
+    pub(super) residual_primary: f32,
+    pub(super) min_speed_primary: f32,
     pub(super) theta_monitor: f32,
     pub(super) omega_monitor: f32,
+    pub(super) residual_monitor: f32,
+    pub(super) min_speed_monitor: f32,
 }
 
 impl Views {
@@ -51,130 +171,170 @@ impl Views {
     pub(super) fn speed_disagreement_rpm(&self) -> f32 {
         (self.omega_primary - self.omega_monitor).abs() * RPM_PER_RAD_S
     }
+
+    /// The speed estimate of `role` [rad/s, mechanical].
+    pub(super) fn omega(&self, role: Role) -> f32 {
+        match role {
+            Role::Primary => self.omega_primary,
+            Role::Monitor => self.omega_monitor,
+        }
+    }
 }
 
-/// The hand-over's counts, kept by the open loop.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub(super) struct HandOverCount {
-    /// Consecutive checks in agreement.
-    agree: u32,
-    /// Checks since the ramp passed the hand-over speed.
-    waiting: u32,
+/// What one health check decided.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Verdict {
+    /// Carry on with `driving`.
+    Drive,
+    /// The driving observer changed (reason: failover, or the primary back).
+    Switched,
+    /// No usable observer for `loss_checks`.
+    NoLock,
+    /// Two usable observers contradicted each other three times: neither can be trusted.
+    Contradiction,
 }
 
-impl HandOverCount {
-    /// No check yet.
-    pub(super) const ZERO: Self = Self {
-        agree: 0,
-        waiting: 0,
+/// Which observers to seed (from the driving one, as the health check asks).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(super) struct Seed {
+    /// Seed the primary.
+    pub(super) primary: bool,
+    /// Seed the monitor.
+    pub(super) monitor: bool,
+}
+
+impl Seed {
+    /// Both.
+    pub(super) const BOTH: Self = Self {
+        primary: true,
+        monitor: true,
     };
 }
 
-/// The health counts, kept by sensorless control.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub(super) struct HealthCount {
-    /// Consecutive checks with the observers in disagreement.
-    disagree: u32,
-    /// Consecutive checks with the speed collapsed.
-    collapse: u32,
-}
-
-/// What the hand-over check found.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) enum HandOver {
-    /// Stay in open loop.
-    Wait,
-    /// Hand over to sensorless control.
-    Go,
-    /// No agreement within the time limit.
-    Stall,
-}
-
-/// What the health check found.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) enum Health {
-    /// Carry on.
-    Good,
-    /// The observers disagree for too long.
-    ObserverLoss,
-    /// The speed collapsed at the current limit.
-    Stall,
-    /// Speed and reference are low: back to open loop.
-    HandBack,
-}
-
 impl Settings {
-    /// The hand-over check: above the hand-over speed, sensorless once the primary has
-    /// followed θ_ol (`ol_cos` = cos(θ̂_primary − θ_ol), and the monitor agreed with it within
-    /// half the sensorless health limits) for `handover_checks` checks in a row; a stall when
-    /// that has not happened within `handover_timeout_checks`.
+    /// One observer's lock from this check's residual (module doc): its mean over the last
+    /// few checks (`r̄ += (r − r̄)/8`, about 8 ms), lost at `LOST` or more for `failover_checks`
+    /// checks in a row, locked below `LOCKED` for `lock_checks` in a row.
     #[inline(always)]
-    pub(super) fn hand_over(
-        &self,
-        c: &mut HandOverCount,
-        views: &Views,
-        speed_ol_rpm: f32,
-        ol_cos: f32,
-    ) -> HandOver {
-        let fast_enough = speed_ol_rpm.abs() >= self.handover_rpm;
-        let agrees = ol_cos > self.handover_cos
-            && views.disagreement() < 0.5 * self.max_disagreement
-            && views.speed_disagreement_rpm() < 0.5 * self.max_speed_disagreement_rpm;
-        c.agree = consecutive(c.agree, fast_enough && agrees);
-        c.waiting = consecutive(c.waiting, fast_enough);
-        if c.agree >= self.handover_checks {
+    fn judge(&self, lock: &mut Lock, residual: f32) {
+        lock.since_seed = lock.since_seed.saturating_add(1);
+        // A non-finite residual is no evidence of lock.
+        let r = if residual < RESIDUAL_CAP {
+            residual
+        } else {
+            RESIDUAL_CAP
+        };
+        lock.mean += (r - lock.mean) * MEAN_WEIGHT;
+        let toward = if lock.healthy {
+            lock.mean >= LOST
+        } else {
+            lock.mean < LOCKED
+        };
+        lock.count = consecutive(lock.count, toward);
+        let needed = if lock.healthy {
+            self.failover_checks
+        } else {
+            self.lock_checks
+        };
+        if lock.count >= needed {
             cold_path();
-            return HandOver::Go;
+            lock.healthy = !lock.healthy;
+            lock.count = 0;
         }
-        if c.waiting >= self.handover_timeout_checks {
-            cold_path();
-            return HandOver::Stall;
-        }
-        HandOver::Wait
     }
 
-    /// The sensorless health check: observer loss after `loss_checks` consecutive
-    /// disagreements, a stall after `stall_checks` at the current limit below half the
-    /// reference; the hand-back when speed and reference are both low. `speed_ref_rpm` the
-    /// slewed reference, `i_q_ref_a` the speed loop's command.
+    /// The health check: both observers judged, the driving one chosen, the seeds asked for
+    /// (module doc). `h.driving` is the observer to drive after it.
     #[inline(always)]
-    pub(super) fn health(
+    pub(super) fn check(&self, h: &mut Health, v: &Views) -> (Verdict, Seed) {
+        h.residuals = [v.residual_primary, v.residual_monitor];
+        self.judge(&mut h.primary, v.residual_primary);
+        self.judge(&mut h.monitor, v.residual_monitor);
+        let in_range = |omega: f32, min: f32| omega.abs() >= min;
+        let p_usable = h.primary.healthy && in_range(v.omega_primary, v.min_speed_primary);
+        let m_usable = h.monitor.healthy && in_range(v.omega_monitor, v.min_speed_monitor);
+        let before = h.driving;
+        h.driving = match (p_usable, m_usable) {
+            (true, _) => Role::Primary,
+            (false, true) => Role::Monitor,
+            (false, false) => before,
+        };
+        let mut verdict = if h.driving == before {
+            Verdict::Drive
+        } else {
+            Verdict::Switched
+        };
+        h.usable = p_usable || m_usable;
+        h.no_lock = consecutive(h.no_lock, !h.usable);
+        if h.no_lock >= self.loss_checks {
+            cold_path();
+            return (Verdict::NoLock, Seed::default());
+        }
+        // Seeds: the one not healthy, from the driving one, within its speed range.
+        let omega = v.omega(h.driving);
+        let wants = |lock: &Lock, min: f32| {
+            !lock.healthy && in_range(omega, min) && lock.since_seed >= self.reseed_checks
+        };
+        let mut seed = Seed {
+            primary: h.driving == Role::Monitor && wants(&h.primary, v.min_speed_primary),
+            monitor: h.driving == Role::Primary && wants(&h.monitor, v.min_speed_monitor),
+        };
+        // Two usable observers must agree.
+        let contradict = p_usable
+            && m_usable
+            && (v.disagreement() > self.max_disagreement
+                || v.speed_disagreement_rpm() > self.max_speed_disagreement_rpm);
+        h.contradict = consecutive(h.contradict, contradict);
+        h.agree = consecutive(h.agree, p_usable && m_usable && !contradict);
+        if h.agree >= 10 * self.loss_checks {
+            h.strikes = 0;
+        }
+        if h.contradict >= self.loss_checks {
+            cold_path();
+            h.contradict = 0;
+            h.strikes += 1;
+            if h.strikes >= 3 {
+                verdict = Verdict::Contradiction;
+            }
+            match h.driving {
+                Role::Primary => seed.monitor = true,
+                Role::Monitor => seed.primary = true,
+            }
+        }
+        if seed.primary {
+            cold_path();
+            h.primary.seeded();
+        }
+        if seed.monitor {
+            cold_path();
+            h.monitor.seeded();
+        }
+        (verdict, seed)
+    }
+
+    /// Sensorless stall: the speed `omega_m` [rad/s] of the driving observer below half the
+    /// slewed reference `speed_ref_rpm` (or turning the wrong way) for `stall_checks` in a row
+    /// with the speed loop's command `i_q_ref_a` at its limit. (A rotor blocked before it
+    /// turned never leaves the open loop: it is not seen following the ramp.)
+    #[inline(always)]
+    pub(super) fn stalled(
         &self,
-        c: &mut HealthCount,
-        views: &Views,
+        count: &mut u32,
+        omega_m: f32,
         speed_ref_rpm: f32,
         i_q_ref_a: f32,
-    ) -> Health {
-        let speed = views.omega_primary * RPM_PER_RAD_S;
-        let disagree = views.disagreement() > self.max_disagreement
-            || views.speed_disagreement_rpm() > self.max_speed_disagreement_rpm;
-        c.disagree = consecutive(c.disagree, disagree);
-        if c.disagree >= self.loss_checks {
-            cold_path();
-            return Health::ObserverLoss;
-        }
-        // Stall: the speed loop is at its current limit and the speed has fallen below half
-        // the reference (the load is more than the motor can carry).
-        let at_limit = i_q_ref_a.abs() >= self.i_limit_a;
-        // Measured along the reference's direction: turning the wrong way counts too.
+    ) -> bool {
+        let speed = omega_m * RPM_PER_RAD_S;
         let along = if speed_ref_rpm < 0.0 { -speed } else { speed };
-        let collapsed = at_limit && along < 0.5 * speed_ref_rpm.abs();
-        c.collapse = consecutive(c.collapse, collapsed);
-        if c.collapse >= self.stall_checks {
-            cold_path();
-            return Health::Stall;
-        }
-        if speed_ref_rpm.abs() < self.handback_rpm && speed.abs() < self.handback_rpm {
-            cold_path();
-            return Health::HandBack;
-        }
-        Health::Good
+        let at_limit = i_q_ref_a.abs() >= self.i_limit_a;
+        *count = consecutive(*count, along < 0.5 * speed_ref_rpm.abs() && at_limit);
+        *count >= self.stall_checks
     }
 }
 
 /// A count of consecutive checks in which a condition held: one more if it holds, else 0.
 #[inline(always)]
-fn consecutive(count: u32, holds: bool) -> u32 {
+pub(super) fn consecutive(count: u32, holds: bool) -> u32 {
     if holds {
         count.saturating_add(1)
     } else {

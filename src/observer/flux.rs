@@ -101,7 +101,9 @@ impl FluxConfig {
             ts,
             r_ohm: m.r_ohm,
             l_h: m.l_h,
+            phi: m.flux_wb,
             phi2,
+            inv_phi2: 1.0 / phi2,
             half_gamma_ts: 0.5 * gamma * ts,
         })
     }
@@ -113,7 +115,9 @@ pub struct FluxObserver {
     ts: f32,
     r_ohm: f32,
     l_h: f32,
+    phi: f32,
     phi2: f32,
+    inv_phi2: f32,
     half_gamma_ts: f32,
 }
 
@@ -218,10 +222,21 @@ impl FluxObserver {
         true
     }
 
+    /// `| |x̂ − L i|²/Φ² − 1 |`: how far the rotor-flux estimate is off the circle of radius Φ
+    /// that eq (9)'s gradient term pulls it to (eqs (4), (5)). Locked, it is on it; an error
+    /// `x̃` perpendicular to the true flux puts it at `tan²θ̃_e` (1 at 45° electrical), and an
+    /// angle error that persists while the rotor turns shows here as the flux turns away from
+    /// it. Also 1 when the motor's flux is not Φ at all (|x − L i| = 0 or √2 Φ).
+    #[inline(always)]
+    pub fn magnitude_residual(&self, st: &FluxState) -> f32 {
+        let eta = st.rotor_flux;
+        ((eta.alpha * eta.alpha + eta.beta * eta.beta) * self.inv_phi2 - 1.0).abs()
+    }
+
     /// Sets the estimate to a known rotor angle: `x̂ = L i + Φ c(θ_e)` (eq (4)).
     pub fn reset(&self, st: &mut FluxState, i_ab: AlphaBeta, theta_e: f32) {
         let (s, c) = crate::math::sin_cos(theta_e);
-        let phi = crate::math::sqrt(self.phi2);
+        let phi = self.phi;
         let eta = AlphaBeta::new(phi * c, phi * s);
         *st = FluxState {
             x_hat: AlphaBeta::new(

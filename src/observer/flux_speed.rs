@@ -8,10 +8,12 @@
 //! built for the rate it is run at.
 
 use crate::frames::{AlphaBeta, SinCos};
+use crate::math::max;
 use crate::observer::flux::{FluxObserver, FluxState};
 use crate::observer::ii::{IiObserver, IiState};
 use crate::observer::pll::{Pll, PllState};
 use crate::observer::{Observer, ReadOut, Rotor};
+use core::f32::consts::FRAC_PI_2;
 
 /// The flux observer for θ̂_e and the PLL on its angle for ω̂.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -78,6 +80,18 @@ impl Observer for FluxPll {
     #[inline(always)]
     fn omega_m(&self, st: &FluxPllState) -> f32 {
         st.pll.omega * self.inv_n
+    }
+
+    /// The larger of the flux magnitude's residual ([`FluxObserver::magnitude_residual`]) and
+    /// the PLL's error at its last update over 90°: the angle is the flux observer's, the
+    /// PLL only differentiates it, so its error says the speed estimate is slipping, not that
+    /// the angle is wrong. Its tracking error under an acceleration α is `α/ω_n²`: 25° for
+    /// rated torque applied at once to the Sinano motor (4.3e4 rad/s² electrical), 0.2° on
+    /// the 1000 rpm/s ramp; a slipping PLL swings through ±180°.
+    #[inline(always)]
+    fn residual(&self, st: &FluxPllState) -> f32 {
+        let pll_error = st.pll.error.abs() * (1.0 / FRAC_PI_2);
+        max(self.flux.magnitude_residual(&st.flux), pll_error)
     }
 
     fn seed(&self, st: &mut FluxPllState, i_ab: AlphaBeta, rotor: Rotor) {
@@ -160,6 +174,12 @@ impl Observer for FluxIi {
     #[inline(always)]
     fn load_nm(&self, st: &FluxIiState) -> Option<f32> {
         Some(self.ii.estimate(&st.ii).load_nm)
+    }
+
+    /// The flux magnitude's residual ([`FluxObserver::magnitude_residual`]).
+    #[inline(always)]
+    fn residual(&self, st: &FluxIiState) -> f32 {
+        self.flux.magnitude_residual(&st.flux)
     }
 
     fn seed(&self, st: &mut FluxIiState, i_ab: AlphaBeta, rotor: Rotor) {

@@ -16,7 +16,7 @@ pub mod pll;
 pub mod sliding;
 
 /// The parts of an observer's read-out that a drive may run at a lower rate than its state
-/// equations (the drive runs each at 1 kHz in a slot of its own, `drive::Slot`); a caller that
+/// equations (the drive runs them at 1 kHz in its 1 kHz task, `Drive::tick`); a caller that
 /// wants the estimates every sample runs both after each [`Observer::update`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ReadOut {
@@ -41,7 +41,7 @@ pub struct Rotor {
 /// running state ([`Observer::State`]).
 ///
 /// Each sample the drive calls [`Observer::update`] with the currents measured now and the
-/// voltage applied over the period that just ended, and the [`ReadOut`]s in their slots; the
+/// voltage applied over the period that just ended, and the [`ReadOut`]s at 1 kHz; the
 /// estimates are read with the other methods. Angles electrical, speeds mechanical.
 pub trait Observer {
     /// Running state; `Default` is the state before the first sample.
@@ -79,4 +79,15 @@ pub trait Observer {
 
     /// Restarts the observer at a known rotor state, `i_ab` the currents measured now \[A].
     fn seed(&self, st: &mut Self::State, i_ab: AlphaBeta, rotor: Rotor);
+
+    /// The observer's own evidence of lock, from its own signals (not from another
+    /// estimate): 0 when its model fits the measurements, 1 at the edge of lock, above it lost
+    /// (each observer's implementation says what its 1 means). As of the last sample.
+    fn residual(&self, st: &Self::State) -> f32;
+
+    /// The lowest |ω̂_m| \[rad/s] at which this observer's estimate may drive the controller;
+    /// below it the drive neither uses nor judges it (0: any speed; infinite: never).
+    fn min_speed_m(&self) -> f32 {
+        0.0
+    }
 }

@@ -41,6 +41,8 @@ pub struct PllState {
     pub integral: f32,
     /// Speed estimate ω̂ \[rad/s] of the tracked angle (electrical if the input is).
     pub omega: f32,
+    /// The phase error `θ − z1` of the last update \[rad], wrapped to (−π, π].
+    pub error: f32,
 }
 
 impl PllConfig {
@@ -83,6 +85,7 @@ impl Pll {
             cold_path();
             return st.omega;
         }
+        st.error = e;
         st.integral += self.ki_ts * e;
         st.omega = self.kp * e + st.integral;
         st.z1 = wrap_pi(st.z1 + self.ts * st.omega);
@@ -95,6 +98,7 @@ impl Pll {
             z1: wrap_pi(theta),
             integral: omega,
             omega,
+            error: 0.0,
         };
     }
 }

@@ -66,6 +66,10 @@ pub struct SlidingConfig {
     /// The back-EMF angle is advanced by this many periods of rotation (0.5: middle of the
     /// period, matching a voltage held over the period; 0: the plain start-of-period Euler).
     pub emf_advance_periods: f32,
+    /// A drive lets this observer drive only above this |ω̂| \[rad/s] (0: at any speed;
+    /// infinite: never, for a motor whose K_s window is empty). Not the paper's: it is
+    /// unobservable at ω = 0 (Sec 3, the gains divide by ω̂).
+    pub min_speed_rad_s: f32,
 }
 
 impl SlidingConfig {
@@ -81,6 +85,7 @@ impl SlidingConfig {
             ks: SlidingGain::Constant(1000.0 * core::f32::consts::PI),
             omega_low_rad_s: 1.0,
             emf_advance_periods: 0.5,
+            min_speed_rad_s: 0.0,
         }
     }
 
@@ -109,6 +114,13 @@ impl SlidingConfig {
             }
         }
         c.check("omega_low_rad_s", self.omega_low_rad_s, Allowed::POSITIVE);
+        if self.min_speed_rad_s != f32::INFINITY {
+            c.check(
+                "min_speed_rad_s",
+                self.min_speed_rad_s,
+                Allowed::NON_NEGATIVE,
+            );
+        }
         c.check(
             "emf_advance_periods",
             self.emf_advance_periods,
@@ -138,6 +150,8 @@ impl SlidingConfig {
             inv_epsilon: 1.0 / epsilon,
             ks,
             omega_low,
+            min_speed: self.min_speed_rad_s,
+            emf_residual_scale: m.l_h / (kn * 2.0 * libm::sinf(core::f32::consts::PI / 8.0)),
             emf_advance_s: self.emf_advance_periods * ts * n,
         })
     }
@@ -155,6 +169,11 @@ pub struct SlidingObserver {
     inv_epsilon: f32,
     ks: SlidingGain,
     omega_low: f32,
+    /// See [`SlidingConfig::min_speed_rad_s`].
+    min_speed: f32,
+    /// `L/(K N · 2 sin(22.5°))` \[s/A·rad/s]: turns `|w|/|ω̂|` into the residual (see
+    /// `Observer::residual`).
+    emf_residual_scale: f32,
     /// a·T·N \[s]: the EMF angle leads θ̂_e by this times ω̂ \[rad].
     emf_advance_s: f32,
 }
@@ -464,6 +483,34 @@ impl Observer for SlidingObserver {
     #[inline(always)]
     fn omega_m(&self, st: &SlidingState) -> f32 {
         st.omega_m
+    }
+
+    /// The equivalent injection against the back-EMF it corrects, and the boundary layer.
+    /// Inside the layer (`|S| < ε`) the innovation `w = K_s S/ε` is the equivalent injection
+    /// that holds the sliding manifold (Sec 3, eq (28)): `w = (KN/L)(ω̂ c(θ̂_e) − ω c(θ_e))`, the
+    /// back-EMF error over L. Relative to the estimated back-EMF `(KN/L)|ω̂|` it is
+    /// `2 sin(θ̃_e/2)` at equal speeds; scaled so that 45° electrical is 1. The absolute `|w|`
+    /// alone says little at low speed (the EMF is small whatever the angle); the relative one
+    /// does. At the layer's edge (`max |S_i|/ε ≥ 1`, `K_s < K_s,min`) the sliding mode is lost
+    /// whatever the angle: the residual is at least 1. Below `ω̂_low` the speed is floored there.
+    #[inline(always)]
+    fn residual(&self, st: &SlidingState) -> f32 {
+        let w = st.w;
+        let w2 = w.alpha * w.alpha + w.beta * w.beta;
+        // |w| (0 unless its square is a normal number: w = 0 in the layer's middle).
+        let w_norm = if crate::math::is_normal_positive(w2) {
+            w2 * crate::math::rsqrt_normal(w2, 2)
+        } else {
+            0.0
+        };
+        let relative = w_norm * self.emf_residual_scale / self.gain_speed(st.omega_m).abs();
+        let layer = crate::math::max(st.s.alpha.abs(), st.s.beta.abs()) * self.inv_epsilon;
+        crate::math::max(relative, layer)
+    }
+
+    #[inline(always)]
+    fn min_speed_m(&self) -> f32 {
+        self.min_speed
     }
 
     /// τ̂_L of the torque observer; `None` for the velocity observer (λτ = 0).

@@ -95,7 +95,7 @@ mod firmware {
     use panic_probe as _;
     use stm32g4::stm32g431::{self as pac, interrupt, Interrupt};
 
-    use crate::control::{self, Control, CLEAR_FAULT, ENABLE, STEPS};
+    use crate::control::{self, Control, CLEAR_FAULT, ENABLE, STEPS, TICK_DUE};
     use crate::power_stage::Esc1;
     use crate::{adc, clocks, protection, pwm, telemetry};
 
@@ -103,7 +103,8 @@ mod firmware {
     /// bounce).
     const BUTTON_POLL_STEPS: u32 = 40;
 
-    /// The control context, handed from `main` to the interrupt once.
+    /// The control context, installed by `main`; the interrupt steps it, the main loop runs
+    /// its 1 kHz task, each inside a critical section.
     static CONTROL: Mutex<RefCell<Option<Control>>> = Mutex::new(RefCell::new(None));
 
     /// The control interrupt: ADC1 end of injected sequence (ADC1 and ADC2 share the vector).
@@ -111,19 +112,15 @@ mod firmware {
     /// telemetry.
     #[interrupt]
     fn ADC1_2() {
-        static mut CTX: Option<Control> = None;
-        let ctl = match CTX {
-            Some(ctl) => ctl,
-            None => match cortex_m::interrupt::free(|cs| CONTROL.borrow(cs).borrow_mut().take()) {
-                Some(ctl) => CTX.insert(ctl),
-                // Cannot happen (main installs the context before unmasking); never spin.
-                None => {
-                    NVIC::mask(Interrupt::ADC1_2);
-                    return;
+        cortex_m::interrupt::free(|cs| {
+            // Never borrowed twice (the main loop borrows it with interrupts off); no panic
+            // path either way.
+            if let Ok(mut ctl) = CONTROL.borrow(cs).try_borrow_mut() {
+                if let Some(ctl) = ctl.as_mut() {
+                    ctl.step();
                 }
-            },
-        };
-        ctl.step();
+            }
+        });
     }
 
     /// Copies the control path (`.ramfunc`, placed by `ramfunc.x`) from its load image in
@@ -201,6 +198,16 @@ mod firmware {
         defmt::info!("running; press the user button (PC10) to enable/disable");
 
         loop {
+            // The drive's 1 kHz task, between two steps.
+            if TICK_DUE.swap(false, Ordering::Relaxed) {
+                cortex_m::interrupt::free(|cs| {
+                    if let Ok(mut ctl) = CONTROL.borrow(cs).try_borrow_mut() {
+                        if let Some(ctl) = ctl.as_mut() {
+                            ctl.tick();
+                        }
+                    }
+                });
+            }
             receiver.log(|ev| faulted = ev.faulted());
 
             // The button's idle level was read at boot, so its polarity does not matter.

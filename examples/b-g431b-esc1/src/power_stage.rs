@@ -47,6 +47,8 @@ impl PowerStage for Esc1 {
         DriveInput {
             i_abc,
             v_bus,
+            // The board's back-EMF dividers are not read yet: an enable always aligns.
+            v_ab_terminal: None,
             overrun: self.overrun,
         }
     }

@@ -5,12 +5,12 @@
 //!
 //! The drive starts in sensorless control at 1000 rpm on the Sinano motor
 //! (`Drive::running_state`: both observers seeded at that rotor state), so the measured `step`
-//! takes the sensorless branch with both observers live; it is measured in each of the four
-//! slots of the 1 kHz work (`Slot`), with the flux observer primary, in open loop (start-up,
-//! reached from idle through the alignment), with the voltage at its limit (bus at its
-//! under-voltage trip, 37 V), and with the angles crossing ±π. Every case runs a full
-//! electrical turn (64 steps); each measured call is a function of its own, as the firmware's
-//! interrupt is.
+//! takes the sensorless branch with both observers live; it is measured with the sliding and
+//! the flux observer primary, in open loop (start-up, reached from idle through the
+//! alignment), with the voltage at its limit (bus at its under-voltage trip, 37 V), and with
+//! the angles crossing ±π; after every fourth step the drive's 1 kHz task (`Drive::tick`) is
+//! measured too. Every case runs a full electrical turn (64 steps); each measured call is a
+//! function of its own, as the firmware's interrupt and main loop call them.
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
 #[cfg(not(target_os = "none"))]
@@ -26,7 +26,7 @@ mod firmware {
     use defmt_semihosting as _;
     use panic_probe as _;
     use pmsm_sensorless::drive::{
-        Command, Drive, DriveConfig, DriveInput, DriveOutput, Mode, Slot, StateOf,
+        Command, Drive, DriveConfig, DriveInput, DriveOutput, Mode, StateOf,
     };
     use pmsm_sensorless::foc::{CurrentLoopState, Foc, FocConfig, FocInput, FocOutput};
     use pmsm_sensorless::frames::{AlphaBeta, Dq};
@@ -56,10 +56,7 @@ mod firmware {
     }
 
     markers! {
-        bench_begin_step_speed_loop, bench_end_step_speed_loop, 1u32;
-        bench_begin_step_monitor_angle, bench_end_step_monitor_angle, 2u32;
-        bench_begin_step_supervision, bench_end_step_supervision, 7u32;
-        bench_begin_step_pll, bench_end_step_pll, 8u32;
+        bench_begin_step, bench_end_step, 1u32;
         bench_begin_step_open_loop, bench_end_step_open_loop, 9u32;
         bench_begin_step_saturated, bench_end_step_saturated, 10u32;
         bench_begin_step_seam, bench_end_step_seam, 11u32;
@@ -67,6 +64,9 @@ mod firmware {
         bench_begin_flux_pll, bench_end_flux_pll, 4u32;
         bench_begin_foc_svpwm, bench_end_foc_svpwm, 5u32;
         bench_begin_step_flux_primary, bench_end_step_flux_primary, 6u32;
+        bench_begin_tick, bench_end_tick, 12u32;
+        bench_begin_tick_flux_primary, bench_end_tick_flux_primary, 13u32;
+        bench_begin_tick_open_loop, bench_end_tick_open_loop, 14u32;
     }
 
     /// Steps measured per case.
@@ -84,6 +84,16 @@ mod firmware {
         cmd: &Command,
     ) -> DriveOutput {
         drive.step(st, input, cmd)
+    }
+
+    /// The drive's 1 kHz task as the board's main loop runs it (`Control::tick`).
+    #[inline(never)]
+    fn control_tick<P: Observer, M: Observer>(
+        drive: &Drive<P, M>,
+        st: &mut StateOf<P, M>,
+        cmd: &Command,
+    ) {
+        black_box(drive.tick(st, cmd));
     }
 
     /// The blocks alone, each in a function of its own like [`control_step`].
@@ -162,6 +172,7 @@ mod firmware {
         let input = |start, k| DriveInput {
             i_abc: sample_from(start, k).1.to_abc(),
             v_bus: 48.0,
+            v_ab_terminal: None,
             overrun: false,
         };
         let cmd = Command {
@@ -169,27 +180,34 @@ mod firmware {
             speed_rpm: 1000.0,
             clear_fault: false,
         };
-        // One electrical turn and more (64 steps of 0.105 rad, each slot 16 times, every
-        // quadrant of the angles) of `drive` from `st` on the samples from angle `start`, each
-        // step between the markers `slot` names.
+        // One electrical turn and more (64 steps of 0.105 rad, every quadrant of the angles)
+        // of `drive` from `st` on the samples from angle `start`, each step between the
+        // `markers`, each 1 kHz task (after every fourth step) between the `tick_markers`.
         fn run<P: Observer, M: Observer>(
             name: &str,
             drive: &Drive<P, M>,
             mut st: StateOf<P, M>,
             (start, v_bus, cmd): (f32, f32, &Command),
-            markers: &dyn Fn(Slot) -> (extern "C" fn(), extern "C" fn()),
+            markers: (extern "C" fn(), extern "C" fn()),
+            tick_markers: (extern "C" fn(), extern "C" fn()),
         ) {
             for k in 1..=STEPS {
                 let input = DriveInput {
                     i_abc: sample_from(start, k).1.to_abc(),
                     v_bus,
+                    v_ab_terminal: None,
                     overrun: false,
                 };
-                let (begin, end) = markers(st.slot());
+                let (begin, end) = markers;
                 begin();
                 let out = control_step(drive, &mut st, &input, cmd);
                 black_box(&out);
                 end();
+                if st.tick_due() {
+                    tick_markers.0();
+                    control_tick(drive, &mut st, cmd);
+                    tick_markers.1();
+                }
                 defmt::info!(
                     "{=str} step {}: mode {}, duties {}",
                     name,
@@ -199,23 +217,14 @@ mod firmware {
                 );
             }
         }
-        let per_slot = |slot: Slot| -> (extern "C" fn(), extern "C" fn()) {
-            match slot {
-                Slot::AngleReadOut => {
-                    (bench_begin_step_monitor_angle, bench_end_step_monitor_angle)
-                }
-                Slot::Supervision => (bench_begin_step_supervision, bench_end_step_supervision),
-                Slot::SpeedReadOut => (bench_begin_step_pll, bench_end_step_pll),
-                Slot::SpeedLoop => (bench_begin_step_speed_loop, bench_end_step_speed_loop),
-            }
-        };
         let at_48v = (theta0, 48.0, &cmd);
         run(
             "sliding primary",
             &drive,
             drive.running_state(i0, rotor(theta0, 0.0)),
             at_48v,
-            &per_slot,
+            (bench_begin_step, bench_end_step),
+            (bench_begin_tick, bench_end_tick),
         );
         // The flux observer feeding the controller (the sliding observer as the monitor).
         run(
@@ -223,7 +232,8 @@ mod firmware {
             &drive_flux,
             drive_flux.running_state(i0, rotor(theta0, 0.0)),
             at_48v,
-            &|_| (bench_begin_step_flux_primary, bench_end_step_flux_primary),
+            (bench_begin_step_flux_primary, bench_end_step_flux_primary),
+            (bench_begin_tick_flux_primary, bench_end_tick_flux_primary),
         );
         // Start-up: open loop at 60 rpm, past half the hand-over speed (the observers have
         // restarted), below the hand-over: reached from idle through the alignment (0.2 s)
@@ -235,6 +245,9 @@ mod firmware {
         let mut open_loop = StateOf::<SlidingObserver, FluxPll>::default();
         for k in 0..1200 {
             control_step(&drive, &mut open_loop, &input(theta0, k), &open_loop_cmd);
+            if open_loop.tick_due() {
+                control_tick(&drive, &mut open_loop, &open_loop_cmd);
+            }
         }
         if open_loop.mode() != Mode::OpenLoop {
             defmt::error!("not in open loop: {}", open_loop.mode());
@@ -245,7 +258,8 @@ mod firmware {
             &drive,
             open_loop,
             (theta0, 48.0, &open_loop_cmd),
-            &|_| (bench_begin_step_open_loop, bench_end_step_open_loop),
+            (bench_begin_step_open_loop, bench_end_step_open_loop),
+            (bench_begin_tick_open_loop, bench_end_tick_open_loop),
         );
         // The voltage at its limit: at 1000 rpm the back-EMF alone is ~24 V and the bus gives
         // 37/√3 = 21.4 V; with 1.5 A of i_q command (the load's current) the current loop asks
@@ -256,10 +270,11 @@ mod firmware {
             &drive,
             drive.running_state(i0, rotor(theta0, load_1a5)),
             (theta0, 37.0, &cmd),
-            &|_| (bench_begin_step_saturated, bench_end_step_saturated),
+            (bench_begin_step_saturated, bench_end_step_saturated),
+            (bench_begin_tick, bench_end_tick),
         );
-        // The angles crossing ±π: the sliding observer's θ̂ (eq (22)) wraps in each slot in
-        // turn, the PLL's angle in its slot.
+        // The angles crossing ±π: the sliding observer's θ̂ (eq (22)) wraps in each step of a
+        // millisecond in turn, the PLL's angle in the task.
         for j in 0..4u8 {
             let start = core::f32::consts::PI - 0.05 - 0.10472 * f32::from(j);
             let (_, i_start) = sample_from(start, 0);
@@ -268,7 +283,8 @@ mod firmware {
                 &drive,
                 drive.running_state(i_start, rotor(start, 0.0)),
                 (start, 48.0, &cmd),
-                &|_| (bench_begin_step_seam, bench_end_step_seam),
+                (bench_begin_step_seam, bench_end_step_seam),
+                (bench_begin_tick, bench_end_tick),
             );
         }
         let mut s_state = SlidingState::default();

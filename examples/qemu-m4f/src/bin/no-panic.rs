@@ -37,9 +37,9 @@ mod firmware {
     /// ratings, then the samples and the command.
     static mut MOTOR: [f32; 11] = [0.0; 11];
     static mut POLE_PAIRS: u32 = 0;
-    static mut SAMPLE: [f32; 4] = [0.0; 4];
+    static mut SAMPLE: [f32; 6] = [0.0; 6];
     static mut SPEED_RPM: f32 = 0.0;
-    static mut FLAGS: [bool; 3] = [false; 3];
+    static mut FLAGS: [bool; 4] = [false; 4];
     static mut SINK: f32 = 0.0;
 
     /// Reads a value through a volatile load.
@@ -113,6 +113,7 @@ mod firmware {
             let input = DriveInput {
                 i_abc: Abc::new(x[0], x[1], x[2]),
                 v_bus: x[3],
+                v_ab_terminal: flags[3].then_some(AlphaBeta::new(x[4], x[5])),
                 overrun: flags[0],
             };
             let cmd = Command {
@@ -122,6 +123,10 @@ mod firmware {
             };
             let out = drive.step(&mut st, &input, &cmd);
             sink(out.duties.map_or(0.0, |d| d.a + d.b + d.c));
+            // The 1 kHz task, whenever the unknown flag asks (any state it can see).
+            if flags[3] || st.tick_due() {
+                sink(drive.tick(&mut st, &cmd).map_or(0.0, |_| 1.0));
+            }
             sink(drive.telemetry(&st).speed_rpm);
             if flags[2] && flags[1] {
                 break;

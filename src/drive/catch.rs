@@ -1,0 +1,131 @@
+//! Catch (flying start): the PWM stays off while the observers watch the terminal voltage.
+//! With no current the stator voltage is the back-EMF, the rotor flux's derivative
+//! (Ortega et al. eqs (1), (4) with `i = 0`): `v = ω_e ψ_f [−sin θ_e, cos θ_e]`. Its length
+//! gives |ω_e|, the turn between two samples the direction, its angle θ_e ∓ 90°; both observers
+//! are seeded there and must then lock on their own evidence (`supervision.rs`) before
+//! closed loop starts at the observed speed with zero current (the current loop's back-EMF
+//! feed-forward applies the rotor's own voltage: no current step). A rotor whose back-EMF is
+//! below that of the slowest catch speed is taken as at rest and aligned. Needs a board that
+//! senses the terminal voltage ([`DriveInput::v_ab_terminal`](super::DriveInput)); without it
+//! an enable aligns.
+//!
+//! Reading the back-EMF of a coasting motor through the phase-voltage dividers before the
+//! switches start is the usual flying-start of sensorless drives (e.g. ST's motor-control
+//! SDK "on-the-fly start-up", VESC's observer on the sensed phase voltages).
+
+use super::supervision::{Lock, Seed};
+use super::{Drive, Fault, ModeState, Next, ObserverStates, Reason};
+use crate::frames::{AlphaBeta, SinCos};
+use crate::math::{atan2, rsqrt_normal};
+use crate::observer::{Observer, Rotor};
+use core::f32::consts::FRAC_PI_2;
+
+/// Catch's coefficients.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Settings {
+    /// A back-EMF below this is a rotor at rest \[V].
+    pub(super) v_min: f32,
+    /// 1/(N ψ_f): ω_m per volt of back-EMF \[rad/(s·V)].
+    pub(super) omega_m_per_v: f32,
+    /// N T/2 \[s]: the rotation from the middle of the last period to now per rad/s of ω_m.
+    pub(super) half_n_ts: f32,
+    /// Checks for an observer to lock before an observer loss.
+    pub(super) timeout_checks: u32,
+}
+
+/// The state of [`Mode::Catch`](super::Mode::Catch).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(super) struct Catch {
+    /// Steps taken.
+    steps: u32,
+    /// The terminal voltage of the last step \[V].
+    v_first: AlphaBeta,
+    /// The observers have been seeded.
+    seeded: bool,
+    /// Checks since the seed.
+    checks: u32,
+}
+
+impl<P: Observer, M: Observer> Drive<P, M> {
+    /// One catch step with the PWM off, `v_ab` the terminal voltage of the period that just
+    /// ended \[V], `i_ab` the currents \[A]. Before the seed: two samples of back-EMF above
+    /// `v_min` in a row (a first sample taken before any period was measured reads zero), or
+    /// the rotor at rest (returns the alignment); then both observers seeded at the
+    /// back-EMF's rotor.
+    // Out of line, like the mode changes: only between an enable and the start.
+    #[inline(never)]
+    pub(super) fn catch_step(
+        &self,
+        c: &mut Catch,
+        obs: &mut ObserverStates<P::State, M::State>,
+        i_ab: AlphaBeta,
+        v_ab: AlphaBeta,
+    ) -> Option<ModeState> {
+        c.steps = c.steps.saturating_add(1);
+        if c.seeded {
+            return None;
+        }
+        let s = &self.catch;
+        let emf2 = v_ab.alpha * v_ab.alpha + v_ab.beta * v_ab.beta;
+        let first = c.v_first;
+        let emf2_first = first.alpha * first.alpha + first.beta * first.beta;
+        c.v_first = v_ab;
+        // A back-EMF seen (false for a NaN sample too); squares compared.
+        let v_min2 = s.v_min * s.v_min;
+        let (seen, seen_first) = (emf2 >= v_min2, emf2_first >= v_min2);
+        if c.steps < 2 || !seen_first {
+            // A first sample, or the last one too small: the rotor at rest once two are.
+            if c.steps >= 3 && !seen {
+                return Some(ModeState::Align(Default::default()));
+            }
+            return None;
+        }
+        if !seen {
+            return Some(ModeState::Align(Default::default()));
+        }
+        // The back-EMF turns with the rotor: its turn between the two samples is the sign.
+        let turn = first.alpha * v_ab.beta - first.beta * v_ab.alpha;
+        let sign = if turn < 0.0 { -1.0 } else { 1.0 };
+        // |v| ≥ v_min > 0: a normal square.
+        let emf = emf2 * rsqrt_normal(emf2, 3);
+        let omega_m = sign * emf * s.omega_m_per_v;
+        let theta_mid = atan2(v_ab.beta, v_ab.alpha) - sign * FRAC_PI_2;
+        let rotor = Rotor {
+            theta_e: theta_mid + s.half_n_ts * omega_m,
+            omega_m,
+            load_nm: 0.0,
+        };
+        self.seed_observers(obs, Seed::BOTH, i_ab, rotor);
+        obs.health.primary = Lock::default();
+        obs.health.monitor = Lock::default();
+        c.seeded = true;
+        None
+    }
+
+    /// Catch's 1 kHz work ([`Drive::tick`]): after the seed, the health check until an
+    /// observer locks (closed loop at its speed with zero current) or the time limit (an
+    /// observer loss).
+    #[inline(never)]
+    pub(super) fn catch_tick(
+        &self,
+        c: &mut Catch,
+        obs: &mut ObserverStates<P::State, M::State>,
+        i_ab: AlphaBeta,
+    ) -> Next {
+        if !c.seeded {
+            return Next::Stay;
+        }
+        self.supervise(obs, i_ab, 0.0);
+        if obs.health.usable() {
+            let (_, _, omega_m, load_nm) = self.driving(obs, SinCos::ZERO);
+            let i_q = self.foc.current_for_torque(load_nm.unwrap_or(0.0));
+            let s = self.sensorless_at(omega_m, i_q);
+            return Next::Switch(ModeState::Sensorless(s), Reason::Caught);
+        }
+        c.checks = c.checks.saturating_add(1);
+        if c.checks >= self.catch.timeout_checks {
+            return Next::Fault(Fault::ObserverLoss);
+        }
+        Next::Stay
+    }
+}
