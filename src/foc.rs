@@ -451,6 +451,12 @@ impl Foc {
         torque_nm * self.inv_kt
     }
 
+    /// The largest voltage the current loop applies on a bus of `v_bus` \[V]: `V_bus/√3` less the
+    /// dead time's margin \[V].
+    pub fn v_max(&self, v_bus: f32) -> f32 {
+        v_bus * self.v_max_per_bus
+    }
+
     /// The torque the q current `i_q_a` \[A] makes in the papers' model, `N ψ_f i_q` \[N·m].
     pub fn torque_for_current(&self, i_q_a: f32) -> f32 {
         i_q_a / self.inv_kt

@@ -4,7 +4,7 @@
 use super::open_loop;
 use super::schedule::SLOTS;
 use super::supervision;
-use super::{align, catch, Drive};
+use super::{align, catch, sensorless, Drive};
 use crate::bounds::{ks_max_e2, ks_max_t};
 use crate::dead_time::DeadTimeConfig;
 use crate::foc::FocConfig;
@@ -125,8 +125,9 @@ pub struct DriveConfig {
 impl DriveConfig {
     /// Defaults from the motor's ratings: current command limit 1.5× the current of rated
     /// torque, trip at 1.5× that, sensing range 2× the trip; bus trips at 0.75 and 1.25 of the
-    /// rated bus; align and open-loop currents 0.5 and 0.6 of the rated-torque current for
-    /// 0.2 s and up the ramp; the ramp climbs the rated speed in a second; hand-over at 10 %
+    /// rated bus; align and open-loop currents the rated-torque current (they hold the rotor
+    /// against an active load of half rated torque at 30° of load angle) for 0.2 s and up the
+    /// ramp; the ramp climbs the rated speed in a second; hand-over at 10 %
     /// of rated speed; hand-back (without a healthy observer) below 6 %; stopped below 2 %;
     /// an observer healthy after 20 ms of mean residual below ¼, lost after 3 ms at ½;
     /// observer loss after 20 ms without a healthy one or of 30° or 10 % of rated speed
@@ -157,9 +158,9 @@ impl DriveConfig {
                 bus_max_v: 1.25 * bus,
             },
             start: StartConfig {
-                align_current_a: 0.5 * i_rated,
+                align_current_a: i_rated,
                 align_time_s: 0.2,
-                open_loop_current_a: 0.6 * i_rated,
+                open_loop_current_a: i_rated,
                 accel_rpm_per_s: speed,
                 handover_rpm: 0.1 * speed,
                 handback_rpm: 0.06 * speed,
@@ -422,6 +423,11 @@ impl DriveConfig {
             slew_per_slot_cycle_rpm: s.accel_rpm_per_s * ts * SLOTS as f32,
             load_observer: self.load_observer_config().build()?,
             max_speed_rpm: self.ratings.speed_rpm,
+            field_weakening: sensorless::FieldWeakening {
+                margin: 0.95,
+                gain_a_per_v: 0.2 / (m.n() * self.ratings.speed_rpm * RAD_S_PER_RPM * m.l_h),
+                i_max_a: l.i_max_a,
+            },
             limits: l,
             catch: catch::Settings {
                 v_min: m.torque_constant() * s.handback_rpm * RAD_S_PER_RPM,

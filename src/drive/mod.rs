@@ -73,6 +73,8 @@ pub struct Drive<P, M> {
     load_observer: LoadObserver,
     /// The speed command is limited to ± this \[rpm] (the rated speed).
     max_speed_rpm: f32,
+    /// Field weakening.
+    field_weakening: sensorless::FieldWeakening,
     limits: Limits,
     catch: catch::Settings,
     align: align::Settings,
@@ -95,6 +97,8 @@ pub struct DriveState<PS, MS> {
     i_ab_last: AlphaBeta,
     /// Voltage applied over the period that just ended \[V].
     v_ab_last: AlphaBeta,
+    /// The bus voltage of the last sample \[V].
+    v_bus_last: f32,
     /// False after a fault is cleared until the enable command has been seen low.
     armed: bool,
 }
@@ -108,6 +112,7 @@ impl<PS: Default, MS: Default> Default for DriveState<PS, MS> {
             current: CurrentLoopState::default(),
             i_ab_last: AlphaBeta::default(),
             v_ab_last: AlphaBeta::default(),
+            v_bus_last: 0.0,
             armed: true,
         }
     }
@@ -355,7 +360,10 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         let next = match &mut st.mode {
             ModeState::Catch(c) => self.catch_tick(c, obs, i_ab),
             ModeState::OpenLoop(ol) => self.open_loop_tick(ol, obs, cmd_rpm, i_ab),
-            ModeState::Sensorless(s) => self.sensorless_tick(s, obs, cmd_rpm, i_ab),
+            ModeState::Sensorless(s) => {
+                let v_max = self.foc.v_max(st.v_bus_last);
+                self.sensorless_tick(s, obs, cmd_rpm, i_ab, (st.v_ab_last, v_max))
+            }
             ModeState::Idle | ModeState::Fault(_) | ModeState::Align(_) => Next::Stay,
         };
         let reason = match next {
@@ -536,6 +544,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         };
         let out = self.foc.run(&mut st.current, &request, i_ab, v_bus);
         st.v_ab_last = out.v_ab;
+        st.v_bus_last = v_bus;
         (Some(out.duties), reason)
     }
 

@@ -496,13 +496,7 @@ impl Observer for SlidingObserver {
     #[inline(always)]
     fn residual(&self, st: &SlidingState) -> f32 {
         let w = st.w;
-        let w2 = w.alpha * w.alpha + w.beta * w.beta;
-        // |w| (0 unless its square is a normal number: w = 0 in the layer's middle).
-        let w_norm = if crate::math::is_normal_positive(w2) {
-            w2 * crate::math::rsqrt_normal(w2, 2)
-        } else {
-            0.0
-        };
+        let w_norm = crate::math::sqrt_or_zero(w.alpha * w.alpha + w.beta * w.beta);
         let relative = w_norm * self.emf_residual_scale / self.gain_speed(st.omega_m).abs();
         let layer = crate::math::max(st.s.alpha.abs(), st.s.beta.abs()) * self.inv_epsilon;
         crate::math::max(relative, layer)
