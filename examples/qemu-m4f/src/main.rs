@@ -150,7 +150,7 @@ mod firmware {
             };
             for tr in [out.transition, ticked].into_iter().flatten() {
                 defmt::info!("t = {=f32} s: {} -> {} ({})", t, tr.from, tr.to, tr.reason);
-                if tr.to == Mode::Sensorless {
+                if tr.to == Mode::Sensorless && tr.from != Mode::Sensorless {
                     handovers += 1;
                 }
             }
