@@ -132,32 +132,30 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         let omega_m = ol.speed_rpm * RAD_S_PER_RPM;
         let (verdict, _) = self.supervise(obs, i_ab, 0.0);
         ol.checks = ol.checks.saturating_add(1);
-        let timed_out = ol.checks >= s.timeout_checks;
-        match verdict {
-            Verdict::Contradiction => return Next::Fault(Fault::ObserverLoss),
-            _ if !obs.health.usable() && timed_out => return Next::Fault(Fault::Stall),
-            _ if obs.health.usable() => {
-                let (_, _, omega_hat, _) = self.driving(obs, SinCos::ZERO);
-                // Pulled out: the rotor is not where the ramp is (above the hand-back speed:
-                // below it a rotor still accelerating from rest lags the ramp too).
-                let off = (omega_hat - omega_m).abs() > 0.5 * omega_m.abs();
-                let fast = ol.speed_rpm.abs() >= self.supervision.handback_rpm;
-                ol.pulled_out = consecutive(ol.pulled_out, off && fast);
-                // Seen following the ramp at the hand-over speed (or the command, if lower):
-                // below it a blocked rotor shows no back-EMF, so the observer must see it turn
-                // with the I/f current's frame, which it does even at a standstill.
-                let reached = ol.speed_rpm.abs() >= s.handover_rpm.min(cmd_rpm.abs());
-                ol.following = consecutive(ol.following, !off && ol.speed_rpm != 0.0);
-                let seen_following = ol.following >= s.pullout_checks;
-                if (reached && seen_following) || ol.pulled_out >= s.pullout_checks {
-                    let sl = self.enter_sensorless(ol, obs);
-                    return Next::Switch(ModeState::Sensorless(sl), Reason::HandOver);
-                }
-                if timed_out {
-                    return Next::Fault(Fault::Stall);
-                }
+        if verdict == Verdict::Contradiction {
+            return Next::Fault(Fault::ObserverLoss);
+        }
+        if obs.health.usable() {
+            let (_, _, omega_hat, _) = self.driving(obs, SinCos::ZERO);
+            // Pulled out: the rotor is not where the ramp is (above the hand-back speed: below
+            // it a rotor still accelerating from rest lags the ramp too).
+            let off = (omega_hat - omega_m).abs() > 0.5 * omega_m.abs();
+            let fast = ol.speed_rpm.abs() >= self.supervision.handback_rpm;
+            ol.pulled_out = consecutive(ol.pulled_out, off && fast);
+            // Seen following the ramp at the hand-over speed (or the command, if lower): below
+            // it a blocked rotor shows no back-EMF, so the observer must see it turn with the
+            // I/f current's frame, which it does even at a standstill.
+            let reached = ol.speed_rpm.abs() >= s.handover_rpm.min(cmd_rpm.abs());
+            ol.following = consecutive(ol.following, !off && ol.speed_rpm != 0.0);
+            let seen_following = ol.following >= s.pullout_checks;
+            if (reached && seen_following) || ol.pulled_out >= s.pullout_checks {
+                let sl = self.enter_sensorless(ol, obs);
+                return Next::Switch(ModeState::Sensorless(sl), Reason::HandOver);
             }
-            _ => {}
+        }
+        // No hand-over within the time limit, at any speed.
+        if ol.checks >= s.timeout_checks {
+            return Next::Fault(Fault::Stall);
         }
         // The rotations since the last time moved the frame's length by a few 1e-7.
         ol.frame = ol.frame.renormalized();
