@@ -13,7 +13,7 @@
 //! switches start is the usual flying-start of sensorless drives (e.g. ST's motor-control
 //! SDK "on-the-fly start-up", VESC's observer on the sensed phase voltages).
 
-use super::supervision::{Lock, Seed};
+use super::supervision::Seed;
 use super::{Drive, Fault, ModeState, Next, ObserverStates, Reason};
 use crate::frames::{AlphaBeta, SinCos};
 use crate::math::{atan2, rsqrt_normal};
@@ -38,8 +38,8 @@ pub(super) struct Settings {
 pub(super) struct Catch {
     /// Steps taken.
     steps: u32,
-    /// The terminal voltage of the last step \[V].
-    v_first: AlphaBeta,
+    /// The terminal voltage of the previous step \[V].
+    v_prev: AlphaBeta,
     /// The observers have been seeded.
     seeded: bool,
     /// Checks since the seed.
@@ -67,13 +67,13 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         }
         let s = &self.catch;
         let emf2 = v_ab.alpha * v_ab.alpha + v_ab.beta * v_ab.beta;
-        let first = c.v_first;
-        let emf2_first = first.alpha * first.alpha + first.beta * first.beta;
-        c.v_first = v_ab;
+        let prev = c.v_prev;
+        let emf2_prev = prev.alpha * prev.alpha + prev.beta * prev.beta;
+        c.v_prev = v_ab;
         // A back-EMF seen (false for a NaN sample too); squares compared.
         let v_min2 = s.v_min * s.v_min;
-        let (seen, seen_first) = (emf2 >= v_min2, emf2_first >= v_min2);
-        if c.steps < 2 || !seen_first {
+        let (seen, seen_prev) = (emf2 >= v_min2, emf2_prev >= v_min2);
+        if c.steps < 2 || !seen_prev {
             // A first sample, or the last one too small: the rotor at rest once two are.
             if c.steps >= 3 && !seen {
                 return Some(ModeState::Align(Default::default()));
@@ -84,7 +84,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             return Some(ModeState::Align(Default::default()));
         }
         // The back-EMF turns with the rotor: its turn between the two samples is the sign.
-        let turn = first.alpha * v_ab.beta - first.beta * v_ab.alpha;
+        let turn = prev.alpha * v_ab.beta - prev.beta * v_ab.alpha;
         let sign = if turn < 0.0 { -1.0 } else { 1.0 };
         // |v| ≥ v_min > 0: a normal square.
         let emf = emf2 * rsqrt_normal(emf2, 3);
@@ -96,8 +96,8 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             load_nm: 0.0,
         };
         self.seed_observers(obs, Seed::BOTH, i_ab, rotor);
-        obs.health.primary = Lock::default();
-        obs.health.monitor = Lock::default();
+        obs.health.primary.seeded();
+        obs.health.monitor.seeded();
         c.seeded = true;
         None
     }

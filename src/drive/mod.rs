@@ -48,7 +48,7 @@ use crate::foc::{CurrentLoopState, Foc, Request};
 use crate::frames::{AlphaBeta, SinCos};
 use crate::load_observer::LoadObserver;
 use crate::math::atan2;
-use crate::math::{clamp, wrap_pi};
+use crate::math::clamp;
 use crate::observer::{Observer, ReadOut, Rotor};
 use crate::power_stage::PowerStage;
 use crate::units::{DEG_PER_RAD, RAD_S_PER_RPM, RPM_PER_RAD_S};
@@ -436,14 +436,20 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         let (mut ps, mut ms) = (st.obs.primary, st.obs.monitor);
         self.primary.read_out(&mut ps, ReadOut::Angle);
         self.monitor.read_out(&mut ms, ReadOut::Angle);
-        let (theta_p, theta_m) = (self.primary.theta_e(&ps), self.monitor.theta_e(&ms));
-        let (omega_p, omega_mon) = (self.primary.omega_m(&ps), self.monitor.omega_m(&ms));
         let health = &st.obs.health;
-        let driving = health.driving;
-        let (theta_d, omega_d) = match driving {
-            Role::Primary => (theta_p, omega_p),
-            Role::Monitor => (theta_m, omega_mon),
+        let [residual_primary, residual_monitor] = health.residuals();
+        let v = Views {
+            theta_primary: self.primary.theta_e(&ps),
+            omega_primary: self.primary.omega_m(&ps),
+            residual_primary,
+            min_speed_primary: self.primary.min_speed_m(),
+            theta_monitor: self.monitor.theta_e(&ms),
+            omega_monitor: self.monitor.omega_m(&ms),
+            residual_monitor,
+            min_speed_monitor: self.monitor.min_speed_m(),
         };
+        let driving = health.driving;
+        let (theta_d, omega_d) = (v.theta(driving), v.omega(driving));
         let (theta, omega_m, speed_ref_rpm) = match &st.mode {
             ModeState::Idle | ModeState::Fault(_) => return off,
             ModeState::Align(_) => (0.0, 0.0, 0.0),
@@ -456,12 +462,11 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             ModeState::Sensorless(s) => (theta_d, omega_d, s.speed_ref_rpm()),
         };
         let i_dq = st.i_ab_last.to_dq(SinCos::of(theta));
-        let [residual_primary, residual_monitor] = health.residuals();
         Telemetry {
             speed_ref_rpm,
             speed_rpm: omega_m * RPM_PER_RAD_S,
-            theta_e_primary: theta_p,
-            theta_e_monitor: theta_m,
+            theta_e_primary: v.theta_primary,
+            theta_e_monitor: v.theta_monitor,
             theta_e_control: theta,
             i_d: i_dq.d,
             i_q: i_dq.q,
@@ -469,8 +474,8 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             driving,
             residual_primary,
             residual_monitor,
-            disagreement_deg: wrap_pi(theta_p - theta_m).abs() * DEG_PER_RAD,
-            speed_disagreement_rpm: (omega_p - omega_mon).abs() * RPM_PER_RAD_S,
+            disagreement_deg: v.disagreement() * DEG_PER_RAD,
+            speed_disagreement_rpm: v.speed_disagreement_rpm(),
             ..off
         }
     }

@@ -44,7 +44,7 @@ impl FieldWeakening {
         let v2 = v_ab.alpha * v_ab.alpha + v_ab.beta * v_ab.beta;
         let excess_v = (v2 - target * target) / (2.0 * target);
         let i_d = clamp(i_d - self.gain_a_per_v * excess_v, -self.i_max_a, 0.0);
-        // A bus at zero (the division's NaN) leaves i_d as it was.
+        // A bus at zero (the division's NaN) ends the field weakening.
         if i_d.is_nan() {
             0.0
         } else {

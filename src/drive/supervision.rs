@@ -172,6 +172,14 @@ impl Views {
         (self.omega_primary - self.omega_monitor).abs() * RPM_PER_RAD_S
     }
 
+    /// The angle estimate of `role` [rad, electrical].
+    pub(super) fn theta(&self, role: Role) -> f32 {
+        match role {
+            Role::Primary => self.theta_primary,
+            Role::Monitor => self.theta_monitor,
+        }
+    }
+
     /// The speed estimate of `role` [rad/s, mechanical].
     pub(super) fn omega(&self, role: Role) -> f32 {
         match role {
