@@ -441,6 +441,21 @@ impl Foc {
         self.speed.update(speed, omega_m_ref - omega_m, ff_a)
     }
 
+    /// This FOC with its current loop's gains replaced: `kp` \[V/A], `ki_ts` = `ki T` \[V/A],
+    /// the decoupling inductance `l_h` \[H] and the flux linkage fed forward `flux_wb` \[Wb]
+    /// (the identification's loop, from the parameters it measured).
+    pub fn with_current_gains(&self, kp: f32, ki_ts: f32, l_h: f32, flux_wb: f32) -> Self {
+        Self {
+            current: CurrentLoop {
+                kp,
+                ki_ts,
+                l_h,
+                flux_wb,
+            },
+            ..*self
+        }
+    }
+
     /// The dead-time compensation this FOC applies ([`crate::dead_time`]).
     pub fn dead_time(&self) -> &DeadTime {
         &self.dead_time

@@ -5,6 +5,7 @@
 
 pub mod bounds;
 pub mod cycles;
+pub mod identify;
 pub mod inverter;
 pub mod motor_file;
 pub mod observer;

@@ -49,6 +49,137 @@ enum Command {
     Gamma(GammaArgs),
     /// Instruction and cycle counts of the core on the emulated Cortex-M4F, firmware size.
     Cycles(CyclesArgs),
+    /// The drive identifies the simulated motor from its pole pairs and ratings (R, L, flux
+    /// linkage, J, B); exit 3 when it ends in an error. With --out, write the motor file.
+    Identify(IdentifyArgs),
+}
+
+#[derive(clap::Args)]
+struct IdentifyArgs {
+    /// The motor on the bench (the truth).
+    #[command(flatten)]
+    motor: MotorArg,
+    /// DC bus voltage (V) (default: the motor's).
+    #[arg(long)]
+    bus_v: Option<f64>,
+    /// Current-sensor noise in % of the motor's rated current.
+    #[arg(long, default_value_t = 1.0)]
+    noise_pct: f64,
+    /// Current-sensor offsets per phase in % of the motor's rated current, `a,b,c`.
+    #[arg(long, value_parser = parse_offsets, default_value = "2,0,0", allow_negative_numbers = true)]
+    offset_pct: [f64; 3],
+    /// ADC quantisation step of the current measurement (A) (0 = none).
+    #[arg(long, default_value_t = 0.0)]
+    adc_lsb_a: f64,
+    /// The board's current sensing range (A) (default: twice the drive's trip level).
+    #[arg(long)]
+    sense_range_a: Option<f64>,
+    /// Inverter dead time (µs), compensated by the drive.
+    #[arg(long, default_value_t = 0.5)]
+    dead_time_us: f64,
+    /// PWM frequency (Hz).
+    #[arg(long, default_value_t = 20_000.0)]
+    pwm_hz: f64,
+    /// Noise seed.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// A fault of the motor: open-a|b|c (a phase not connected), shorted-a|b|c (a winding
+    /// short-circuited), blocked (the shaft cannot turn).
+    #[arg(long)]
+    motor_fault: Option<String>,
+    /// Write the identified motor file here (loads with --motor-file).
+    #[arg(long, value_name = "FILE.toml")]
+    out: Option<PathBuf>,
+    /// Print JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+/// `identify`: the text (or JSON), and whether the identification ended without error.
+fn identify(args: IdentifyArgs) -> anyhow::Result<(String, bool)> {
+    use pmsm_host_sim::identify as id;
+    let (name, m) = args.motor.resolve()?;
+    let mut cfg = id::IdentifyRun::board_defaults(m);
+    let rated_a = f64::from(m.ratings.current_a);
+    if let Some(v) = args.bus_v {
+        let max = 2.0 * f64::from(m.ratings.bus_v);
+        anyhow::ensure!(
+            v.is_finite() && v > 0.0 && v <= max,
+            "--bus-v = {}: bus voltage allowed (0, {max}] V (2 x the motor's rated bus)",
+            number(v)
+        );
+        cfg.bus_v = v;
+    }
+    anyhow::ensure!(
+        args.noise_pct.is_finite() && args.noise_pct >= 0.0,
+        "--noise-pct = {}: must be a finite percentage >= 0",
+        number(args.noise_pct)
+    );
+    cfg.noise_sigma_a = 0.01 * args.noise_pct * rated_a;
+    cfg.offset_a = args.offset_pct.map(|p| 0.01 * p * rated_a);
+    cfg.adc_lsb_a = args.adc_lsb_a;
+    cfg.sense_range_a = args.sense_range_a;
+    anyhow::ensure!(
+        args.pwm_hz.is_finite() && (1e3..=2e5).contains(&args.pwm_hz),
+        "--pwm-hz = {}: allowed [1000, 200000] Hz",
+        number(args.pwm_hz)
+    );
+    cfg.pwm_hz = args.pwm_hz;
+    let dead_max_us = 0.1e6 / args.pwm_hz;
+    anyhow::ensure!(
+        args.dead_time_us.is_finite() && (0.0..=dead_max_us).contains(&args.dead_time_us),
+        "--dead-time-us = {}: allowed [0, {dead_max_us}] µs (a tenth of the {} Hz PWM period)",
+        number(args.dead_time_us),
+        args.pwm_hz
+    );
+    cfg.dead_time_s = args.dead_time_us * 1e-6;
+    cfg.seed = args.seed;
+    cfg.fault = args
+        .motor_fault
+        .as_deref()
+        .map(id::MotorFault::parse)
+        .transpose()?;
+    let o = id::run(&cfg)?;
+    let motor = id::identified_motor(&o)?;
+    if let (Some(path), Some(mm), Some(ident)) = (&args.out, &motor, &o.identified) {
+        let stem = path
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or("identified");
+        std::fs::write(path, id::motor_toml(stem, &mm.params, &o, ident))
+            .map_err(|e| anyhow::anyhow!("--out {}: {e}", path.display()))?;
+        // The file must load as any other.
+        motor_file::load(path)?;
+    }
+    let ok = o.identified.is_some();
+    let j = id::summary_json(&name, &o);
+    if args.json {
+        return Ok((format!("{j}\n"), ok));
+    }
+    let mut out = String::new();
+    outln!(
+        out,
+        "identify: motor {name}, {:.3} s simulated",
+        o.duration_s
+    );
+    if let Some(f) = o.fault {
+        outln!(out, "ERROR: {}", sim::fault_name(f));
+    }
+    let mut t = table(&["parameter", "identified", "truth", "error %"], &[1, 2, 3]);
+    for key in [
+        "r_ohm", "l_d_h", "l_q_h", "l_h", "flux_wb", "j_kgm2", "b_nms",
+    ] {
+        let f = |v: &serde_json::Value| v.get(key).and_then(|x| x.as_f64());
+        let cell = |x: Option<f64>, p: usize| x.map_or("-".to_string(), |x| format!("{x:.p$e}"));
+        t.add_row([
+            key.to_string(),
+            cell(f(&j["identified"]), 4),
+            cell(f(&j["truth"]), 4),
+            f(&j["error_pct"]).map_or("-".to_string(), |x| format!("{x:+.2}")),
+        ]);
+    }
+    outln!(out, "{t}");
+    Ok((out, ok))
 }
 
 #[derive(clap::Args)]
@@ -689,6 +820,10 @@ struct RunArgs {
     /// Controller parameter factors, e.g. `r=1.2,l=0.9` (keys r, l, flux, j, b).
     #[arg(long, value_parser = parse_mismatch, default_value = "")]
     mismatch: Mismatch,
+    /// The controller's motor parameters from this file (e.g. written by `identify --out`),
+    /// the plant staying the --motor / --motor-file one (instead of --mismatch).
+    #[arg(long, value_name = "FILE.toml", conflicts_with = "mismatch")]
+    drive_motor_file: Option<PathBuf>,
     /// Inverter dead time (µs); its averaged error is sign(i)·t_dead·f_pwm·V_bus per phase.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     dead_time_us: f64,
@@ -861,6 +996,17 @@ fn prepare(args: &RunArgs) -> anyhow::Result<SimConfig> {
     cfg.adc_lsb_a = args.adc_lsb_a;
     cfg.seed = args.seed;
     cfg.mismatch = args.mismatch;
+    if let Some(path) = &args.drive_motor_file {
+        let (_, d) = motor_file::load(path)?;
+        anyhow::ensure!(
+            d.params.pole_pairs == m.params.pole_pairs,
+            "--drive-motor-file {}: pole_pairs = {}, the motor's are {}",
+            path.display(),
+            d.params.pole_pairs,
+            m.params.pole_pairs
+        );
+        cfg.mismatch = Mismatch::between(&m.params, &d.params);
+    }
     anyhow::ensure!(
         args.rate_hz.is_finite() && (1000.0..=100_000.0).contains(&args.rate_hz),
         "--rate-hz must be between 1000 and 100000"
@@ -1103,6 +1249,14 @@ fn main() -> ExitCode {
         Command::Bounds(args) => bounds(args),
         Command::Gamma(args) => gamma(args),
         Command::Cycles(args) => cycles(args),
+        Command::Identify(args) => match identify(args) {
+            // An identification that ends in its named error exits 3 after its output.
+            Ok((text, false)) => {
+                let _ = std::io::stdout().write_all(text.as_bytes());
+                return ExitCode::from(3);
+            }
+            r => r.map(|(text, _)| text),
+        },
     };
     match result {
         Ok(text) => {

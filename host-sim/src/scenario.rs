@@ -704,7 +704,7 @@ fn injection(i: &InjectFile, motor: &Motor, duration_s: f64) -> anyhow::Result<I
 }
 
 /// Every drive fault, by its snake-case name.
-pub const FAULTS: [Fault; 7] = [
+pub const FAULTS: [Fault; 8] = [
     Fault::Overcurrent,
     Fault::BusUndervoltage,
     Fault::BusOvervoltage,
@@ -712,6 +712,7 @@ pub const FAULTS: [Fault; 7] = [
     Fault::ObserverLoss,
     Fault::Stall,
     Fault::Overrun,
+    Fault::AdcOffset,
 ];
 
 /// The fault called `name` (as in the JSON summary).

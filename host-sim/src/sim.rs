@@ -55,6 +55,25 @@ impl Default for Mismatch {
 }
 
 impl Mismatch {
+    /// The factors that make the controller's copy of `plant` the parameters `controller`
+    /// (e.g. an identified motor driving the real one).
+    pub fn between(plant: &MotorParams, controller: &MotorParams) -> Self {
+        let f = |c: f32, p: f32| {
+            if p == 0.0 {
+                1.0
+            } else {
+                f64::from(c) / f64::from(p)
+            }
+        };
+        Self {
+            r: f(controller.r_ohm, plant.r_ohm),
+            l: f(controller.l_h, plant.l_h),
+            flux: f(controller.flux_wb, plant.flux_wb),
+            j: f(controller.j_kgm2, plant.j_kgm2),
+            b: f(controller.b_nms, plant.b_nms),
+        }
+    }
+
     /// The controller's copy of `m`.
     pub fn apply(&self, m: &MotorParams) -> Result<MotorParams, ParamError> {
         MotorParams {
@@ -673,6 +692,8 @@ pub fn fault_name(f: Fault) -> &'static str {
         Fault::ObserverLoss => "observer_loss",
         Fault::Stall => "stall",
         Fault::Overrun => "overrun",
+        Fault::AdcOffset => "adc_offset",
+        Fault::Identify(e) => crate::identify::error_name(e),
     }
 }
 

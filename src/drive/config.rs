@@ -1,6 +1,7 @@
 //! The drive's configuration in SI units, its validation, and what it derives: the FOC gains,
 //! the observers' settings, and each mode's per-step coefficients.
 
+use super::identify::{self, IdentifyConfig};
 use super::open_loop;
 use super::schedule::SLOTS;
 use super::supervision;
@@ -120,6 +121,8 @@ pub struct DriveConfig {
     /// The motor's ratings: the ranges of the limits are set from them, and the sliding gain
     /// must stay below (K_s,max)_E2 at the rated speed.
     pub ratings: Ratings,
+    /// The board's current sensing, as the identification checks a motor against it.
+    pub identify: IdentifyConfig,
 }
 
 impl DriveConfig {
@@ -181,6 +184,11 @@ impl DriveConfig {
                 dead_time_band_a: 0.05 * i_rated,
             },
             ratings: motor.ratings,
+            // The drive's own sensing range; a board sets its own.
+            identify: IdentifyConfig {
+                sense_range_a: 2.0 * i_trip,
+                sense_lsb_a: 0.0,
+            },
         }
     }
 
@@ -270,6 +278,7 @@ impl DriveConfig {
             ],
         );
         c.done()?;
+        self.identify.check()?;
         Ok(m)
     }
 
@@ -435,6 +444,14 @@ impl DriveConfig {
                 half_n_ts: 0.5 * m.n() * ts,
                 timeout_checks: 5 * slot_cycles(h.lock_time_s).max(1),
             },
+            identify: identify::Settings::new(
+                &self.ratings,
+                m.n(),
+                rate,
+                self.current_bandwidth_hz,
+                &self.identify,
+            ),
+            identify_offset_limit_a: 0.05 * l.i_sense_max_a,
             align: align::Settings {
                 current_a: s.align_current_a,
                 steps: steps(s.align_time_s).max(1),

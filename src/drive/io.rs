@@ -21,6 +21,12 @@ pub enum Mode {
     Sensorless,
     /// PWM off, latched until cleared.
     Fault,
+    /// PWM off: the current sensors' offsets measured (every enable from idle).
+    Calibrate,
+    /// The motor measured (`identify/`).
+    Identify,
+    /// Identification done: PWM off, the results held until the enable is withdrawn.
+    Identified,
 }
 
 /// Why the drive stopped switching.
@@ -44,6 +50,11 @@ pub enum Fault {
     Stall,
     /// The caller reported that the previous step overran its period.
     Overrun,
+    /// A current sensor's offset, measured with the PWM off, is beyond a twentieth of the
+    /// sensing range: a broken sensing path, or a current flowing.
+    AdcOffset,
+    /// The identification stopped: why.
+    Identify(super::identify::IdentifyError),
 }
 
 /// Why the mode changed.
@@ -75,6 +86,12 @@ pub enum Reason {
     Fault(Fault),
     /// Fault cleared by command.
     Cleared,
+    /// Identification requested.
+    Identify,
+    /// The offsets measured.
+    Calibrated,
+    /// Every identification measurement done.
+    Identified,
 }
 
 /// One mode change, for the log.

@@ -31,6 +31,7 @@
 mod align;
 mod catch;
 mod config;
+pub mod identify;
 mod io;
 mod open_loop;
 mod protection;
@@ -40,6 +41,7 @@ mod sensorless;
 mod supervision;
 
 pub use config::{DriveConfig, HealthConfig, Limits, PowerStageConfig, StartConfig};
+pub use identify::{Identified, IdentifyConfig, IdentifyError, IdentifyPhase};
 pub use io::{Command, DriveInput, DriveOutput, Fault, Mode, Reason, Role, Telemetry, Transition};
 pub use report::{Derived, Warning};
 pub use schedule::{Slot, SLOTS};
@@ -55,6 +57,8 @@ use crate::units::{DEG_PER_RAD, RAD_S_PER_RPM, RPM_PER_RAD_S};
 use align::Align;
 use catch::Catch;
 use core::hint::cold_path;
+use identify::offset::{Calibrate, Then};
+use identify::Identify;
 use open_loop::OpenLoop;
 use sensorless::Sensorless;
 use supervision::{Health, Seed, Verdict, Views};
@@ -78,6 +82,10 @@ pub struct Drive<P, M> {
     limits: Limits,
     catch: catch::Settings,
     align: align::Settings,
+    /// The identification's coefficients (`identify/`).
+    identify: identify::Settings,
+    /// An offset beyond this is implausible (`Fault::AdcOffset`) \[A].
+    identify_offset_limit_a: f32,
     open_loop: open_loop::Settings,
     supervision: supervision::Settings,
 }
@@ -101,6 +109,9 @@ pub struct DriveState<PS, MS> {
     v_bus_last: f32,
     /// False after a fault is cleared until the enable command has been seen low.
     armed: bool,
+    /// The current sensors' offsets in the stationary frame, measured at the enable
+    /// (`identify/offset.rs`), taken off every sample \[A].
+    offset_ab: AlphaBeta,
 }
 
 impl<PS: Default, MS: Default> Default for DriveState<PS, MS> {
@@ -114,6 +125,7 @@ impl<PS: Default, MS: Default> Default for DriveState<PS, MS> {
             v_ab_last: AlphaBeta::default(),
             v_bus_last: 0.0,
             armed: true,
+            offset_ab: AlphaBeta::default(),
         }
     }
 }
@@ -128,7 +140,31 @@ impl<PS, MS> DriveState<PS, MS> {
             ModeState::OpenLoop(_) => Mode::OpenLoop,
             ModeState::Sensorless(_) => Mode::Sensorless,
             ModeState::Fault(_) => Mode::Fault,
+            ModeState::Calibrate(_) => Mode::Calibrate,
+            ModeState::Identify(_) => Mode::Identify,
+            ModeState::Identified(_) => Mode::Identified,
         }
+    }
+
+    /// The identified motor, once the identification is done (mode `Identified`).
+    pub fn identified(&self) -> Option<Identified> {
+        match self.mode {
+            ModeState::Identified(r) => Some(r),
+            _ => None,
+        }
+    }
+
+    /// The identification's running measurement, in mode `Identify`.
+    pub fn identify_phase(&self) -> Option<IdentifyPhase> {
+        match &self.mode {
+            ModeState::Identify(id) => Some(id.which()),
+            _ => None,
+        }
+    }
+
+    /// The current sensors' offsets taken off every sample, in the stationary frame \[A].
+    pub fn offset_ab(&self) -> AlphaBeta {
+        self.offset_ab
     }
 
     /// The latched fault, if any.
@@ -195,6 +231,12 @@ enum ModeState {
     Sensorless(Sensorless),
     /// PWM off, latched until cleared.
     Fault(Fault),
+    /// PWM off, the current sensors' offsets measured.
+    Calibrate(Calibrate),
+    /// The identification's measurements.
+    Identify(Identify),
+    /// The identification's results, PWM off.
+    Identified(Identified),
 }
 
 /// Both observers' states, the angles of one sample and their health (which drives).
@@ -275,14 +317,9 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             ModeState::Fault(_) => {}
             ModeState::Idle if starting => {
                 cold_path();
-                // With the terminal voltage sensed, first see whether the rotor turns.
-                let mode = if input.v_ab_terminal.is_some() {
-                    ModeState::Catch(Catch::default())
-                } else {
-                    ModeState::Align(Align::default())
-                };
+                // The sensors' offsets first (PWM off); then the start.
                 *st = DriveState {
-                    mode,
+                    mode: ModeState::Calibrate(Calibrate::new(Then::Start)),
                     ..DriveState::default()
                 };
                 reason = Some(Reason::Enabled);
@@ -297,9 +334,26 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         }
         // 3.-5. Observers, the mode's step, FOC.
         let duties = match st.mode {
-            ModeState::Idle | ModeState::Fault(_) => None,
+            ModeState::Idle | ModeState::Fault(_) | ModeState::Identified(_) => None,
+            ModeState::Calibrate(_) => {
+                if let Some(r) = self.calibrate(st, input) {
+                    reason = Some(r);
+                }
+                None
+            }
+            ModeState::Identify(_) => {
+                let (duties, r) = self.identify_control(st, input);
+                if r.is_some() {
+                    reason = r;
+                }
+                duties
+            }
             _ => {
-                let i_ab = input.i_abc.to_alpha_beta();
+                let i_raw = input.i_abc.to_alpha_beta();
+                let i_ab = AlphaBeta::new(
+                    i_raw.alpha - st.offset_ab.alpha,
+                    i_raw.beta - st.offset_ab.beta,
+                );
                 // PWM off (catching): the voltage is the terminals'.
                 let v_ab = match (&st.mode, input.v_ab_terminal) {
                     (ModeState::Catch(_), Some(v)) => v,
@@ -339,11 +393,14 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     #[inline(never)]
     pub fn tick(&self, st: &mut StateOf<P, M>, cmd: &Command) -> Option<Transition> {
         let from = st.mode();
-        if matches!(
-            st.mode,
-            ModeState::Idle | ModeState::Fault(_) | ModeState::Align(_)
-        ) {
-            return None;
+        match st.mode {
+            ModeState::Idle
+            | ModeState::Fault(_)
+            | ModeState::Align(_)
+            | ModeState::Calibrate(_)
+            | ModeState::Identified(_) => return None,
+            ModeState::Identify(_) => return self.identify_tick(st),
+            _ => {}
         }
         let obs = &mut st.obs;
         self.primary.read_out(&mut obs.primary, ReadOut::Angle);
@@ -364,7 +421,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 let v_max = self.foc.v_max(st.v_bus_last);
                 self.sensorless_tick(s, obs, cmd_rpm, i_ab, (st.v_ab_last, v_max))
             }
-            ModeState::Idle | ModeState::Fault(_) | ModeState::Align(_) => Next::Stay,
+            _ => Next::Stay,
         };
         let reason = match next {
             Next::Stay => return None,
@@ -451,8 +508,11 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         let driving = health.driving;
         let (theta_d, omega_d) = (v.theta(driving), v.omega(driving));
         let (theta, omega_m, speed_ref_rpm) = match &st.mode {
-            ModeState::Idle | ModeState::Fault(_) => return off,
-            ModeState::Align(_) => (0.0, 0.0, 0.0),
+            ModeState::Idle
+            | ModeState::Fault(_)
+            | ModeState::Calibrate(_)
+            | ModeState::Identified(_) => return off,
+            ModeState::Align(_) | ModeState::Identify(_) => (0.0, 0.0, 0.0),
             ModeState::Catch(_) => (theta_d, omega_d, 0.0),
             ModeState::OpenLoop(ol) => {
                 let f = ol.frame();
@@ -536,7 +596,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 Outcome::Run(self.sensorless_step(s, &st.obs))
             }
             ModeState::Sensorless(_) => Outcome::Fault(Fault::ObserverLoss),
-            ModeState::Idle | ModeState::Fault(_) => return (None, None),
+            _ => return (None, None),
         };
         let (request, reason) = match outcome {
             Outcome::Run(request) => (request, None),

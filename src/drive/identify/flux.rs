@@ -1,0 +1,234 @@
+//! Flux linkage from the back-EMF of an open-loop (I/f) spin.
+//!
+//! Method: the back-EMF of a rotor turning at a known electrical speed (TI InstaSPIN's and
+//! ST's profiler's flux/`K_e` step; the I/f start of [`super::super::open_loop`]): a current of
+//! fixed magnitude along the d axis of a frame whose speed ramps (rated speed per second, the
+//! drive's start-up ramp) to 15 % of rated speed, the rotor following it; the current is then
+//! lowered to 30 % of rated (a turning rotor without load needs little); the back-EMF is
+//! measured there and again at 30 % of rated speed, each after 200 ms of settling. The
+//! back-EMF of every period is
+//!
+//! ```text
+//! e_αβ = v_αβ − R (i_k + i_{k−1})/2 − L (i_k − i_{k−1})/T        (Horng & Chin (16), (17))
+//! ```
+//!
+//! with `R`, `L` measured before; its magnitude is `N ω_m ψ_f`. Averaged per millisecond in the
+//! frame (noise), then as a magnitude over 500 ms: the rotor turns on average at the frame's
+//! speed however it swings about it, so `ψ_f = mean|e| / (N ω_m)` \[Wb]. A rotor that does not
+//! turn shows no back-EMF: the same measurement first at half the spin speed, and an EMF
+//! below a tenth of the applied voltage, or one that does not grow with the speed (less than
+//! 1.6× at twice the speed: what remains of the voltage errors at standstill, the dead
+//! time's mostly, does not), is a blocked rotor ([`IdentifyError::BlockedRotor`]); a ψ_f
+//! outside [`MotorParams::FLUX_WB`] is out of range.
+
+use super::mechanics::Mechanics;
+use super::{back_emf, Identified, IdentifyError, Phase, Progress, Settings};
+use crate::foc::{Foc, Reference, Request};
+use crate::frames::{AlphaBeta, Dq, SinCos};
+use crate::motor::MotorParams;
+
+/// The current while measuring, a fraction of the rated current.
+const HOLD: f32 = 0.3;
+/// Time to lower the current, to settle, to measure \[ms].
+const LOWER_MS: u32 = 100;
+const SETTLE_MS: u32 = 200;
+const MEASURE_MS: u32 = 500;
+
+/// Where the spin is (milliseconds left).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Stage {
+    /// The frame accelerates to the spin speed.
+    Ramp,
+    /// The current lowered to the holding current.
+    Lower(u32),
+    /// Settling.
+    Settle(u32),
+    /// The back-EMF averaged.
+    Measure(u32),
+}
+
+/// The state of the flux measurement.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(in crate::drive) struct FluxSpin {
+    stage: Stage,
+    /// sin/cos of the frame's angle, turned by `step_rot` every step.
+    frame: SinCos,
+    step_rot: SinCos,
+    /// The output angle's lead over the frame.
+    out_rot: SinCos,
+    /// The frame's speed [rad/s, mechanical].
+    omega_m: f32,
+    /// The current's magnitude \[A].
+    i_ref: f32,
+    i_prev: AlphaBeta,
+    /// Back-EMF and voltage in the frame, summed since the last tick \[V].
+    e_sum: Dq,
+    v_sum: Dq,
+    n: u32,
+    /// Σ|e|, Σe_q and Σ|v| over the measurement's milliseconds \[V].
+    e_mag_sum: f32,
+    e_q_sum: f32,
+    /// The mean |e| at half the spin speed, once measured \[V].
+    e_half: Option<f32>,
+    v_mag_sum: f32,
+    count: u32,
+    /// The last millisecond's back-EMF in the frame \[V].
+    e_last: Dq,
+    /// R \[Ω] and L/T \[Ω].
+    r_ohm: f32,
+    l_over_t: f32,
+}
+
+impl FluxSpin {
+    /// At rest on the α axis (the rotor aligned there by the previous measurements).
+    pub(in crate::drive) fn new(s: &Settings, m: &Identified) -> Self {
+        Self {
+            stage: Stage::Ramp,
+            frame: SinCos::ZERO,
+            step_rot: SinCos::ZERO,
+            out_rot: SinCos::ZERO,
+            omega_m: 0.0,
+            i_ref: s.i_test_a,
+            i_prev: AlphaBeta::default(),
+            e_sum: Dq::default(),
+            v_sum: Dq::default(),
+            n: 0,
+            e_mag_sum: 0.0,
+            e_q_sum: 0.0,
+            e_half: None,
+            v_mag_sum: 0.0,
+            count: 0,
+            e_last: Dq::default(),
+            r_ohm: m.r_ohm,
+            l_over_t: m.l_h() / s.ts,
+        }
+    }
+
+    /// One step: the back-EMF of the period that just ended (`v_ab` applied over it \[V],
+    /// `i_ab` measured now \[A]) summed in the frame; the frame turned; the current requested.
+    #[inline(always)]
+    pub(in crate::drive) fn step(&mut self, i_ab: AlphaBeta, v_ab: AlphaBeta) -> Request {
+        let e = back_emf(v_ab, i_ab, self.i_prev, self.r_ohm, self.l_over_t).to_dq(self.frame);
+        let v = v_ab.to_dq(self.frame);
+        self.i_prev = i_ab;
+        self.e_sum = Dq::new(self.e_sum.d + e.d, self.e_sum.q + e.q);
+        self.v_sum = Dq::new(self.v_sum.d + v.d, self.v_sum.q + v.q);
+        self.n += 1;
+        self.frame = self.frame.rotated(self.step_rot);
+        Request {
+            frame: self.frame,
+            frame_out: self.frame.rotated(self.out_rot),
+            omega_m: self.omega_m,
+            reference: Reference::Current(Dq::new(self.i_ref, 0.0)),
+        }
+    }
+
+    /// The 1 kHz work: the ramp, the current, the measurement and the result. `foc` the
+    /// identification's FOC (its output lead).
+    pub(in crate::drive) fn tick(
+        &mut self,
+        s: &Settings,
+        foc: &Foc,
+        result: &mut Identified,
+    ) -> Progress {
+        let k = 1.0 / (self.n.max(1) as f32);
+        let e = Dq::new(self.e_sum.d * k, self.e_sum.q * k);
+        let v = Dq::new(self.v_sum.d * k, self.v_sum.q * k);
+        self.e_sum = Dq::default();
+        self.v_sum = Dq::default();
+        self.n = 0;
+        self.e_last = e;
+        self.frame = self.frame.renormalized();
+        let hold = HOLD * s.i_test_a;
+        match self.stage {
+            Stage::Ramp => {
+                let target = if self.e_half.is_some() {
+                    s.omega_low_m
+                } else {
+                    0.5 * s.omega_low_m
+                };
+                self.omega_m = (self.omega_m + s.accel_per_ms).min(target);
+                self.step_rot = SinCos::of_small(s.n_ts * self.omega_m);
+                self.out_rot = foc.output_rotation(self.omega_m);
+                if self.omega_m >= target {
+                    self.stage = if self.e_half.is_some() {
+                        Stage::Settle(SETTLE_MS)
+                    } else {
+                        Stage::Lower(LOWER_MS)
+                    };
+                }
+            }
+            Stage::Lower(ms) => {
+                let drop = (s.i_test_a - hold) / LOWER_MS as f32;
+                self.i_ref = (self.i_ref - drop).max(hold);
+                self.stage = if ms > 1 {
+                    Stage::Lower(ms - 1)
+                } else {
+                    Stage::Settle(SETTLE_MS)
+                };
+            }
+            Stage::Settle(ms) => {
+                self.stage = if ms > 1 {
+                    Stage::Settle(ms - 1)
+                } else {
+                    Stage::Measure(MEASURE_MS)
+                };
+            }
+            Stage::Measure(ms) => {
+                self.e_mag_sum += e.magnitude();
+                self.e_q_sum += e.q;
+                self.v_mag_sum += v.magnitude();
+                self.count += 1;
+                if ms > 1 {
+                    self.stage = Stage::Measure(ms - 1);
+                } else if self.e_half.is_none() {
+                    // Half speed measured: on to the spin speed.
+                    self.e_half = Some(self.e_mag_sum / self.count as f32);
+                    self.e_mag_sum = 0.0;
+                    self.e_q_sum = 0.0;
+                    self.v_mag_sum = 0.0;
+                    self.count = 0;
+                    self.stage = Stage::Ramp;
+                } else {
+                    return self.evaluate(s, result);
+                }
+            }
+        }
+        Progress::Stay
+    }
+
+    /// ψ_f from the mean back-EMF; the torque steps start in the frame of the rotor.
+    fn evaluate(&self, s: &Settings, result: &mut Identified) -> Progress {
+        let (e_mean, v_mean) = (self.e_mag_sum, self.v_mag_sum);
+        let e_half = self.e_half.unwrap_or(0.0) * self.count as f32;
+        // A turning rotor's EMF doubles with the speed; what remains of the voltage errors at
+        // standstill (the dead time's, mostly) does not.
+        if !(e_mean >= 0.1 * v_mean && e_mean >= 1.6 * e_half) {
+            return Progress::Fail(IdentifyError::BlockedRotor);
+        }
+        let flux_wb = e_mean / (self.count as f32 * s.n * self.omega_m);
+        if MotorParams::FLUX_WB.check("flux_wb", flux_wb).is_err() {
+            return Progress::Fail(IdentifyError::FluxOutOfRange);
+        }
+        result.flux_wb = flux_wb;
+        // The back-EMF lies on the rotor's q axis: the frame turned back by its angle in the
+        // frame, δ = atan2(e_d, e_q), is the rotor's (Park of e = ω_e ψ_f (−sin θ_e, cos θ_e)).
+        let inv = crate::math::rsqrt(self.e_last.d * self.e_last.d + self.e_last.q * self.e_last.q);
+        let back = SinCos {
+            sin: -self.e_last.d * inv,
+            cos: self.e_last.q * inv,
+        };
+        let rotor = if inv.is_finite() {
+            self.frame.rotated(back)
+        } else {
+            self.frame
+        };
+        Progress::Next(Phase::Mechanics(Mechanics::new(
+            s,
+            result,
+            rotor,
+            self.omega_m,
+            self.i_prev,
+        )))
+    }
+}

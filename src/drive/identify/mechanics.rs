@@ -1,0 +1,256 @@
+//! Inertia and viscous friction from the speed response to torque steps.
+//!
+//! Method: acceleration under a known torque (the inertia step of drive self-commissioning,
+//! e.g. ST's profiler's and TI InstaSPIN's inertia identification; B from the steady-state
+//! balance of the same equation). The frame is locked on the rotor by a PLL on the back-EMF
+//! (the `e = v − R i − L di/dt` of `flux.rs`, whose angle in the frame is the angle error),
+//! i_d = 0, and a q current `+I_t` accelerates the rotor from 30 % to 60 % of rated speed,
+//! then `−I_t` brakes it back. The mechanical equation (Horng & Chin eq (19), no load)
+//!
+//! ```text
+//! J dω_m/dt + B ω_m = N ψ_f i_q
+//! ```
+//!
+//! holds on each segment with its mean acceleration `α` (a least-squares line through the
+//! PLL's speed, first 20 ms dropped), mean speed `ω̄` and mean measured `i_q`: two equations,
+//! `J α_up + B ω̄_up = τ_up`, `J α_dn + B ω̄_dn = τ_dn`, solved for `J` \[kg·m²] and `B`
+//! \[N·m·s/rad]. `I_t` starts at 2 % of the rated current and doubles (up to the rated
+//! current) until a segment moves the speed by a third of the range in its 300 ms, and
+//! halves when a segment is over in less than 60 ms; so any inertia the rated torque can move
+//! is measured at a torque it notices. The back-EMF more than 0.6 rad off the frame for 20 ms
+//! is a lost rotor.
+
+use super::{back_emf, Identified, IdentifyError, Progress, Settings};
+use crate::foc::{Foc, Reference, Request};
+use crate::frames::{AlphaBeta, Dq, SinCos};
+use crate::motor::MotorParams;
+use core::f32::consts::TAU;
+
+/// PLL natural frequency \[rad/s] (40 Hz, critically damped) at 1 kHz.
+const PLL_WN: f32 = TAU * 40.0;
+const PLL_KP: f32 = 2.0 * PLL_WN;
+const PLL_KI_T: f32 = PLL_WN * PLL_WN * 1e-3;
+/// Each segment's first milliseconds are not fitted; its longest duration \[ms].
+const SKIP_MS: u32 = 20;
+const SEGMENT_MS: u32 = 300;
+/// Fewest fitted milliseconds of a segment.
+const MIN_POINTS: u32 = 40;
+/// Attempts at finding the torque.
+const ATTEMPTS: u32 = 16;
+
+/// Least-squares line through (t, ω).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Fit {
+    n: f32,
+    t: f32,
+    tt: f32,
+    w: f32,
+    tw: f32,
+    /// Σ i_q \[A].
+    iq: f32,
+}
+
+impl Fit {
+    fn add(&mut self, t: f32, w: f32, iq: f32) {
+        self.n += 1.0;
+        self.t += t;
+        self.tt += t * t;
+        self.w += w;
+        self.tw += t * w;
+        self.iq += iq;
+    }
+
+    /// Slope \[rad/s²], mean speed \[rad/s], mean i_q \[A], speed change over the fit \[rad/s].
+    fn result(&self) -> (f32, f32, f32, f32) {
+        let n = self.n;
+        let slope = (n * self.tw - self.t * self.w) / (n * self.tt - self.t * self.t);
+        let span = slope * (n - 1.0) * 1e-3;
+        (slope, self.w / n, self.iq / n, span)
+    }
+}
+
+/// The state of the inertia and friction measurement.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(in crate::drive) struct Mechanics {
+    frame: SinCos,
+    step_rot: SinCos,
+    out_rot: SinCos,
+    /// The PLL's integrator and output [rad/s, electrical].
+    omega_i_e: f32,
+    omega_e: f32,
+    i_prev: AlphaBeta,
+    e_sum: Dq,
+    iq_sum: f32,
+    n: u32,
+    r_ohm: f32,
+    l_over_t: f32,
+    /// Torque current \[A]; accelerating (else braking).
+    i_t: f32,
+    up: bool,
+    ms: u32,
+    fit: Fit,
+    /// The accelerating segment's (slope, mean speed, mean i_q).
+    up_result: (f32, f32, f32),
+    /// `up_result` is of the torque now.
+    up_valid: bool,
+    attempts: u32,
+    lost_ms: u32,
+}
+
+impl Mechanics {
+    /// In the rotor's frame `rotor` at speed `omega_m` [rad/s, mechanical], `i_prev` the last
+    /// sample \[A].
+    pub(in crate::drive) fn new(
+        s: &Settings,
+        m: &Identified,
+        rotor: SinCos,
+        omega_m: f32,
+        i_prev: AlphaBeta,
+    ) -> Self {
+        let omega_e = s.n * omega_m;
+        Self {
+            frame: rotor,
+            step_rot: SinCos::of_small(omega_e * s.ts),
+            out_rot: SinCos::ZERO,
+            omega_i_e: omega_e,
+            omega_e,
+            i_prev,
+            e_sum: Dq::default(),
+            iq_sum: 0.0,
+            n: 0,
+            r_ohm: m.r_ohm,
+            l_over_t: m.l_h() / s.ts,
+            i_t: 0.02 * s.i_test_a,
+            up: true,
+            ms: 0,
+            fit: Fit::default(),
+            up_result: (0.0, 0.0, 0.0),
+            up_valid: false,
+            attempts: 0,
+            lost_ms: 0,
+        }
+    }
+
+    /// One step: the back-EMF summed in the frame, the frame turned, the torque current
+    /// requested.
+    #[inline(always)]
+    pub(in crate::drive) fn step(&mut self, i_ab: AlphaBeta, v_ab: AlphaBeta, n: f32) -> Request {
+        let e = back_emf(v_ab, i_ab, self.i_prev, self.r_ohm, self.l_over_t).to_dq(self.frame);
+        self.i_prev = i_ab;
+        self.e_sum = Dq::new(self.e_sum.d + e.d, self.e_sum.q + e.q);
+        self.iq_sum += i_ab.to_dq(self.frame).q;
+        self.n += 1;
+        self.frame = self.frame.rotated(self.step_rot);
+        let i_q = if self.up { self.i_t } else { -self.i_t };
+        Request {
+            frame: self.frame,
+            frame_out: self.frame.rotated(self.out_rot),
+            omega_m: self.omega_e / n,
+            reference: Reference::Current(Dq::new(0.0, i_q)),
+        }
+    }
+
+    /// The 1 kHz work: the PLL, the segments, the result.
+    pub(in crate::drive) fn tick(
+        &mut self,
+        s: &Settings,
+        foc: &Foc,
+        result: &mut Identified,
+    ) -> Progress {
+        let k = 1.0 / (self.n.max(1) as f32);
+        let e = Dq::new(self.e_sum.d * k, self.e_sum.q * k);
+        let iq = self.iq_sum * k;
+        self.e_sum = Dq::default();
+        self.iq_sum = 0.0;
+        self.n = 0;
+        // The PLL: δ = θ_frame − θ_e.
+        let delta = crate::math::atan2(e.d, e.q);
+        self.lost_ms = if delta.abs() > 0.6 {
+            self.lost_ms + 1
+        } else {
+            0
+        };
+        if self.lost_ms > 20 || !delta.is_finite() {
+            return Progress::Fail(IdentifyError::LostRotor);
+        }
+        self.omega_i_e -= PLL_KI_T * delta;
+        self.omega_e = self.omega_i_e - PLL_KP * delta;
+        self.step_rot = SinCos::of_small(self.omega_e * s.ts);
+        self.out_rot = foc.output_rotation(self.omega_e / s.n);
+        self.frame = self.frame.renormalized();
+        // The segment.
+        self.ms += 1;
+        let w = self.omega_i_e / s.n;
+        if self.ms > SKIP_MS {
+            self.fit.add(self.ms as f32 * 1e-3, w, iq);
+        }
+        let reached = if self.up {
+            w >= s.omega_high_m
+        } else {
+            w <= s.omega_low_m
+        };
+        if !(reached || self.ms >= SEGMENT_MS || w < 0.5 * s.omega_low_m) {
+            return Progress::Stay;
+        }
+        let fit = self.fit;
+        self.fit = Fit::default();
+        self.ms = 0;
+        let too_short = fit.n < MIN_POINTS as f32;
+        let (slope, w_mean, iq_mean, span) = if too_short {
+            (0.0, 0.0, 0.0, 0.0)
+        } else {
+            fit.result()
+        };
+        // The PLL integrator lags a steady acceleration by kp/ki·α: the mean speed corrected.
+        let w_mean = w_mean + PLL_KP / (PLL_KI_T * 1e3) * slope;
+        let range = s.omega_high_m - s.omega_low_m;
+        let small = span.abs() < range / 3.0;
+        self.attempts += 1;
+        if self.attempts > ATTEMPTS {
+            return Progress::Fail(IdentifyError::InertiaOutOfRange);
+        }
+        if self.up {
+            if too_short {
+                // Over too soon: brake with half the torque, then a new pair.
+                self.i_t *= 0.5;
+                self.up_valid = false;
+                self.up = false;
+            } else if small && 2.0 * self.i_t <= s.i_test_a {
+                // Too little motion: accelerate on with twice the torque.
+                self.i_t *= 2.0;
+            } else {
+                self.up_result = (slope, w_mean, iq_mean);
+                self.up_valid = true;
+                self.up = false;
+            }
+            return Progress::Stay;
+        }
+        // Braked: a new pair, or the result.
+        self.up = true;
+        if !self.up_valid {
+            return Progress::Stay;
+        }
+        if too_short {
+            self.i_t *= 0.5;
+            self.up_valid = false;
+            return Progress::Stay;
+        }
+        let (a_up, w_up, iq_up) = self.up_result;
+        let kt = s.n * result.flux_wb;
+        let (t_up, t_dn) = (kt * iq_up, kt * iq_mean);
+        let det = a_up * w_mean - slope * w_up;
+        let j_kgm2 = (t_up * w_mean - t_dn * w_up) / det;
+        let b_nms = (a_up * t_dn - slope * t_up) / det;
+        if MotorParams::J_KGM2.check("j_kgm2", j_kgm2).is_err() {
+            return Progress::Fail(IdentifyError::InertiaOutOfRange);
+        }
+        result.j_kgm2 = j_kgm2;
+        // Friction is reported as measured; one within noise below zero is none.
+        result.b_nms = if b_nms.is_finite() {
+            b_nms.max(0.0)
+        } else {
+            0.0
+        };
+        Progress::Done
+    }
+}

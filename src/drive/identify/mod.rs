@@ -1,0 +1,456 @@
+//! Identification: the drive measures the motor it is connected to — phase resistance,
+//! inductance (d and q axis), permanent-magnet flux linkage, inertia and viscous friction —
+//! from the user's pole pairs and ratings alone, in the same 4 kHz step and 1 kHz tick as the
+//! rest of the drive (no heap, no panic, no f64). [`Drive::start_identification`] runs, from
+//! idle, the offset calibration (`offset.rs`) and then one measurement after another, each a
+//! phase of the mode `Identify` with its own state:
+//!
+//! 1. `resistance.rs`: two DC current levels on the α axis (rotor held at θ_e = 0),
+//!    `R = ΔV/ΔI` (dead time and offsets cancel), and a third level on the β axis that checks
+//!    the winding: the DC conductance of a healthy machine is the same in every direction;
+//!    an open phase leaves a direction without current, a shorted winding triples one.
+//! 2. `inductance.rs`: a square-wave voltage on top of the first level's DC voltage, on the
+//!    d axis then the q axis: `L` from the current ripple.
+//! 3. `flux.rs`: an I/f spin at a known electrical speed: `ψ_f = |v − R i − L di/dt|/ω_e`.
+//! 4. `mechanics.rs`: torque steps with the frame locked on the back-EMF: `J` and `B` from the
+//!    accelerations.
+//!
+//! Every measurement checks its own plausibility and ends with a named
+//! [`IdentifyError`] (as [`Fault::Identify`]: PWM off, latched like any fault), never a
+//! silent number: an open phase, a shorted phase, a blocked rotor during the spin, a result
+//! out of the range of [`MotorParams`], a motor whose rated current the board cannot sense.
+//! The results are read with [`DriveState::identified`] once the mode is `Identified`; the
+//! drive then stays with its PWM off until the enable command is withdrawn. The gains follow
+//! from the identified motor as from any other ([`DriveConfig::new`]).
+//!
+//! The drive's own motor parameters (its gains, its observers) play no part: the measurements
+//! use voltages until `R` and `L` are known, then a current loop re-derived from them
+//! (`kp = L ω_c`, `ki = R ω_c`, as [`crate::foc`]). Pole pairs cannot be measured without a
+//! sensor: the user gives them, and the ratings give the limits (test currents from
+//! `current_a`, speeds from `speed_rpm`, voltages from the bus sampled).
+//!
+//! [`Drive::start_identification`]: super::Drive::start_identification
+//! [`DriveState::identified`]: super::DriveState::identified
+//! [`Fault::Identify`]: super::Fault::Identify
+//! [`DriveConfig::new`]: super::DriveConfig::new
+//! [`MotorParams`]: crate::motor::MotorParams
+
+pub(super) mod flux;
+pub(super) mod inductance;
+pub(super) mod mechanics;
+pub(super) mod offset;
+pub(super) mod resistance;
+
+use crate::foc::Foc;
+use crate::frames::AlphaBeta;
+use crate::motor::{MotorParams, Ratings};
+use crate::param::{Allowed, ParamError};
+use core::f32::consts::TAU;
+use flux::FluxSpin;
+use inductance::Inductance;
+use mechanics::Mechanics;
+use resistance::Resistance;
+
+/// Why an identification stopped (the drive's [`Fault::Identify`](super::Fault::Identify)).
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum IdentifyError {
+    /// The board's current sensing cannot measure this motor: the trip current
+    /// (2.25 × `current_a`) beyond the sensing range, or the rated current below 100 LSB.
+    CurrentNotSensable,
+    /// A direction of the stator takes (almost) no current: a phase is not connected.
+    OpenPhase,
+    /// The DC conductance differs between directions: a shorted winding (or phases shorted
+    /// together).
+    ShortedPhase,
+    /// No back-EMF while the current's frame spins: the rotor does not turn.
+    BlockedRotor,
+    /// The back-EMF left the frame during the torque steps (the rotor was lost).
+    LostRotor,
+    /// The measured resistance is outside [`MotorParams::R_OHM`], or the bus cannot drive the
+    /// test current through it.
+    ResistanceOutOfRange,
+    /// The measured inductance is outside [`MotorParams::L_H`] (or the ripple does not fit an
+    /// R-L circuit).
+    InductanceOutOfRange,
+    /// The measured flux linkage is outside [`MotorParams::FLUX_WB`].
+    FluxOutOfRange,
+    /// The measured inertia is outside [`MotorParams::J_KGM2`], or the torque steps did not
+    /// move the rotor measurably within the rated current.
+    InertiaOutOfRange,
+}
+
+/// Which measurement runs.
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum IdentifyPhase {
+    /// Resistance and the winding check.
+    Resistance,
+    /// d- and q-axis inductance.
+    Inductance,
+    /// Flux linkage.
+    Flux,
+    /// Inertia and friction.
+    Mechanics,
+}
+
+/// The identified motor (SI units, the papers' model: `τ = N ψ_f i_q`, amplitude-invariant
+/// αβ).
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Identified {
+    /// Phase resistance \[Ω].
+    pub r_ohm: f32,
+    /// Inductance on the axis of the aligned rotor (d) \[H].
+    pub l_d_h: f32,
+    /// Inductance on the axis at 90° electrical to it (q) \[H].
+    pub l_q_h: f32,
+    /// Permanent-magnet flux linkage \[Wb].
+    pub flux_wb: f32,
+    /// Rotor inertia \[kg·m²].
+    pub j_kgm2: f32,
+    /// Viscous friction \[N·m·s/rad] (a negative estimate, within noise of zero, is 0).
+    pub b_nms: f32,
+}
+
+impl Identified {
+    /// The inductance of the drive's (non-salient) model: the mean of `l_d_h` and `l_q_h` \[H].
+    pub fn l_h(&self) -> f32 {
+        0.5 * (self.l_d_h + self.l_q_h)
+    }
+
+    /// The motor parameters with the user's `pole_pairs`, validated.
+    pub fn params(&self, pole_pairs: u32) -> Result<MotorParams, ParamError> {
+        MotorParams::new(
+            pole_pairs,
+            self.r_ohm,
+            self.l_h(),
+            self.flux_wb,
+            self.j_kgm2,
+            self.b_nms,
+        )
+    }
+}
+
+/// The board's current sensing, as the identification checks a motor against it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct IdentifyConfig {
+    /// Largest phase current the sensing reports \[A] (the ADC's full scale through the
+    /// amplifier), > 0.
+    pub sense_range_a: f32,
+    /// The current of one ADC step \[A], ≥ 0 (0: not limiting).
+    pub sense_lsb_a: f32,
+}
+
+impl IdentifyConfig {
+    /// The settings checked; the error names the bad field.
+    pub(super) fn check(&self) -> Result<(), ParamError> {
+        Allowed::POSITIVE.check("identify.sense_range_a", self.sense_range_a)?;
+        Allowed::between(0.0, 1e3).check("identify.sense_lsb_a", self.sense_lsb_a)?;
+        Ok(())
+    }
+}
+
+/// A placeholder motor for a drive that is to identify its motor: the user's pole pairs and
+/// ratings, a flux linkage whose torque at `current_a` is the rated torque, a resistance whose
+/// rated current takes a tenth of the bus's phase voltage and a 1 ms electrical time constant.
+/// Only the limits and the observers' construction use it; the identification's measurements
+/// do not (module doc).
+pub fn placeholder(pole_pairs: u32, ratings: Ratings) -> crate::motor::Motor {
+    let n = pole_pairs.max(1) as f32;
+    let r_ohm = 0.1 * ratings.bus_v * crate::math::INV_SQRT3 / ratings.current_a;
+    crate::motor::Motor {
+        name: "placeholder",
+        params: MotorParams {
+            pole_pairs,
+            r_ohm,
+            l_h: 1e-3 * r_ohm,
+            flux_wb: ratings.torque_nm / (n * ratings.current_a),
+            j_kgm2: 1e-3,
+            b_nms: 0.0,
+        },
+        ratings,
+    }
+}
+
+/// The identification's coefficients, derived once ([`Settings::new`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Settings {
+    /// The test current, the user's rated current \[A].
+    pub(super) i_test_a: f32,
+    /// The motor's current can be measured by the board (checked at the start).
+    pub(super) sensable: bool,
+    /// Voltage ramp per millisecond \[V]: the rated bus's phase voltage in a second.
+    pub(super) v_ramp_per_ms: f32,
+    /// Step period T \[s].
+    pub(super) ts: f32,
+    /// Current-loop bandwidth ω_c \[rad/s] and ω_c T.
+    pub(super) w_c: f32,
+    pub(super) w_c_ts: f32,
+    /// Pole pairs N.
+    pub(super) n: f32,
+    /// N T \[s]: the frame's advance per step per rad/s of mechanical speed.
+    pub(super) n_ts: f32,
+    /// Spin speed for the flux linkage, the lower speed of the torque steps [rad/s,
+    /// mechanical]: 30 % of rated.
+    pub(super) omega_low_m: f32,
+    /// The upper speed of the torque steps [rad/s, mechanical]: 60 % of rated.
+    pub(super) omega_high_m: f32,
+    /// The spin's acceleration per millisecond [rad/s, mechanical]: rated speed in a second.
+    pub(super) accel_per_ms: f32,
+}
+
+impl Settings {
+    /// From the ratings, the drive's rate and current bandwidth, and the board's sensing.
+    pub(super) fn new(
+        ratings: &Ratings,
+        pole_pairs: f32,
+        rate_hz: f32,
+        current_bandwidth_hz: f32,
+        cfg: &IdentifyConfig,
+    ) -> Self {
+        let ts = 1.0 / rate_hz;
+        let i = ratings.current_a;
+        let rated_m = ratings.speed_rpm * crate::units::RAD_S_PER_RPM;
+        let w_c = TAU * current_bandwidth_hz;
+        Self {
+            i_test_a: i,
+            sensable: 2.25 * i <= cfg.sense_range_a && i >= 100.0 * cfg.sense_lsb_a,
+            v_ramp_per_ms: ratings.bus_v * crate::math::INV_SQRT3 * 1e-3,
+            ts,
+            w_c,
+            w_c_ts: w_c * ts,
+            n: pole_pairs,
+            n_ts: pole_pairs * ts,
+            omega_low_m: 0.3 * rated_m,
+            omega_high_m: 0.6 * rated_m,
+            accel_per_ms: rated_m * 1e-3,
+        }
+    }
+}
+
+/// What a measurement's 1 kHz work decided.
+pub(super) enum Progress {
+    /// Carry on.
+    Stay,
+    /// The next measurement.
+    Next(Phase),
+    /// All measured.
+    Done,
+    /// Stop: the named error.
+    Fail(IdentifyError),
+}
+
+/// The running measurement and its state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum Phase {
+    /// `resistance.rs`.
+    Resistance(Resistance),
+    /// `inductance.rs`.
+    Inductance(Inductance),
+    /// `flux.rs`.
+    Flux(FluxSpin),
+    /// `mechanics.rs`.
+    Mechanics(Mechanics),
+}
+
+/// The state of [`Mode::Identify`](super::Mode::Identify): the measurement running, the
+/// results so far and the current loop re-derived from them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Identify {
+    pub(super) phase: Phase,
+    pub(super) result: Identified,
+    /// The FOC with the identified current-loop gains (the drive's until `R` and `L` are
+    /// known; voltage references meanwhile).
+    pub(super) foc: Foc,
+}
+
+impl Identify {
+    /// The first measurement, with the drive's FOC `foc`.
+    pub(super) fn new(foc: Foc) -> Self {
+        Self {
+            phase: Phase::Resistance(Resistance::default()),
+            result: Identified::default(),
+            foc,
+        }
+    }
+
+    /// Which measurement runs.
+    pub(super) fn which(&self) -> IdentifyPhase {
+        match self.phase {
+            Phase::Resistance(_) => IdentifyPhase::Resistance,
+            Phase::Inductance(_) => IdentifyPhase::Inductance,
+            Phase::Flux(_) => IdentifyPhase::Flux,
+            Phase::Mechanics(_) => IdentifyPhase::Mechanics,
+        }
+    }
+}
+
+/// The FOC `foc` with the current-loop gains for `r_ohm`, `l_h` at the bandwidth of
+/// `s` and `flux_wb` fed forward.
+pub(super) fn retuned(foc: &Foc, s: &Settings, r_ohm: f32, l_h: f32, flux_wb: f32) -> Foc {
+    foc.with_current_gains(l_h * s.w_c, r_ohm * s.w_c_ts, l_h, flux_wb)
+}
+
+/// The back-EMF over the period that just ended [V]: `e = v − R i_mid − L (i − i_prev)/T`, the
+/// stator equation of the papers' model (Horng & Chin eqs (16), (17)) solved for the EMF, with
+/// `v_ab` the voltage applied over the period, `i_mid` the mean of its two current samples.
+#[inline(always)]
+pub(super) fn back_emf(
+    v_ab: AlphaBeta,
+    i_ab: AlphaBeta,
+    i_prev: AlphaBeta,
+    r_ohm: f32,
+    l_over_t: f32,
+) -> AlphaBeta {
+    let half_r = 0.5 * r_ohm;
+    AlphaBeta::new(
+        v_ab.alpha - half_r * (i_ab.alpha + i_prev.alpha) - l_over_t * (i_ab.alpha - i_prev.alpha),
+        v_ab.beta - half_r * (i_ab.beta + i_prev.beta) - l_over_t * (i_ab.beta - i_prev.beta),
+    )
+}
+
+/// Natural logarithm of a positive normal `x` (f32, no tables): `x = m 2^e`, `m ∈ [1, 2)`,
+/// `ln x = e ln 2 + 2 atanh((m − 1)/(m + 1))`, the series to the 11th power (|u| ≤ 1/3:
+/// error below 2e-7 relative). For the 1 kHz work only.
+pub(super) fn ln(x: f32) -> f32 {
+    let bits = x.to_bits();
+    let e = ((bits >> 23) & 0xff) as i32 - 127;
+    let m = f32::from_bits((bits & 0x007f_ffff) | 0x3f80_0000);
+    let u = (m - 1.0) / (m + 1.0);
+    let u2 = u * u;
+    let series =
+        u * (1.0 + u2 * (1.0 / 3.0 + u2 * (0.2 + u2 * (1.0 / 7.0 + u2 * (1.0 / 9.0 + u2 / 11.0)))));
+    e as f32 * core::f32::consts::LN_2 + 2.0 * series
+}
+
+use super::{
+    enter_fault, Align, Catch, Drive, DriveInput, DriveState, Fault, ModeState, Reason, StateOf,
+    Transition,
+};
+use crate::observer::Observer;
+use crate::svpwm::Duties;
+use core::hint::cold_path;
+use offset::Then;
+
+impl<P: Observer, M: Observer> Drive<P, M> {
+    /// Starts the identification from idle (armed): the offsets, then every measurement in
+    /// turn, while the enable command stays high (its speed command is not used); `None` and
+    /// nothing done in any other mode. Read the results with
+    /// [`DriveState::identified`](super::DriveState::identified) once the mode is
+    /// `Identified`.
+    pub fn start_identification(&self, st: &mut StateOf<P, M>) -> Option<Transition> {
+        if !(matches!(st.mode, ModeState::Idle) && st.armed) {
+            return None;
+        }
+        *st = DriveState {
+            mode: ModeState::Calibrate(offset::Calibrate::new(Then::Identify)),
+            ..DriveState::default()
+        };
+        Some(Transition {
+            from: super::Mode::Idle,
+            to: super::Mode::Calibrate,
+            reason: Reason::Identify,
+        })
+    }
+
+    /// Mode `Calibrate`'s step (PWM off): the sample summed; at the end the offsets kept and
+    /// the next mode entered, or the offset fault.
+    // Out of line: 16 ms after each enable, not the running drive's path.
+    #[inline(never)]
+    pub(super) fn calibrate(&self, st: &mut StateOf<P, M>, input: &DriveInput) -> Option<Reason> {
+        let ModeState::Calibrate(c) = &mut st.mode else {
+            return None;
+        };
+        let then = c.then;
+        let offset = c.step(input.i_abc, self.identify_offset_limit_a)?;
+        cold_path();
+        let Some(offset_ab) = offset else {
+            return Some(enter_fault(st, Fault::AdcOffset));
+        };
+        st.offset_ab = offset_ab;
+        st.v_bus_last = input.v_bus;
+        st.mode = match then {
+            Then::Start if input.v_ab_terminal.is_some() => ModeState::Catch(Catch::default()),
+            Then::Start => ModeState::Align(Align::default()),
+            Then::Identify if !self.identify.sensable => {
+                return Some(enter_fault(
+                    st,
+                    Fault::Identify(IdentifyError::CurrentNotSensable),
+                ));
+            }
+            Then::Identify => ModeState::Identify(Identify::new(self.foc)),
+        };
+        Some(Reason::Calibrated)
+    }
+
+    /// Mode `Identify`'s step: the measurement's request through its FOC (no observers run).
+    #[inline(always)]
+    pub(super) fn identify_control(
+        &self,
+        st: &mut StateOf<P, M>,
+        input: &DriveInput,
+    ) -> (Option<Duties>, Option<Reason>) {
+        let i_raw = input.i_abc.to_alpha_beta();
+        let i_ab = AlphaBeta::new(
+            i_raw.alpha - st.offset_ab.alpha,
+            i_raw.beta - st.offset_ab.beta,
+        );
+        st.i_ab_last = i_ab;
+        let ModeState::Identify(id) = &mut st.mode else {
+            return (None, None);
+        };
+        let v_last = st.v_ab_last;
+        let request = match &mut id.phase {
+            Phase::Resistance(r) => r.step(i_ab),
+            Phase::Inductance(l) => l.step(i_ab),
+            Phase::Flux(f) => f.step(i_ab, v_last),
+            Phase::Mechanics(m) => m.step(i_ab, v_last, self.identify.n),
+        };
+        let out = id.foc.run(&mut st.current, &request, i_ab, input.v_bus);
+        st.v_ab_last = out.v_ab;
+        st.v_bus_last = input.v_bus;
+        (Some(out.duties), None)
+    }
+
+    /// Mode `Identify`'s 1 kHz work: the measurement's decisions; the next measurement, the
+    /// results, or the named error.
+    #[inline(never)]
+    pub(super) fn identify_tick(&self, st: &mut StateOf<P, M>) -> Option<Transition> {
+        let v_max = self.foc.v_max(st.v_bus_last);
+        let ModeState::Identify(id) = &mut st.mode else {
+            return None;
+        };
+        let s = &self.identify;
+        let result = &mut id.result;
+        let progress = match &mut id.phase {
+            Phase::Resistance(r) => r.tick(s, v_max, result),
+            Phase::Inductance(l) => l.tick(s, v_max, result),
+            Phase::Flux(f) => f.tick(s, &id.foc, result),
+            Phase::Mechanics(m) => m.tick(s, &id.foc, result),
+        };
+        let (to, reason) = match progress {
+            Progress::Stay => return None,
+            Progress::Next(phase) => {
+                cold_path();
+                // The current loop from what is known now; its integrators from zero.
+                let r = id.result;
+                id.foc = retuned(&self.foc, s, r.r_ohm, r.l_h(), r.flux_wb);
+                id.phase = phase;
+                st.current = Default::default();
+                return None;
+            }
+            Progress::Done => {
+                let r = id.result;
+                st.mode = ModeState::Identified(r);
+                (super::Mode::Identified, Reason::Identified)
+            }
+            Progress::Fail(e) => (super::Mode::Fault, enter_fault(st, Fault::Identify(e))),
+        };
+        Some(Transition {
+            from: super::Mode::Identify,
+            to,
+            reason,
+        })
+    }
+}

@@ -1,0 +1,183 @@
+//! Phase resistance by two DC levels, and the winding check.
+//!
+//! Method: the standard self-commissioning DC test (ST's MC SDK motor profiler; Kim, Sul et
+//! al.'s offline parameter estimation; TI InstaSPIN's `R_s` step): with the rotor held on the
+//! α axis (θ_e = 0) by the current itself, two DC voltages `V1`, `V2` on that axis give the
+//! currents `I1`, `I2`; `R = (V2 − V1)/(I2 − I1)` \[Ω]. The inverter's dead-time error and any
+//! current or voltage offset are the same at both levels (every phase current keeps its sign:
+//! phase a carries `I`, b and c `−I/2`, all beyond the compensation's band) and cancel. The
+//! levels are half the rated current and the rated current, reached by ramping the voltage
+//! (a rated bus's phase voltage per second), each held to settle (100 ms) and averaged
+//! (100 ms).
+//!
+//! The winding check: a third level adds 0.3 × rated current on the β axis (the rotor turns
+//! by 17° electrical, and the DC test does not care), so that the 2×2 DC conductance
+//! `G = ∂i_αβ/∂v_αβ` is known. A healthy machine's `G` is `I/R` whatever its saliency (the
+//! resistance is the same in every direction); an open phase `k` leaves `G = w wᵀ/R` with
+//! `w ⊥ u_k` (no current along the phase's axis `u_k`: eigenvalues 0 and 1/R); a shorted
+//! winding `k` (its terminal at the star point) makes it `(I + 2 u_k u_kᵀ)/R` (3/R and 1/R).
+//! Ratio of the eigenvalues of `G`'s symmetric part: below 0.15 an open phase, below 0.8 a
+//! shorted one. A voltage ramp that reaches the inverter's limit without the level ends with
+//! an open phase when the current stays below a quarter of the level or leaves the axis (an
+//! open phase b or c lets it flow only at 30° off), else with the resistance out of range
+//! (more than the bus can drive).
+
+use super::inductance::Inductance;
+use super::{Identified, IdentifyError, Phase, Progress, Settings};
+use crate::foc::{Reference, Request};
+use crate::frames::{AlphaBeta, Dq, SinCos};
+use crate::motor::MotorParams;
+
+/// Settling time after each level is reached \[ms].
+const SETTLE_MS: u32 = 100;
+/// Averaging time of each level \[ms].
+const AVERAGE_MS: u32 = 100;
+/// Levels: fractions of the rated current (α, α, then added on β).
+const LEVELS: [f32; 3] = [0.5, 1.0, 0.3];
+
+/// Where a level is.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+enum Sub {
+    /// The voltage ramps until the current reaches the level.
+    #[default]
+    Ramp,
+    /// The voltage held, milliseconds left.
+    Settle(u32),
+    /// The voltage held, the currents summed, milliseconds left.
+    Average(u32),
+}
+
+/// The state of the resistance measurement.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(in crate::drive) struct Resistance {
+    /// Level 0, 1 (α axis) or 2 (β added).
+    level: usize,
+    sub: Sub,
+    /// The voltage applied \[V].
+    v_ab: AlphaBeta,
+    /// Currents summed since the last tick (or over the average) \[A].
+    sum_i: AlphaBeta,
+    n: u32,
+    /// Each level's voltage and mean current [V], \[A].
+    points: [(AlphaBeta, AlphaBeta); 3],
+}
+
+impl Resistance {
+    /// One step: the sample `i_ab` \[A] summed; the voltage held.
+    #[inline(always)]
+    pub(in crate::drive) fn step(&mut self, i_ab: AlphaBeta) -> Request {
+        self.sum_i = AlphaBeta::new(self.sum_i.alpha + i_ab.alpha, self.sum_i.beta + i_ab.beta);
+        self.n += 1;
+        Request {
+            frame: SinCos::ZERO,
+            frame_out: SinCos::ZERO,
+            omega_m: 0.0,
+            reference: Reference::Voltage(Dq::new(self.v_ab.alpha, self.v_ab.beta)),
+        }
+    }
+
+    /// The 1 kHz work: the ramp, the levels, the result. `v_max` \[V] the largest voltage the
+    /// inverter applies now.
+    pub(in crate::drive) fn tick(
+        &mut self,
+        s: &Settings,
+        v_max: f32,
+        result: &mut Identified,
+    ) -> Progress {
+        let k = 1.0 / (self.n.max(1) as f32);
+        let mean = AlphaBeta::new(self.sum_i.alpha * k, self.sum_i.beta * k);
+        let on_beta = self.level == 2;
+        let level_a = LEVELS[self.level.min(2)] * s.i_test_a;
+        match self.sub {
+            Sub::Ramp => {
+                self.clear();
+                // The current along the level's axis (on β, what the third level added).
+                let base = self.points[1].1;
+                let (along, across) = if on_beta {
+                    (mean.beta - base.beta, mean.alpha - base.alpha)
+                } else {
+                    (mean.alpha, mean.beta)
+                };
+                if along >= level_a {
+                    self.sub = Sub::Settle(SETTLE_MS);
+                    return Progress::Stay;
+                }
+                let mut v = self.v_ab;
+                if on_beta {
+                    v.beta += s.v_ramp_per_ms;
+                } else {
+                    v.alpha += s.v_ramp_per_ms;
+                }
+                if v.alpha * v.alpha + v.beta * v.beta > v_max * v_max {
+                    let open = along < 0.25 * level_a || across.abs() > 0.3 * along.abs();
+                    return Progress::Fail(if open {
+                        IdentifyError::OpenPhase
+                    } else {
+                        IdentifyError::ResistanceOutOfRange
+                    });
+                }
+                self.v_ab = v;
+            }
+            Sub::Settle(0) => {
+                self.clear();
+                self.sub = Sub::Average(AVERAGE_MS);
+            }
+            Sub::Settle(ms) => {
+                self.clear();
+                self.sub = Sub::Settle(ms - 1);
+            }
+            Sub::Average(ms) if ms > 1 => self.sub = Sub::Average(ms - 1),
+            Sub::Average(_) => {
+                self.points[self.level] = (self.v_ab, mean);
+                self.clear();
+                self.sub = Sub::Ramp;
+                self.level += 1;
+                if self.level == 3 {
+                    return self.evaluate(s, result);
+                }
+            }
+        }
+        Progress::Stay
+    }
+
+    /// Sums cleared.
+    fn clear(&mut self) {
+        self.sum_i = AlphaBeta::default();
+        self.n = 0;
+    }
+
+    /// `R` from the two α levels, the winding from `G`.
+    fn evaluate(&self, s: &Settings, result: &mut Identified) -> Progress {
+        let [(v0, i0), (v1, i1), (v2, i2)] = self.points;
+        let dv_alpha = v1.alpha - v0.alpha;
+        let dv_beta = v2.beta - v1.beta;
+        // G's columns: the current per volt on α, on β [1/Ω].
+        let g_a = AlphaBeta::new(
+            (i1.alpha - i0.alpha) / dv_alpha,
+            (i1.beta - i0.beta) / dv_alpha,
+        );
+        let g_b = AlphaBeta::new(
+            (i2.alpha - i1.alpha) / dv_beta,
+            (i2.beta - i1.beta) / dv_beta,
+        );
+        // Eigenvalues of the symmetric part.
+        let (s11, s22, s12) = (g_a.alpha, g_b.beta, 0.5 * (g_a.beta + g_b.alpha));
+        let half_tr = 0.5 * (s11 + s22);
+        let disc = crate::math::sqrt_or_zero(half_tr * half_tr - (s11 * s22 - s12 * s12));
+        let (l_max, l_min) = (half_tr + disc, half_tr - disc);
+        // (A non-finite ratio fails both comparisons below: caught by the range check.)
+        let ratio = l_min / l_max;
+        if l_max <= 0.0 || ratio < 0.15 {
+            return Progress::Fail(IdentifyError::OpenPhase);
+        }
+        if ratio < 0.8 {
+            return Progress::Fail(IdentifyError::ShortedPhase);
+        }
+        let r_ohm = dv_alpha / (i1.alpha - i0.alpha);
+        if MotorParams::R_OHM.check("r_ohm", r_ohm).is_err() {
+            return Progress::Fail(IdentifyError::ResistanceOutOfRange);
+        }
+        result.r_ohm = r_ohm;
+        Progress::Next(Phase::Inductance(Inductance::new(s, v0, r_ohm)))
+    }
+}
