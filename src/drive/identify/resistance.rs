@@ -6,9 +6,9 @@
 //! currents `I1`, `I2`; `R = (V2 − V1)/(I2 − I1)` \[Ω]. The inverter's dead-time error and any
 //! current or voltage offset are the same at both levels (every phase current keeps its sign:
 //! phase a carries `I`, b and c `−I/2`, all beyond the compensation's band) and cancel. The
-//! levels are half the rated current and the rated current, reached by ramping the voltage
-//! (a rated bus's phase voltage per second), each held to settle (100 ms) and averaged
-//! (100 ms).
+//! levels are half the rated current and the rated current (each to within +25 %), reached by
+//! ramping the voltage (a rated bus's phase voltage per second, back down when the current
+//! jumped beyond), each held to settle (100 ms) and averaged (100 ms).
 //!
 //! The winding check: a third level adds 0.3 × rated current on the β axis (the rotor turns
 //! by 17° electrical, and the DC test does not care), so that the 2×2 DC conductance
@@ -98,17 +98,26 @@ impl Resistance {
                 } else {
                     (mean.alpha, mean.beta)
                 };
-                if along >= level_a {
+                if along >= level_a && along <= 1.25 * level_a {
                     self.sub = Sub::Settle(SETTLE_MS);
                     return Progress::Stay;
                 }
+                // Up to the level, or back down to it when the current jumped beyond (the
+                // dead-time compensation takes hold once a current flows: a step of up to
+                // 2·t_d·f_pwm·V_bus).
+                let dv = if along < level_a {
+                    s.v_ramp_per_ms
+                } else {
+                    -s.v_ramp_per_ms
+                };
                 let mut v = self.v_ab;
                 if on_beta {
-                    v.beta += s.v_ramp_per_ms;
+                    v.beta += dv;
                 } else {
-                    v.alpha += s.v_ramp_per_ms;
+                    v.alpha += dv;
                 }
                 if v.alpha * v.alpha + v.beta * v.beta > v_max * v_max {
+
                     let open = along < 0.25 * level_a || across.abs() > 0.3 * along.abs();
                     return Progress::Fail(if open {
                         IdentifyError::OpenPhase
@@ -167,6 +176,7 @@ impl Resistance {
         let (l_max, l_min) = (half_tr + disc, half_tr - disc);
         // (A non-finite ratio fails both comparisons below: caught by the range check.)
         let ratio = l_min / l_max;
+
         if l_max <= 0.0 || ratio < 0.15 {
             return Progress::Fail(IdentifyError::OpenPhase);
         }
