@@ -49,6 +49,19 @@ pub struct CyclesReport {
     pub tick_flux_primary_cycles_est: u64,
     /// Worst 1 kHz task in open loop.
     pub tick_open_loop_cycles_est: u64,
+    /// Worst step of the offset calibration (PWM off, every enable from idle).
+    pub step_calibrate_cycles_est: u64,
+    /// Worst step of each identification measurement (no observers run): resistance,
+    /// inductance, the flux's spin, the torque steps.
+    pub step_identify_resistance_cycles_est: u64,
+    /// See `step_identify_resistance_cycles_est`.
+    pub step_identify_inductance_cycles_est: u64,
+    /// See `step_identify_resistance_cycles_est`.
+    pub step_identify_flux_cycles_est: u64,
+    /// See `step_identify_resistance_cycles_est`.
+    pub step_identify_mechanics_cycles_est: u64,
+    /// Worst 1 kHz task of the calibration and the identification's measurements.
+    pub tick_identify_cycles_est: u64,
     /// Cycle estimate of one sliding torque observer update.
     pub sliding_cycles_est: u64,
     /// Cycle estimate of one flux observer update plus its PLL.
@@ -482,6 +495,12 @@ pub fn measure(root: &Path) -> anyhow::Result<CyclesReport> {
         tick_cycles_est: worst("tick")?.1,
         tick_flux_primary_cycles_est: worst("tick_flux_primary")?.1,
         tick_open_loop_cycles_est: worst("tick_open_loop")?.1,
+        step_calibrate_cycles_est: worst("step_calibrate")?.1,
+        step_identify_resistance_cycles_est: worst("step_identify_resistance")?.1,
+        step_identify_inductance_cycles_est: worst("step_identify_inductance")?.1,
+        step_identify_flux_cycles_est: worst("step_identify_flux")?.1,
+        step_identify_mechanics_cycles_est: worst("step_identify_mechanics")?.1,
+        tick_identify_cycles_est: worst("tick_identify")?.1,
         sliding_cycles_est: worst("sliding")?.1,
         flux_cycles_est: worst("flux_pll")?.1,
         foc_svpwm_cycles_est: worst("foc_svpwm")?.1,

@@ -277,6 +277,30 @@ fn cycles(args: CyclesArgs) -> anyhow::Result<String> {
             ),
             ("1 kHz task, flux primary", r.tick_flux_primary_cycles_est),
             ("1 kHz task, open loop", r.tick_open_loop_cycles_est),
+            (
+                "step, offset calibration (PWM off)",
+                r.step_calibrate_cycles_est,
+            ),
+            (
+                "step, identification: resistance",
+                r.step_identify_resistance_cycles_est,
+            ),
+            (
+                "step, identification: inductance",
+                r.step_identify_inductance_cycles_est,
+            ),
+            (
+                "step, identification: flux (I/f spin)",
+                r.step_identify_flux_cycles_est,
+            ),
+            (
+                "step, identification: J and B (torque steps)",
+                r.step_identify_mechanics_cycles_est,
+            ),
+            (
+                "1 kHz task, calibration and identification",
+                r.tick_identify_cycles_est,
+            ),
             ("sliding torque observer update", r.sliding_cycles_est),
             ("flux observer + PLL update", r.flux_cycles_est),
             ("FOC current loop + SVPWM", r.foc_svpwm_cycles_est),
@@ -820,6 +844,10 @@ struct RunArgs {
     /// Controller parameter factors, e.g. `r=1.2,l=0.9` (keys r, l, flux, j, b).
     #[arg(long, value_parser = parse_mismatch, default_value = "")]
     mismatch: Mismatch,
+    /// Drive runs: the board idle this long before t = 0 (PWM off; the drive measures the
+    /// current sensors' offsets from it) (ms).
+    #[arg(long, default_value_t = 0.0)]
+    idle_ms: f64,
     /// The controller's motor parameters from this file (e.g. written by `identify --out`),
     /// the plant staying the --motor / --motor-file one (instead of --mismatch).
     #[arg(long, value_name = "FILE.toml", conflicts_with = "mismatch")]
@@ -996,6 +1024,12 @@ fn prepare(args: &RunArgs) -> anyhow::Result<SimConfig> {
     cfg.adc_lsb_a = args.adc_lsb_a;
     cfg.seed = args.seed;
     cfg.mismatch = args.mismatch;
+    anyhow::ensure!(
+        args.idle_ms.is_finite() && (0.0..=10_000.0).contains(&args.idle_ms),
+        "--idle-ms = {}: allowed [0, 10000] ms",
+        number(args.idle_ms)
+    );
+    cfg.idle_steps_before = (args.idle_ms * 1e-3 * args.rate_hz).round() as usize;
     if let Some(path) = &args.drive_motor_file {
         let (_, d) = motor_file::load(path)?;
         anyhow::ensure!(

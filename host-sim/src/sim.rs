@@ -133,6 +133,10 @@ pub struct SimConfig {
     /// The board senses the terminal voltage (the B-G431B-ESC1's back-EMF dividers): the
     /// drive gets it while its PWM is off and can catch a turning rotor.
     pub sense_terminal_voltage: bool,
+    /// Drive runs: samples the drive takes idle (disabled, PWM off) before t = 0, as a board
+    /// powered up before its enable: the idle drive measures the sensors' offsets from them.
+    /// The plant does not move meanwhile (it is sampled as it is at t = 0). Default 0.
+    pub idle_steps_before: usize,
 }
 
 impl SimConfig {
@@ -159,6 +163,7 @@ impl SimConfig {
             cold_start: false,
             gamma: None,
             sense_terminal_voltage: true,
+            idle_steps_before: 0,
         }
     }
 }
@@ -457,6 +462,28 @@ impl Sim {
         })
     }
 
+    /// The drive's samples before t = 0 (`SimConfig::idle_steps_before`): disabled, PWM off,
+    /// the plant sampled as it is.
+    fn idle_before(&mut self) {
+        let Controller::Drive { drive, .. } = &mut self.controller else {
+            return;
+        };
+        let off = Command::default();
+        for _ in 0..self.config.idle_steps_before {
+            let i_abc = self.sensor.measure(self.plant.i_abc());
+            drive.step(
+                &DriveInput {
+                    i_abc,
+                    v_bus: self.inverter.v_bus as f32,
+                    v_ab_terminal: None,
+                    overrun: false,
+                },
+                &off,
+            );
+            drive.tick(&off);
+        }
+    }
+
     /// Time of the next sample \[s].
     pub fn t(&self) -> f64 {
         self.k as f64 * self.ts
@@ -701,6 +728,7 @@ pub fn fault_name(f: Fault) -> &'static str {
 pub fn run(config: SimConfig) -> anyhow::Result<Run> {
     let wall = std::time::Instant::now();
     let mut sim = Sim::new(config)?;
+    sim.idle_before();
     let steps = (sim.config.scenario.duration_s * sim.config.rate_hz).round() as usize;
     let mut rows = Vec::with_capacity(steps);
     let mut fault = None;

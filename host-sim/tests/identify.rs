@@ -18,10 +18,15 @@ use pmsm_sensorless::motor::{preset, Motor};
 
 /// The six motors: the presets and the made-up ones in `host-sim/motors/`.
 fn motors() -> Vec<Motor> {
-    let mut v: Vec<Motor> = ["sinano", "ortega-sim-40kw", "ortega-test-0.3kw", "ortega-dynamo-1kw"]
-        .iter()
-        .map(|n| preset(n).unwrap())
-        .collect();
+    let mut v: Vec<Motor> = [
+        "sinano",
+        "ortega-sim-40kw",
+        "ortega-test-0.3kw",
+        "ortega-dynamo-1kw",
+    ]
+    .iter()
+    .map(|n| preset(n).unwrap())
+    .collect();
     for f in ["gimbal-high-r", "fast-low-l"] {
         let path = format!("{}/motors/{f}.toml", env!("CARGO_MANIFEST_DIR"));
         let (_, mut m) = motor_file::load(std::path::Path::new(&path)).unwrap();
@@ -68,7 +73,11 @@ fn six_motors_within_the_issues_tolerances() {
             }
             assert!(e_flux.abs() < 3.0, "{label}: flux {e_flux:+.2} %");
             assert!(e_j.abs() < 10.0, "{label}: J {e_j:+.2} %");
-            assert!(id.b_nms.is_finite() && id.b_nms >= 0.0, "{label}: B {}", id.b_nms);
+            assert!(
+                id.b_nms.is_finite() && id.b_nms >= 0.0,
+                "{label}: B {}",
+                id.b_nms
+            );
             // Every motor well within the Sinano motor's 10 s.
             assert!(o.duration_s < 10.0, "{label}: {} s", o.duration_s);
             // The mode sequence: calibrate, identify, identified.
@@ -108,6 +117,9 @@ fn the_identified_file_drives_start_stop_reverse_with_both_primaries() {
             cfg.dead_time_s = 0.5e-6;
             cfg.pwm_hz = 20_000.0;
             cfg.mismatch = Mismatch::between(&m.params, &loaded.params);
+            // The board idle for 20 ms before the enable (its offsets measured, as after the
+            // identification itself).
+            cfg.idle_steps_before = 80;
             let r = sim::run(cfg).unwrap();
             let s = Summary::of(&r);
             assert!(s.pass, "{} {}: {:?}", m.name, observer.name(), s.reasons);
@@ -187,5 +199,46 @@ fn an_implausible_sensor_offset_ends_in_adc_offset() {
         cfg.offset_a = [0.0, 0.3 * f64::from(m.ratings.current_a), 0.0];
         let o = run(&cfg).unwrap();
         assert_eq!(o.fault, Some(Fault::AdcOffset), "{}", m.name);
+    }
+}
+
+/// While idle the drive measures the sensors' offsets (PWM off) and takes them off every
+/// sample from the enable on; an implausible one refuses the enable with `AdcOffset`.
+#[test]
+fn idle_samples_give_the_offsets_an_enable_takes() {
+    use pmsm_sensorless::drive::{Command, DriveConfig, DriveInput, DriveState};
+    use pmsm_sensorless::frames::Abc;
+    let m = preset("sinano").unwrap();
+    let drive = DriveConfig::new(&m).build_flux_primary().unwrap();
+    let idle = Command::default();
+    let start = Command {
+        enable: true,
+        speed_rpm: 500.0,
+        clear_fault: false,
+    };
+    for (offset_a, plausible) in [(0.06_f32, true), (1.0, false)] {
+        let mut st = DriveState::default();
+        let input = DriveInput {
+            i_abc: Abc::new(offset_a, 0.0, 0.0),
+            v_bus: 48.0,
+            v_ab_terminal: None,
+            overrun: false,
+        };
+        for _ in 0..100 {
+            assert!(drive.step(&mut st, &input, &idle).duties.is_none());
+        }
+        let out = drive.step(&mut st, &input, &start);
+        if plausible {
+            // 60 mA on phase a: (2/3·60 mA, 0) in the stationary frame (Clarke).
+            let ab = st.offset_ab();
+            assert!((ab.alpha - 2.0 / 3.0 * offset_a).abs() < 1e-6, "{ab:?}");
+            assert!(ab.beta.abs() < 1e-6);
+            assert_eq!(st.mode(), Mode::Align);
+            assert!(out.duties.is_some());
+        } else {
+            // 1 A: beyond a twentieth of the sensing range (4.5 x 3 A / 20 = 0.675 A).
+            assert_eq!(st.fault(), Some(Fault::AdcOffset));
+            assert!(out.duties.is_none());
+        }
     }
 }

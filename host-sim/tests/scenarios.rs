@@ -122,20 +122,14 @@ enable = [[0.0, false], [0.25, true]]
         assert_eq!(code, Some(0), "{motor}: {}", v["reasons"]);
         let w = &v["windows"]["loaded"];
         assert!((w["speed_cmd_mean_rpm"].as_f64().unwrap() - 0.5 * rated_rpm).abs() < 1e-9);
-        // Enabled at 0.25 s: the first transition, to Calibrate (the sensors' offsets, PWM
-        // off, issue #19), then Catch (the board senses the terminal voltage); the rotor is
-        // at rest, so it aligns next.
+        // Enabled at 0.25 s: the first transition, to Catch (the board senses the terminal
+        // voltage); the rotor is at rest, so it aligns next.
         let tr = &v["transitions"][0];
         assert_eq!(
             (tr["to"].as_str(), tr["reason"].as_str()),
-            (Some("Calibrate"), Some("Enabled"))
+            (Some("Catch"), Some("Enabled"))
         );
-        let tr_catch = &v["transitions"][1];
-        assert_eq!(
-            (tr_catch["to"].as_str(), tr_catch["reason"].as_str()),
-            (Some("Catch"), Some("Calibrated"))
-        );
-        let tr1 = &v["transitions"][2];
+        let tr1 = &v["transitions"][1];
         assert_eq!(
             (tr1["to"].as_str(), tr1["reason"].as_str()),
             (Some("Align"), Some("AtRest"))

@@ -21,7 +21,7 @@ pub enum Mode {
     Sensorless,
     /// PWM off, latched until cleared.
     Fault,
-    /// PWM off: the current sensors' offsets measured (every enable from idle).
+    /// PWM off: the current sensors' offsets measured before an identification.
     Calibrate,
     /// The motor measured (`identify/`).
     Identify,

@@ -57,7 +57,7 @@ use crate::units::{DEG_PER_RAD, RAD_S_PER_RPM, RPM_PER_RAD_S};
 use align::Align;
 use catch::Catch;
 use core::hint::cold_path;
-use identify::offset::{Calibrate, Then};
+use identify::offset::Calibrate;
 use identify::Identify;
 use open_loop::OpenLoop;
 use sensorless::Sensorless;
@@ -109,9 +109,13 @@ pub struct DriveState<PS, MS> {
     v_bus_last: f32,
     /// False after a fault is cleared until the enable command has been seen low.
     armed: bool,
-    /// The current sensors' offsets in the stationary frame, measured at the enable
+    /// The current sensors' offsets in the stationary frame, measured with the PWM off
     /// (`identify/offset.rs`), taken off every sample \[A].
     offset_ab: AlphaBeta,
+    /// The idle samples' window for the offsets.
+    idle_window: Calibrate,
+    /// The last idle window's offsets were implausible: an enable faults (`AdcOffset`).
+    offset_implausible: bool,
 }
 
 impl<PS: Default, MS: Default> Default for DriveState<PS, MS> {
@@ -126,7 +130,21 @@ impl<PS: Default, MS: Default> Default for DriveState<PS, MS> {
             v_bus_last: 0.0,
             armed: true,
             offset_ab: AlphaBeta::default(),
+            idle_window: Calibrate::default(),
+            offset_implausible: false,
         }
+    }
+}
+
+impl<PS: Default, MS: Default> DriveState<PS, MS> {
+    /// A fresh state in `mode`, the offsets measured kept.
+    fn restart(&mut self, mode: ModeState) {
+        *self = DriveState {
+            mode,
+            offset_ab: self.offset_ab,
+            offset_implausible: self.offset_implausible,
+            ..DriveState::default()
+        };
     }
 }
 
@@ -308,33 +326,42 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         match st.mode {
             ModeState::Fault(_) if cmd.clear_fault && !new_fault => {
                 cold_path();
-                *st = DriveState {
-                    armed: false,
-                    ..DriveState::default()
-                };
+                st.restart(ModeState::Idle);
+                st.armed = false;
                 reason = Some(Reason::Cleared);
             }
             ModeState::Fault(_) => {}
             ModeState::Idle if starting => {
                 cold_path();
-                // The sensors' offsets first (PWM off); then the start.
-                *st = DriveState {
-                    mode: ModeState::Calibrate(Calibrate::new(Then::Start)),
-                    ..DriveState::default()
-                };
-                reason = Some(Reason::Enabled);
+                if st.offset_implausible {
+                    // The idle samples' offsets are no amplifier's: refuse the start.
+                    reason = Some(enter_fault(st, Fault::AdcOffset));
+                } else {
+                    // With the terminal voltage sensed, first see whether the rotor turns.
+                    let mode = if input.v_ab_terminal.is_some() {
+                        ModeState::Catch(Catch::default())
+                    } else {
+                        ModeState::Align(Align::default())
+                    };
+                    st.restart(mode);
+                    reason = Some(Reason::Enabled);
+                }
             }
             ModeState::Idle => {}
             _ if !cmd.enable => {
                 cold_path();
-                *st = DriveState::default();
+                st.restart(ModeState::Idle);
                 reason = Some(Reason::Disabled);
             }
             _ => {}
         }
         // 3.-5. Observers, the mode's step, FOC.
         let duties = match st.mode {
-            ModeState::Idle | ModeState::Fault(_) | ModeState::Identified(_) => None,
+            ModeState::Idle => {
+                self.watch_offset(st, input);
+                None
+            }
+            ModeState::Fault(_) | ModeState::Identified(_) => None,
             ModeState::Calibrate(_) => {
                 if let Some(r) = self.calibrate(st, input) {
                     reason = Some(r);
@@ -432,7 +459,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             }
             Next::Fault(f) => enter_fault(st, f),
             Next::Stopped => {
-                *st = DriveState::default();
+                st.restart(ModeState::Idle);
                 Reason::Stopped
             }
         };

@@ -24,7 +24,7 @@ const R_SHUNT_OHM: f32 = 0.003;
 /// `i_d` must come out positive.
 const CURRENT_SENSE_GAIN: f32 = -9.14;
 /// Phase current per ADC count [A/LSB] (about −0.0294).
-const AMPS_PER_LSB: f32 = VREF_V / ADC_COUNTS / (R_SHUNT_OHM * CURRENT_SENSE_GAIN);
+pub const AMPS_PER_LSB: f32 = VREF_V / ADC_COUNTS / (R_SHUNT_OHM * CURRENT_SENSE_GAIN);
 /// Bus divider 169 kΩ over 18 kΩ (NuttX board port: "Vbus sense gain = 18k/(18k+169k)").
 /// UNVERIFIED against UM2516's schematic.
 const VBUS_DIVIDER: f32 = (169.0 + 18.0) / 18.0;

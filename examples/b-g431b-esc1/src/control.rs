@@ -4,14 +4,16 @@
 
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
-use pmsm_sensorless::drive::{Command, Drive, DriveConfig, Mode, StateOf, Telemetry, Transition};
+use pmsm_sensorless::drive::{
+    Command, Drive, DriveConfig, Identified, Mode, StateOf, Telemetry, Transition,
+};
 use pmsm_sensorless::frames::Abc;
 use pmsm_sensorless::motor::{Motor, Ratings, HORNG_SINANO};
 use pmsm_sensorless::observer::flux_speed::FluxPll;
 use pmsm_sensorless::observer::sliding::SlidingObserver;
 use pmsm_sensorless::power_stage::PowerStage;
 
-use crate::adc::I_ADC_RANGE_A;
+use crate::adc::{AMPS_PER_LSB, I_ADC_RANGE_A};
 use crate::power_stage::Esc1;
 use crate::protection::{Watchdog, BOARD_BUS_MAX_V};
 use crate::pwm::CONTROL_HZ;
@@ -57,6 +59,10 @@ pub static ENABLE: AtomicBool = AtomicBool::new(false);
 pub static CLEAR_FAULT: AtomicBool = AtomicBool::new(false);
 /// Control steps done, for the main loop's timing.
 pub static STEPS: AtomicU32 = AtomicU32::new(0);
+/// Identification request (the user button held), set by the main loop, consumed by
+/// [`Control::tick`]: the drive measures the motor from idle (issue #19) and the log prints the
+/// motor file.
+pub static IDENTIFY: AtomicBool = AtomicBool::new(false);
 /// Set by the step when the drive's 1 kHz task ([`Control::tick`]) is due; the main loop runs
 /// it.
 pub static TICK_DUE: AtomicBool = AtomicBool::new(false);
@@ -73,6 +79,8 @@ pub enum Event {
         step: u32,
         tr: Transition,
     },
+    /// The identification's results: the motor file's lines.
+    Identified(Identified),
 }
 
 impl Event {
@@ -81,6 +89,7 @@ impl Event {
         let mode = match self {
             Event::Telemetry { tel, .. } => tel.mode,
             Event::Transition { tr, .. } => tr.to,
+            Event::Identified(_) => Mode::Identified,
         };
         mode == Mode::Fault
     }
@@ -97,6 +106,24 @@ impl defmt::Format for Event {
                 tr.from,
                 tr.to,
                 tr.reason
+            ),
+            // The motor file `pmsm-sim run --motor-file` loads (README, "Your motor"), with the
+            // pole pairs and ratings of `MOTOR`.
+            Event::Identified(m) => defmt::write!(
+                f,
+                "identified motor file:\nname = \"identified\"\npole_pairs = {=u32}\nr_ohm = {=f32}\nl_h = {=f32}\nflux_wb = {=f32}\nj_kgm2 = {=f32}\nb_nms = {=f32}\n# l_d_h = {=f32}, l_q_h = {=f32}\n[ratings]\nbus_v = {=f32}\ncurrent_a = {=f32}\ntorque_nm = {=f32}\nspeed_rpm = {=f32}",
+                MOTOR.params.pole_pairs,
+                m.r_ohm,
+                m.l_h(),
+                m.flux_wb,
+                m.j_kgm2,
+                m.b_nms,
+                m.l_d_h,
+                m.l_q_h,
+                MOTOR.ratings.bus_v,
+                MOTOR.ratings.current_a,
+                MOTOR.ratings.torque_nm,
+                MOTOR.ratings.speed_rpm
             ),
             Event::Telemetry {
                 step,
@@ -124,6 +151,9 @@ pub fn build_drive() -> BoardDrive {
     cfg.rate_hz = CONTROL_HZ as f32;
     cfg.limits.bus_max_v = cfg.limits.bus_max_v.min(BOARD_BUS_MAX_V);
     cfg.limits.i_sense_max_a = cfg.limits.i_sense_max_a.min(I_ADC_RANGE_A);
+    // What the identification checks a motor's rated current against.
+    cfg.identify.sense_range_a = I_ADC_RANGE_A;
+    cfg.identify.sense_lsb_a = AMPS_PER_LSB.abs();
     let drive = match cfg.build_sliding_primary() {
         Ok(d) => d,
         Err(e) => defmt::panic!(
@@ -225,11 +255,24 @@ impl Control {
             speed_rpm: SPEED_CMD_RPM,
             clear_fault: false,
         };
+        if IDENTIFY.swap(false, Ordering::Relaxed) {
+            if let Some(tr) = self.drive.start_identification(&mut self.state) {
+                self.telemetry.send(Event::Transition {
+                    step: self.step,
+                    tr,
+                });
+            }
+        }
         if let Some(tr) = self.drive.tick(&mut self.state, &cmd) {
             self.telemetry.send(Event::Transition {
                 step: self.step,
                 tr,
             });
+            if let Some(m) = self.state.identified() {
+                // Done: the motor file in the log; the drive back to idle.
+                self.telemetry.send(Event::Identified(m));
+                ENABLE.store(false, Ordering::Relaxed);
+            }
         }
     }
 }

@@ -12,8 +12,10 @@
 //! # Use
 //!
 //! The motor is the constant `control::MOTOR` (edit it for yours), the speed command the
-//! constant `control::SPEED_CMD_RPM`. The user button toggles `enable`; pressed while the drive
-//! is in `Fault` it clears the fault and leaves the drive disabled (press again to restart).
+//! constant `control::SPEED_CMD_RPM`. The user button toggles `enable` (on its release);
+//! pressed while the drive is in `Fault` it clears the fault and leaves the drive disabled
+//! (press again to restart); held 2 s with the drive disabled, it starts the identification
+//! (issue #19), whose end prints the motor file in the log.
 //! The log (defmt over RTT) shows every mode transition and a telemetry record at 10 Hz.
 //!
 //! # Modules
@@ -95,13 +97,15 @@ mod firmware {
     use panic_probe as _;
     use stm32g4::stm32g431::{self as pac, interrupt, Interrupt};
 
-    use crate::control::{self, Control, CLEAR_FAULT, ENABLE, STEPS, TICK_DUE};
+    use crate::control::{self, Control, CLEAR_FAULT, ENABLE, IDENTIFY, STEPS, TICK_DUE};
     use crate::power_stage::Esc1;
     use crate::{adc, clocks, protection, pwm, telemetry};
 
     /// The button is sampled every this many steps (40 steps = 10 ms, longer than contact
     /// bounce).
     const BUTTON_POLL_STEPS: u32 = 40;
+    /// A press held this long (2 s) with the drive disabled starts the identification.
+    const IDENTIFY_HOLD_STEPS: u32 = 2 * crate::pwm::CONTROL_HZ;
 
     /// The control context, installed by `main`; the interrupt steps it, the main loop runs
     /// its 1 kHz task, each inside a critical section.
@@ -193,9 +197,13 @@ mod firmware {
         let gpioc = dp.GPIOC;
         let button_idle = gpioc.idr().read().idr(10).bit();
         let mut was_pressed = false;
+        // The step count at the press, while the button is down.
+        let mut pressed_at = 0u32;
         let mut last_poll = 0u32;
         let mut faulted = false;
-        defmt::info!("running; press the user button (PC10) to enable/disable");
+        defmt::info!(
+            "running; press the user button (PC10) to enable/disable, hold it 2 s to identify the motor"
+        );
 
         loop {
             // The drive's 1 kHz task, between two steps.
@@ -216,10 +224,20 @@ mod firmware {
                 last_poll = now;
                 let pressed = gpioc.idr().read().idr(10).bit() != button_idle;
                 if pressed && !was_pressed {
+                    pressed_at = now;
+                }
+                // Acted on at the release: held for IDENTIFY_HOLD_STEPS (2 s) with the drive
+                // disabled, the identification; else enable toggled (or the fault cleared).
+                if !pressed && was_pressed {
+                    let held = now.wrapping_sub(pressed_at);
                     if faulted {
                         ENABLE.store(false, Ordering::Relaxed);
                         CLEAR_FAULT.store(true, Ordering::Relaxed);
                         defmt::info!("button: clear fault (drive stays disabled)");
+                    } else if held >= IDENTIFY_HOLD_STEPS && !ENABLE.load(Ordering::Relaxed) {
+                        ENABLE.store(true, Ordering::Relaxed);
+                        IDENTIFY.store(true, Ordering::Relaxed);
+                        defmt::info!("button held: identification (the motor turns)");
                     } else {
                         let enable = !ENABLE.load(Ordering::Relaxed);
                         ENABLE.store(enable, Ordering::Relaxed);

@@ -44,6 +44,17 @@ PLACES = [
     ("src/drive/mod.rs", "fn supervise(", 1, "Drive::supervise"),
     ("src/load_observer.rs", "pub fn update(", 1, "the speed loop's load-torque observer"),
     ("src/foc.rs", "pub fn run(", 1, "Foc::run, the one FOC call site"),
+    ("src/drive/identify/mod.rs", "pub(super) fn calibrate(", 1, "mode Calibrate (offsets)"),
+    ("src/drive/identify/mod.rs", "pub(super) fn identify_control(", 1, "mode Identify: the step"),
+    ("src/drive/identify/mod.rs", "pub(super) fn identify_tick(", 1, "mode Identify (1 kHz task)"),
+    ("src/drive/identify/resistance.rs", "pub(in crate::drive) fn step(", 1, "identification: resistance"),
+    ("src/drive/identify/resistance.rs", "pub(in crate::drive) fn tick(", 1, "identification: resistance (1 kHz task)"),
+    ("src/drive/identify/inductance.rs", "pub(in crate::drive) fn step(", 1, "identification: inductance"),
+    ("src/drive/identify/inductance.rs", "pub(in crate::drive) fn tick(", 1, "identification: inductance (1 kHz task)"),
+    ("src/drive/identify/flux.rs", "pub(in crate::drive) fn step(", 1, "identification: flux spin"),
+    ("src/drive/identify/flux.rs", "pub(in crate::drive) fn tick(", 1, "identification: flux spin (1 kHz task)"),
+    ("src/drive/identify/mechanics.rs", "pub(in crate::drive) fn step(", 1, "identification: torque steps"),
+    ("src/drive/identify/mechanics.rs", "pub(in crate::drive) fn tick(", 1, "identification: torque steps (1 kHz task)"),
 ]
 PLANT = '        if core::hint::black_box(false) { panic!("planted") }\n'
 UNDEFINED = "the_drive_step_can_panic"

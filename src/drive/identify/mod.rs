@@ -325,13 +325,11 @@ pub(super) fn ln(x: f32) -> f32 {
 }
 
 use super::{
-    enter_fault, Align, Catch, Drive, DriveInput, DriveState, Fault, ModeState, Reason, StateOf,
-    Transition,
+    enter_fault, Drive, DriveInput, DriveState, Fault, ModeState, Reason, StateOf, Transition,
 };
 use crate::observer::Observer;
 use crate::svpwm::Duties;
 use core::hint::cold_path;
-use offset::Then;
 
 impl<P: Observer, M: Observer> Drive<P, M> {
     /// Starts the identification from idle (armed): the offsets, then every measurement in
@@ -344,7 +342,8 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             return None;
         }
         *st = DriveState {
-            mode: ModeState::Calibrate(offset::Calibrate::new(Then::Identify)),
+            mode: ModeState::Calibrate(offset::Calibrate::default()),
+            offset_ab: st.offset_ab,
             ..DriveState::default()
         };
         Some(Transition {
@@ -354,15 +353,49 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         })
     }
 
+    /// A state in the identification's measurement `phase` at its start, the measurements
+    /// before it taken as `known` (a rotor at rest at θ_e = 0; for the flux's spin and the
+    /// torque steps, the frame at θ_e = 0 turning at 30 % of rated speed): for benches and
+    /// tests that measure one phase's step without running the ones before.
+    pub fn identification_state(&self, phase: IdentifyPhase, known: Identified) -> StateOf<P, M> {
+        let s = &self.identify;
+        let k = known;
+        let phase = match phase {
+            IdentifyPhase::Resistance => Phase::Resistance(Resistance::default()),
+            IdentifyPhase::Inductance => Phase::Inductance(Inductance::new(
+                s,
+                AlphaBeta::new(0.5 * k.r_ohm * s.i_test_a, 0.0),
+                k.r_ohm,
+            )),
+            IdentifyPhase::Flux => Phase::Flux(FluxSpin::new(s, &k)),
+            IdentifyPhase::Mechanics => Phase::Mechanics(Mechanics::new(
+                s,
+                &k,
+                crate::frames::SinCos::ZERO,
+                s.omega_low_m,
+                AlphaBeta::default(),
+            )),
+        };
+        let mut id = Identify::new(self.foc);
+        id.foc = retuned(&self.foc, s, k.r_ohm, k.l_h(), k.flux_wb);
+        id.phase = phase;
+        id.result = k;
+        DriveState {
+            mode: ModeState::Identify(id),
+            // The lowest bus the drive runs on, as if sampled.
+            v_bus_last: self.limits.bus_min_v,
+            ..DriveState::default()
+        }
+    }
+
     /// Mode `Calibrate`'s step (PWM off): the sample summed; at the end the offsets kept and
-    /// the next mode entered, or the offset fault.
-    // Out of line: 16 ms after each enable, not the running drive's path.
+    /// the identification entered, or the offset fault.
+    // Out of line: 16 ms before an identification, not the running drive's path.
     #[inline(never)]
     pub(super) fn calibrate(&self, st: &mut StateOf<P, M>, input: &DriveInput) -> Option<Reason> {
         let ModeState::Calibrate(c) = &mut st.mode else {
             return None;
         };
-        let then = c.then;
         let offset = c.step(input.i_abc, self.identify_offset_limit_a)?;
         cold_path();
         let Some(offset_ab) = offset else {
@@ -370,22 +403,37 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         };
         st.offset_ab = offset_ab;
         st.v_bus_last = input.v_bus;
-        st.mode = match then {
-            Then::Start if input.v_ab_terminal.is_some() => ModeState::Catch(Catch::default()),
-            Then::Start => ModeState::Align(Align::default()),
-            Then::Identify if !self.identify.sensable => {
-                return Some(enter_fault(
-                    st,
-                    Fault::Identify(IdentifyError::CurrentNotSensable),
-                ));
-            }
-            Then::Identify => ModeState::Identify(Identify::new(self.foc)),
-        };
+        if !self.identify.sensable {
+            return Some(enter_fault(
+                st,
+                Fault::Identify(IdentifyError::CurrentNotSensable),
+            ));
+        }
+        st.mode = ModeState::Identify(Identify::new(self.foc));
         Some(Reason::Calibrated)
     }
 
+    /// While idle (PWM off): the sample summed into the offsets' window; each full window
+    /// renews the offsets the next enable takes (or marks them implausible).
+    // Out of line: idle's, not the running drive's.
+    #[inline(never)]
+    pub(super) fn watch_offset(&self, st: &mut StateOf<P, M>, input: &DriveInput) {
+        if let Some(r) = st
+            .idle_window
+            .step(input.i_abc, self.identify_offset_limit_a)
+        {
+            st.offset_implausible = r.is_none();
+            if let Some(ab) = r {
+                st.offset_ab = ab;
+            }
+            st.idle_window = offset::Calibrate::default();
+        }
+    }
+
     /// Mode `Identify`'s step: the measurement's request through its FOC (no observers run).
-    #[inline(always)]
+    // Out of line (in flash on a board whose step runs from RAM): the commissioning's, not
+    // the running drive's; its cycles are its own bench cases.
+    #[inline(never)]
     pub(super) fn identify_control(
         &self,
         st: &mut StateOf<P, M>,

@@ -1,5 +1,6 @@
-//! Mode `Calibrate`: the current sensors' offsets, measured with the PWM off each time the
-//! drive is enabled from idle.
+//! The current sensors' offsets, measured with the PWM off: while the drive is idle (every
+//! window of samples; the last one is taken off every sample from the enable on, and an
+//! implausible one refuses the enable), and in mode `Calibrate` before an identification.
 //!
 //! With every switch off and the rotor at rest or slow (its back-EMF below the bus), no
 //! current flows: the mean of each phase's samples is its amplifier's offset. The standard
@@ -16,34 +17,15 @@ use crate::frames::{Abc, AlphaBeta};
 /// within 0.13 % of it (1σ).
 pub(in crate::drive) const SAMPLES: u32 = 64;
 
-/// What follows the calibration.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(in crate::drive) enum Then {
-    /// The start: `Catch` with the terminal voltage sensed, else `Align`.
-    Start,
-    /// The identification.
-    Identify,
-}
-
-/// The state of [`Mode::Calibrate`](crate::drive::Mode::Calibrate): the sums so far.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// A window of samples with the PWM off: the state of
+/// [`Mode::Calibrate`](crate::drive::Mode::Calibrate), and of the watch kept while idle.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(in crate::drive) struct Calibrate {
     sum: Abc,
     n: u32,
-    /// What follows.
-    pub(in crate::drive) then: Then,
 }
 
 impl Calibrate {
-    /// No samples yet; `then` follows.
-    pub(in crate::drive) fn new(then: Then) -> Self {
-        Self {
-            sum: Abc::new(0.0, 0.0, 0.0),
-            n: 0,
-            then,
-        }
-    }
-
     /// Adds one sample (PWM off) \[A]; once [`SAMPLES`] are in, the offsets in the stationary
     /// frame \[A], or `None` when a phase's mean is beyond `limit_a` \[A] (implausible).
     /// `Some(Ok(..))` ends the calibration.

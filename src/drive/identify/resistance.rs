@@ -117,7 +117,6 @@ impl Resistance {
                     v.alpha += dv;
                 }
                 if v.alpha * v.alpha + v.beta * v.beta > v_max * v_max {
-
                     let open = along < 0.25 * level_a || across.abs() > 0.3 * along.abs();
                     return Progress::Fail(if open {
                         IdentifyError::OpenPhase
@@ -137,7 +136,9 @@ impl Resistance {
             }
             Sub::Average(ms) if ms > 1 => self.sub = Sub::Average(ms - 1),
             Sub::Average(_) => {
-                self.points[self.level] = (self.v_ab, mean);
+                if let Some(p) = self.points.get_mut(self.level) {
+                    *p = (self.v_ab, mean);
+                }
                 self.clear();
                 self.sub = Sub::Ramp;
                 self.level += 1;

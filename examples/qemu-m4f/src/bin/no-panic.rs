@@ -121,6 +121,10 @@ mod firmware {
                 speed_rpm: unknown(addr_of!(SPEED_RPM)),
                 clear_fault: flags[2],
             };
+            // The identification (issue #19), started whenever the unknown flags ask.
+            if flags[0] && flags[3] {
+                sink(drive.start_identification(&mut st).map_or(0.0, |_| 1.0));
+            }
             let out = drive.step(&mut st, &input, &cmd);
             sink(out.duties.map_or(0.0, |d| d.a + d.b + d.c));
             // The 1 kHz task, whenever the unknown flag asks (any state it can see).
