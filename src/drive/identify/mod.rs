@@ -254,24 +254,50 @@ pub(super) enum Phase {
     Mechanics(Mechanics),
 }
 
+/// The current loop's gains re-derived from the identified motor (`kp = L ω_c`,
+/// `ki T = R ω_c T`, the decoupling `L` and the flux linkage fed forward); zero until `R` and
+/// `L` are known (voltage references meanwhile).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(super) struct Gains {
+    kp: f32,
+    ki_ts: f32,
+    l_h: f32,
+    flux_wb: f32,
+}
+
+impl Gains {
+    /// For `r_ohm`, `l_h`, `flux_wb` at the bandwidth of `s`.
+    fn of(s: &Settings, r_ohm: f32, l_h: f32, flux_wb: f32) -> Self {
+        Self {
+            kp: l_h * s.w_c,
+            ki_ts: r_ohm * s.w_c_ts,
+            l_h,
+            flux_wb,
+        }
+    }
+
+    /// `foc` with these gains.
+    fn foc(&self, foc: &Foc) -> Foc {
+        foc.with_current_gains(self.kp, self.ki_ts, self.l_h, self.flux_wb)
+    }
+}
+
 /// The state of [`Mode::Identify`](super::Mode::Identify): the measurement running, the
-/// results so far and the current loop re-derived from them.
+/// results so far and the current loop's gains re-derived from them.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Identify {
     pub(super) phase: Phase,
     pub(super) result: Identified,
-    /// The FOC with the identified current-loop gains (the drive's until `R` and `L` are
-    /// known; voltage references meanwhile).
-    pub(super) foc: Foc,
+    pub(super) gains: Gains,
 }
 
 impl Identify {
-    /// The first measurement, with the drive's FOC `foc`.
-    pub(super) fn new(foc: Foc) -> Self {
+    /// The first measurement.
+    pub(super) fn new() -> Self {
         Self {
             phase: Phase::Resistance(Resistance::default()),
             result: Identified::default(),
-            foc,
+            gains: Gains::default(),
         }
     }
 
@@ -284,12 +310,6 @@ impl Identify {
             Phase::Mechanics(_) => IdentifyPhase::Mechanics,
         }
     }
-}
-
-/// The FOC `foc` with the current-loop gains for `r_ohm`, `l_h` at the bandwidth of
-/// `s` and `flux_wb` fed forward.
-pub(super) fn retuned(foc: &Foc, s: &Settings, r_ohm: f32, l_h: f32, flux_wb: f32) -> Foc {
-    foc.with_current_gains(l_h * s.w_c, r_ohm * s.w_c_ts, l_h, flux_wb)
 }
 
 /// The back-EMF over the period that just ended [V]: `e = v − R i_mid − L (i − i_prev)/T`, the
@@ -376,8 +396,8 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 AlphaBeta::default(),
             )),
         };
-        let mut id = Identify::new(self.foc);
-        id.foc = retuned(&self.foc, s, k.r_ohm, k.l_h(), k.flux_wb);
+        let mut id = Identify::new();
+        id.gains = Gains::of(s, k.r_ohm, k.l_h(), k.flux_wb);
         id.phase = phase;
         id.result = k;
         DriveState {
@@ -409,7 +429,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 Fault::Identify(IdentifyError::CurrentNotSensable),
             ));
         }
-        st.mode = ModeState::Identify(Identify::new(self.foc));
+        st.mode = ModeState::Identify(Identify::new());
         Some(Reason::Calibrated)
     }
 
@@ -455,7 +475,10 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             Phase::Flux(f) => f.step(i_ab, v_last),
             Phase::Mechanics(m) => m.step(i_ab, v_last, self.identify.n),
         };
-        let out = id.foc.run(&mut st.current, &request, i_ab, input.v_bus);
+        let out = id
+            .gains
+            .foc(&self.foc)
+            .run(&mut st.current, &request, i_ab, input.v_bus);
         st.v_ab_last = out.v_ab;
         st.v_bus_last = input.v_bus;
         (Some(out.duties), None)
@@ -474,8 +497,8 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         let progress = match &mut id.phase {
             Phase::Resistance(r) => r.tick(s, v_max, result),
             Phase::Inductance(l) => l.tick(s, v_max, result),
-            Phase::Flux(f) => f.tick(s, &id.foc, result),
-            Phase::Mechanics(m) => m.tick(s, &id.foc, result),
+            Phase::Flux(f) => f.tick(s, &self.foc, result),
+            Phase::Mechanics(m) => m.tick(s, &self.foc, result),
         };
         let (to, reason) = match progress {
             Progress::Stay => return None,
@@ -483,7 +506,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 cold_path();
                 // The current loop from what is known now; its integrators from zero.
                 let r = id.result;
-                id.foc = retuned(&self.foc, s, r.r_ohm, r.l_h(), r.flux_wb);
+                id.gains = Gains::of(s, r.r_ohm, r.l_h(), r.flux_wb);
                 id.phase = phase;
                 st.current = Default::default();
                 return None;
