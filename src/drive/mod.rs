@@ -357,19 +357,12 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         }
         // 3.-5. Observers, the mode's step, FOC.
         let duties = match st.mode {
-            ModeState::Idle => {
-                self.watch_offset(st, input);
-                None
-            }
             ModeState::Fault(_) | ModeState::Identified(_) => None,
-            ModeState::Calibrate(_) => {
-                if let Some(r) = self.calibrate(st, input) {
-                    reason = Some(r);
-                }
-                None
-            }
-            ModeState::Identify(_) => {
-                let (duties, r) = self.identify_control(st, input);
+            // Idle (its offsets' watch), the calibration and the identification: out of line,
+            // off the running drive's path (`identify/`).
+            ModeState::Idle | ModeState::Calibrate(_) | ModeState::Identify(_) => {
+                cold_path();
+                let (duties, r) = self.commissioning(st, input);
                 if r.is_some() {
                     reason = r;
                 }

@@ -44,6 +44,7 @@ PLACES = [
     ("src/drive/mod.rs", "fn supervise(", 1, "Drive::supervise"),
     ("src/load_observer.rs", "pub fn update(", 1, "the speed loop's load-torque observer"),
     ("src/foc.rs", "pub fn run(", 1, "Foc::run, the one FOC call site"),
+    ("src/drive/identify/mod.rs", "pub(super) fn commissioning(", 1, "modes Idle (offsets' watch), Calibrate, Identify: the step"),
     ("src/drive/identify/mod.rs", "pub(super) fn calibrate(", 1, "mode Calibrate (offsets)"),
     ("src/drive/identify/mod.rs", "pub(super) fn identify_control(", 1, "mode Identify: the step"),
     ("src/drive/identify/mod.rs", "pub(super) fn identify_tick(", 1, "mode Identify (1 kHz task)"),

@@ -408,10 +408,27 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         }
     }
 
+    /// The step of modes `Idle` (the offsets' watch), `Calibrate` and `Identify`: the duties
+    /// and the reason of a mode change.
+    #[inline(never)]
+    pub(super) fn commissioning(
+        &self,
+        st: &mut StateOf<P, M>,
+        input: &DriveInput,
+    ) -> (Option<Duties>, Option<Reason>) {
+        match st.mode {
+            ModeState::Idle => {
+                self.watch_offset(st, input);
+                (None, None)
+            }
+            ModeState::Calibrate(_) => (None, self.calibrate(st, input)),
+            _ => self.identify_control(st, input),
+        }
+    }
+
     /// Mode `Calibrate`'s step (PWM off): the sample summed; at the end the offsets kept and
     /// the identification entered, or the offset fault.
-    // Out of line: 16 ms before an identification, not the running drive's path.
-    #[inline(never)]
+    #[inline(always)]
     pub(super) fn calibrate(&self, st: &mut StateOf<P, M>, input: &DriveInput) -> Option<Reason> {
         let ModeState::Calibrate(c) = &mut st.mode else {
             return None;
@@ -435,8 +452,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
 
     /// While idle (PWM off): the sample summed into the offsets' window; each full window
     /// renews the offsets the next enable takes (or marks them implausible).
-    // Out of line: idle's, not the running drive's.
-    #[inline(never)]
+    #[inline(always)]
     pub(super) fn watch_offset(&self, st: &mut StateOf<P, M>, input: &DriveInput) {
         if let Some(r) = st
             .idle_window
@@ -451,9 +467,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     }
 
     /// Mode `Identify`'s step: the measurement's request through its FOC (no observers run).
-    // Out of line (in flash on a board whose step runs from RAM): the commissioning's, not
-    // the running drive's; its cycles are its own bench cases.
-    #[inline(never)]
+    #[inline(always)]
     pub(super) fn identify_control(
         &self,
         st: &mut StateOf<P, M>,
