@@ -166,6 +166,14 @@ pub struct Telemetry {
     pub disagreement_deg: f32,
     /// Health: |ω̂_primary − ω̂_monitor| \[rpm].
     pub speed_disagreement_rpm: f32,
+    /// The drive's stator resistance \[Ω]: measured at each start, bounded
+    /// (`adaptation.rs`); 0 before the first enable.
+    pub r_ohm: f32,
+    /// The drive's magnet flux linkage \[Wb]: adapted while running fast, bounded.
+    pub flux_wb: f32,
+    /// The current loop's voltage reached its limit in the last millisecond (the speed
+    /// loop's integrator held, field weakening acting).
+    pub voltage_limited: bool,
 }
 
 /// Result of one step.

@@ -28,6 +28,7 @@
 //! cycles`, when this was introduced). The log record is not built here: [`Drive::telemetry`]
 //! reads it from the state at the log's rate.
 
+mod adaptation;
 mod align;
 mod catch;
 mod config;
@@ -45,7 +46,7 @@ pub use report::{Derived, Warning};
 pub use schedule::{Slot, SLOTS};
 
 use crate::foc::{CurrentLoopState, Foc, Request};
-use crate::frames::{AlphaBeta, SinCos};
+use crate::frames::{AlphaBeta, Dq, SinCos};
 use crate::load_observer::LoadObserver;
 use crate::math::atan2;
 use crate::math::clamp;
@@ -75,7 +76,11 @@ pub struct Drive<P, M> {
     max_speed_rpm: f32,
     /// Field weakening.
     field_weakening: sensorless::FieldWeakening,
+    /// The hand-over's d current decays by this factor per millisecond.
+    handover_decay: f32,
     limits: Limits,
+    /// The motor model's adaptation (R, ψ_f).
+    adaptation: adaptation::Settings,
     catch: catch::Settings,
     align: align::Settings,
     open_loop: open_loop::Settings,
@@ -99,6 +104,10 @@ pub struct DriveState<PS, MS> {
     v_ab_last: AlphaBeta,
     /// The bus voltage of the last sample \[V].
     v_bus_last: f32,
+    /// The current loop cut its voltage to the limit in a step of this millisecond.
+    voltage_cut: bool,
+    /// ... in a step of the last millisecond ([`Drive::tick`] moves it here).
+    voltage_limited: bool,
     /// False after a fault is cleared until the enable command has been seen low.
     armed: bool,
 }
@@ -113,8 +122,22 @@ impl<PS: Default, MS: Default> Default for DriveState<PS, MS> {
             i_ab_last: AlphaBeta::default(),
             v_ab_last: AlphaBeta::default(),
             v_bus_last: 0.0,
+            voltage_cut: false,
+            voltage_limited: false,
             armed: true,
         }
+    }
+}
+
+impl<PS: Default, MS: Default> DriveState<PS, MS> {
+    /// Starts afresh in `mode`, the adapted motor model kept.
+    fn restart(&mut self, mode: ModeState) {
+        let model = self.obs.model;
+        *self = DriveState {
+            mode,
+            ..DriveState::default()
+        };
+        self.obs.model = model;
     }
 }
 
@@ -206,6 +229,9 @@ struct ObserverStates<PS, MS> {
     sample: AngleSample,
     /// Each observer's lock, which drives.
     health: Health,
+    /// The adapted motor model the observers take their inputs through (`adaptation.rs`);
+    /// kept from one run to the next.
+    model: adaptation::Model,
 }
 
 /// The angles the 1 kHz comparisons take, all of one sample (the last tick's
@@ -266,10 +292,8 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         match st.mode {
             ModeState::Fault(_) if cmd.clear_fault && !new_fault => {
                 cold_path();
-                *st = DriveState {
-                    armed: false,
-                    ..DriveState::default()
-                };
+                st.restart(ModeState::Idle);
+                st.armed = false;
                 reason = Some(Reason::Cleared);
             }
             ModeState::Fault(_) => {}
@@ -281,16 +305,14 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 } else {
                     ModeState::Align(Align::default())
                 };
-                *st = DriveState {
-                    mode,
-                    ..DriveState::default()
-                };
+                st.restart(mode);
+                self.adaptation.ensure(&mut st.obs.model);
                 reason = Some(Reason::Enabled);
             }
             ModeState::Idle => {}
             _ if !cmd.enable => {
                 cold_path();
-                *st = DriveState::default();
+                st.restart(ModeState::Idle);
                 reason = Some(Reason::Disabled);
             }
             _ => {}
@@ -345,6 +367,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         ) {
             return None;
         }
+        st.voltage_limited = core::mem::take(&mut st.voltage_cut);
         let obs = &mut st.obs;
         self.primary.read_out(&mut obs.primary, ReadOut::Angle);
         self.monitor.read_out(&mut obs.monitor, ReadOut::Angle);
@@ -361,8 +384,12 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             ModeState::Catch(c) => self.catch_tick(c, obs, i_ab),
             ModeState::OpenLoop(ol) => self.open_loop_tick(ol, obs, cmd_rpm, i_ab),
             ModeState::Sensorless(s) => {
-                let v_max = self.foc.v_max(st.v_bus_last);
-                self.sensorless_tick(s, obs, cmd_rpm, i_ab, (st.v_ab_last, v_max))
+                let applied = sensorless::Applied {
+                    v_ab: st.v_ab_last,
+                    v_max: self.foc.v_max(st.v_bus_last),
+                    limited: st.voltage_limited,
+                };
+                self.sensorless_tick(s, obs, cmd_rpm, i_ab, applied)
             }
             ModeState::Idle | ModeState::Fault(_) | ModeState::Align(_) => Next::Stay,
         };
@@ -375,7 +402,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             }
             Next::Fault(f) => enter_fault(st, f),
             Next::Stopped => {
-                *st = DriveState::default();
+                st.restart(ModeState::Idle);
                 Reason::Stopped
             }
         };
@@ -408,15 +435,17 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     /// estimate) and for benches.
     pub fn running_state(&self, i_ab: AlphaBeta, rotor: Rotor) -> StateOf<P, M> {
         let mut st = StateOf::<P, M>::default();
-        self.primary.seed(&mut st.obs.primary, i_ab, rotor);
-        self.monitor.seed(&mut st.obs.monitor, i_ab, rotor);
+        self.adaptation.ensure(&mut st.obs.model);
+        self.seed_observers(&mut st.obs, Seed::BOTH, i_ab, rotor);
         st.obs.sample = AngleSample {
             theta_primary: self.primary.theta_e(&st.obs.primary),
             theta_monitor: self.monitor.theta_e(&st.obs.monitor),
         };
         st.obs.health = Health::AT_KNOWN_STATE;
         let i_q = self.foc.current_for_torque(rotor.load_nm);
-        st.mode = ModeState::Sensorless(self.sensorless_at(rotor.omega_m, i_q));
+        let (_, _, _, load_nm) = self.driving(&st.obs, SinCos::ZERO);
+        let s = self.sensorless_at(rotor.omega_m, Dq::new(0.0, i_q), load_nm);
+        st.mode = ModeState::Sensorless(s);
         st
     }
 
@@ -426,9 +455,12 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     // Not inlined: it belongs to the log path, not the control path.
     #[inline(never)]
     pub fn telemetry(&self, st: &StateOf<P, M>) -> Telemetry {
+        let model = &st.obs.model;
         let off = Telemetry {
             mode: st.mode(),
             fault: st.fault(),
+            r_ohm: model.r_ohm,
+            flux_wb: model.flux_wb,
             ..Telemetry::default()
         };
         // The angles of this very sample (the 1 kHz task reads them out once a millisecond),
@@ -470,7 +502,11 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             theta_e_control: theta,
             i_d: i_dq.d,
             i_q: i_dq.q,
-            load_nm: self.primary.load_nm(&ps),
+            load_nm: self
+                .primary
+                .load_nm(&ps)
+                .map(|t| model.torque_from_observer(t)),
+            voltage_limited: st.voltage_limited,
             driving,
             residual_primary,
             residual_monitor,
@@ -487,6 +523,8 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     fn observe(&self, st: &mut StateOf<P, M>, i_ab: AlphaBeta, v: AlphaBeta) -> bool {
         st.i_ab_last = i_ab;
         let obs = &mut st.obs;
+        // Through the adapted model (`adaptation.rs`).
+        let (i_ab, v) = obs.model.observer_input(i_ab, v);
         let ok_p = self.primary.update(&mut obs.primary, i_ab, v);
         let ok_m = self.monitor.update(&mut obs.monitor, i_ab, v);
         ok_p && ok_m
@@ -517,8 +555,12 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 };
             }
             ModeState::Align(a) => {
-                let (request, done) = self.align.step(a);
+                let (request, done) = self.align.step(a, i_ab, st.v_ab_last);
                 if done {
+                    cold_path();
+                    // The resistance of this start (kept unless implausible).
+                    let r_ohm = self.align.resistance(a);
+                    self.adaptation.take_resistance(&mut st.obs.model, r_ohm);
                     // Rotor at θ_e = 0, at rest: start the observers there, both locked.
                     self.seed_observers(&mut st.obs, Seed::BOTH, i_ab, Rotor::default());
                     st.obs.health = Health::AT_KNOWN_STATE;
@@ -548,6 +590,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             Outcome::Fault(f) => return (None, Some(enter_fault(st, f))),
         };
         let out = self.foc.run(&mut st.current, &request, i_ab, v_bus);
+        st.voltage_cut |= out.saturated;
         st.v_ab_last = out.v_ab;
         st.v_bus_last = v_bus;
         (Some(out.duties), reason)
@@ -577,10 +620,12 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         obs: &ObserverStates<P::State, M::State>,
         lead: SinCos,
     ) -> (SinCos, SinCos, f32, Option<f32>) {
-        match obs.health.driving {
+        let (frame, frame_out, omega_m, load) = match obs.health.driving {
             Role::Primary => estimate(&self.primary, &obs.primary, lead),
             Role::Monitor => estimate(&self.monitor, &obs.monitor, lead),
-        }
+        };
+        let load_nm = load.map(|t| obs.model.torque_from_observer(t));
+        (frame, frame_out, omega_m, load_nm)
     }
 
     /// The health check of [`Drive::tick`] (`supervision.rs`) and the seeds it asks
@@ -629,7 +674,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     }
 
     /// Restarts the observers `seed` names at the rotor state `rotor`, `i_ab` the currents
-    /// now \[A].
+    /// now \[A] (both taken through the adapted model).
     // Out of line, like the other mode changes: rare, kept off the every-step path.
     #[inline(never)]
     fn seed_observers(
@@ -639,6 +684,11 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         i_ab: AlphaBeta,
         rotor: Rotor,
     ) {
+        let (i_ab, _) = obs.model.observer_input(i_ab, AlphaBeta::default());
+        let rotor = Rotor {
+            load_nm: obs.model.torque_to_observer(rotor.load_nm),
+            ..rotor
+        };
         if seed.primary {
             self.primary.seed(&mut obs.primary, i_ab, rotor);
         }
