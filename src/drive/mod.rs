@@ -443,7 +443,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         };
         st.obs.health = Health::AT_KNOWN_STATE;
         let i_q = self.foc.current_for_torque(rotor.load_nm);
-        let (_, _, _, load_nm) = self.driving(&st.obs, SinCos::ZERO);
+        let (_, _, load_nm) = self.driving_now(&st.obs);
         let s = self.sensorless_at(rotor.omega_m, Dq::new(0.0, i_q), load_nm);
         st.mode = ModeState::Sensorless(s);
         st
@@ -628,6 +628,15 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         (frame, frame_out, omega_m, load_nm)
     }
 
+    /// The driving observer's frame now, its speed [rad/s, mechanical] and its load-torque
+    /// estimate \[N·m] if it has one: [`Drive::driving`] for the 1 kHz task and the mode
+    /// changes, out of line (one copy for all of them, not one inlined at each).
+    #[inline(never)]
+    fn driving_now(&self, obs: &ObserverStates<P::State, M::State>) -> (SinCos, f32, Option<f32>) {
+        let (frame, _, omega_m, load_nm) = self.driving(obs, SinCos::ZERO);
+        (frame, omega_m, load_nm)
+    }
+
     /// The health check of [`Drive::tick`] (`supervision.rs`) and the seeds it asks
     /// for: a seeded observer starts at the driving one's angle now, speed and load (its
     /// own estimate, else `load_nm` \[N·m], the torque the controller makes). Returns the
@@ -664,7 +673,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         load_nm: f32,
     ) {
         cold_path();
-        let (frame, _, omega_m, load) = self.driving(obs, SinCos::ZERO);
+        let (frame, omega_m, load) = self.driving_now(obs);
         let rotor = Rotor {
             theta_e: atan2(frame.sin, frame.cos),
             omega_m,

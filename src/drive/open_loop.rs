@@ -136,7 +136,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             return Next::Fault(Fault::ObserverLoss);
         }
         if obs.health.usable() {
-            let (_, _, omega_hat, _) = self.driving(obs, SinCos::ZERO);
+            let (_, omega_hat, _) = self.driving_now(obs);
             // Pulled out: the rotor is not where the ramp is (above the hand-back speed: below
             // it a rotor still accelerating from rest lags the ramp too).
             let off = (omega_hat - omega_m).abs() > 0.5 * omega_m.abs();
@@ -179,7 +179,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         obs: &ObserverStates<P::State, M::State>,
     ) -> Sensorless {
         cold_path();
-        let (p, _, omega_m, load_nm) = self.driving(obs, SinCos::ZERO);
+        let (p, omega_m, load_nm) = self.driving_now(obs);
         // cos and sin(θ_ol − θ̂) of this sample.
         let cos_load_angle = ol.frame.cos * p.cos + ol.frame.sin * p.sin;
         let sin_load_angle = ol.frame.sin * p.cos - ol.frame.cos * p.sin;

@@ -172,7 +172,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     ) -> Next {
         let torque = self.foc.torque_for_current(s.i_q_ref);
         let (verdict, note) = self.supervise(obs, i_ab, torque);
-        let (frame, _, omega_m, load_nm) = self.driving(obs, s.out_rot);
+        let (frame, omega_m, load_nm) = self.driving_now(obs);
         let speed_rpm = omega_m * RPM_PER_RAD_S;
         let handback = self.supervision.handback_rpm;
         match verdict {
