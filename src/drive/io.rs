@@ -171,8 +171,8 @@ pub struct Telemetry {
     pub r_ohm: f32,
     /// The drive's magnet flux linkage \[Wb]: adapted while running fast, bounded.
     pub flux_wb: f32,
-    /// The current loop's voltage reached its limit in the last millisecond (the speed
-    /// loop's integrator held, field weakening acting).
+    /// The current loop's voltage was at its limit through the last millisecond (the speed
+    /// loop's integrator held against more motoring current, field weakening acting).
     pub voltage_limited: bool,
 }
 

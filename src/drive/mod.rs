@@ -104,9 +104,10 @@ pub struct DriveState<PS, MS> {
     v_ab_last: AlphaBeta,
     /// The bus voltage of the last sample \[V].
     v_bus_last: f32,
-    /// The current loop cut its voltage to the limit in a step of this millisecond.
-    voltage_cut: bool,
-    /// ... in a step of the last millisecond ([`Drive::tick`] moves it here).
+    /// Steps of this millisecond in which the current loop cut its voltage to the limit.
+    voltage_cut_steps: u8,
+    /// ... in every step of the last millisecond ([`Drive::tick`] sets it): the voltage at its
+    /// limit, not a noise spike on one sample.
     voltage_limited: bool,
     /// False after a fault is cleared until the enable command has been seen low.
     armed: bool,
@@ -122,7 +123,7 @@ impl<PS: Default, MS: Default> Default for DriveState<PS, MS> {
             i_ab_last: AlphaBeta::default(),
             v_ab_last: AlphaBeta::default(),
             v_bus_last: 0.0,
-            voltage_cut: false,
+            voltage_cut_steps: 0,
             voltage_limited: false,
             armed: true,
         }
@@ -367,7 +368,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         ) {
             return None;
         }
-        st.voltage_limited = core::mem::take(&mut st.voltage_cut);
+        st.voltage_limited = core::mem::take(&mut st.voltage_cut_steps) >= SLOTS as u8;
         let obs = &mut st.obs;
         self.primary.read_out(&mut obs.primary, ReadOut::Angle);
         self.monitor.read_out(&mut obs.monitor, ReadOut::Angle);
@@ -590,7 +591,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             Outcome::Fault(f) => return (None, Some(enter_fault(st, f))),
         };
         let out = self.foc.run(&mut st.current, &request, i_ab, v_bus);
-        st.voltage_cut |= out.saturated;
+        st.voltage_cut_steps = st.voltage_cut_steps.saturating_add(u8::from(out.saturated));
         st.v_ab_last = out.v_ab;
         st.v_bus_last = v_bus;
         (Some(out.duties), reason)

@@ -60,7 +60,7 @@ pub(super) struct Applied {
     pub(super) v_ab: AlphaBeta,
     /// The current loop's voltage limit \[V].
     pub(super) v_max: f32,
-    /// The voltage was cut to the limit in a step of the last millisecond.
+    /// The voltage was at its limit through the last millisecond.
     pub(super) limited: bool,
 }
 
