@@ -213,10 +213,13 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         s.i_d_ref = s.i_d_fw + s.i_d_handover;
         let i_q_max = sqrt_or_zero(fw.i_max_a * fw.i_max_a - s.i_d_ref * s.i_d_ref);
         // Anti-windup at both limits: the speed PI's output and integrator within i_q_max;
-        // and while the voltage is at its limit, the integrator held against more motoring
-        // current, which would need more voltage than the loop has (braking current, against
-        // the rotation, lowers the voltage and stays free).
-        let held = match (applied.limited, omega_m >= 0.0) {
+        // and at the voltage limit with the field weakening at its end (all of i_max on the d
+        // axis: nothing frees voltage any more), the integrator held against more motoring
+        // current, which would need voltage the loop does not have. While the field weakening
+        // still has room, it answers the voltage, not the speed loop. Braking current
+        // (against the rotation) lowers the voltage and stays free.
+        let exhausted = applied.limited && s.i_d_fw <= -fw.i_max_a;
+        let held = match (exhausted, omega_m >= 0.0) {
             (false, _) => Held::No,
             (true, true) => Held::Up,
             (true, false) => Held::Down,
