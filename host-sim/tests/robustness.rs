@@ -84,3 +84,24 @@ fn the_adapted_model_stays_within_its_bounds() {
         "ψ {flux} Wb"
     );
 }
+
+#[test]
+fn a_winding_warming_by_30_percent_while_running_keeps_the_motor() {
+    // R ×1.3 at rated speed after the start measured it; the restart measures it again.
+    for observer in ["sliding-torque", "flux"] {
+        let args = [
+            "run",
+            "warm-winding",
+            "--observer",
+            observer,
+            "--noise-pct",
+            "1",
+        ];
+        let out = sim(&[&args[..], &["--dead-time-us", "0.5", "--json"]].concat());
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert!(v["pass"].as_bool().unwrap(), "{observer}: {}", v["reasons"]);
+        // The restart's measurement: within 5 % of the warm winding's 3.25 Ω.
+        let r = v["adapted"]["r_ohm"].as_f64().unwrap();
+        assert!((r / 3.25 - 1.0).abs() < 0.05, "{observer}: R {r} Ω");
+    }
+}
