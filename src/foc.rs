@@ -24,7 +24,7 @@ use crate::frames::{Abc, AlphaBeta, Dq, SinCos};
 use crate::math::all_finite;
 use crate::motor::MotorParams;
 use crate::param::{Allowed, Checks, ParamError};
-use crate::pi::{Pi, PiConfig, PiState};
+use crate::pi::{Held, Pi, PiConfig, PiState};
 use crate::svpwm::{svpwm_limited, Duties, Svpwm};
 use core::f32::consts::TAU;
 use core::hint::cold_path;
@@ -454,6 +454,21 @@ impl Foc {
             },
             ..*self
         }
+    }
+
+    /// [`Foc::speed_step`] with the `i_q` command within `limits` \[A] this update (inside the
+    /// current limit) and the integrator held where `held` says (anti-windup,
+    /// [`Pi::update_within`]).
+    #[inline(always)]
+    pub fn speed_step_within(
+        &self,
+        speed: &mut PiState,
+        (omega_m_ref, omega_m): (f32, f32),
+        torque_ff_nm: f32,
+        (limits, held): ((f32, f32), Held),
+    ) -> f32 {
+        let ff_a = torque_ff_nm * self.inv_kt;
+        (self.speed).update_within(speed, omega_m_ref - omega_m, ff_a, limits, held)
     }
 
     /// The dead-time compensation this FOC applies ([`crate::dead_time`]).

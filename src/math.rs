@@ -169,6 +169,8 @@ const fn sin_cos_table() -> [[f32; 2]; TABLE_STEPS] {
 /// octants), against f64 `atan2` of the same f32 inputs (angles compared modulo 2π).
 /// Never divides by zero for finite input. NaN input gives NaN; ±inf input gives an
 /// unspecified value in [−π, π] or NaN.
+// Out of line: the 1 kHz task, the log and the mode changes each take it; one copy serves them.
+#[inline(never)]
 pub fn atan2(y: f32, x: f32) -> f32 {
     let (ax, ay) = (libm::fabsf(x), libm::fabsf(y));
     if ax == 0.0 && ay == 0.0 {

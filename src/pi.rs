@@ -26,6 +26,17 @@ pub struct Pi {
     out_max: f32,
 }
 
+/// Which way a limit downstream of a [`Pi`] holds its integrator ([`Pi::update_within`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Held {
+    /// Free both ways.
+    No,
+    /// It may not grow.
+    Up,
+    /// It may not shrink.
+    Down,
+}
+
 /// Running state of a [`Pi`]: the integrator, in output units.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PiState {
@@ -62,21 +73,36 @@ impl Pi {
     // Inlined: the 4 kHz step compiles to one function (see `drive`).
     #[inline(always)]
     pub fn update(&self, state: &mut PiState, error: f32, ff: f32) -> f32 {
+        self.update_within(state, error, ff, (self.out_min, self.out_max), Held::No)
+    }
+
+    /// [`Pi::update`] within this sample's limits `(lo, hi)` instead of the configured ones (a
+    /// limit that moves: the current field weakening leaves), both within the configured
+    /// ones, `lo ≤ hi`; and with the integrator held where `held` says (a limit downstream,
+    /// the voltage's, that this output does not see).
+    // Inlined: the 4 kHz step compiles to one function (see `drive`).
+    #[inline(always)]
+    pub fn update_within(
+        &self,
+        state: &mut PiState,
+        error: f32,
+        ff: f32,
+        (lo, hi): (f32, f32),
+        held: Held,
+    ) -> f32 {
         if !all_finite([error, ff]) {
             cold_path();
-            return clamp(state.integral, self.out_min, self.out_max);
+            return clamp(state.integral, lo, hi);
         }
         let candidate = state.integral + self.ki_ts * error;
         let unclamped = ff + self.kp * error + candidate;
-        let pushing_further =
-            (unclamped > self.out_max && error > 0.0) || (unclamped < self.out_min && error < 0.0);
+        let pushing_further = (unclamped > hi && error > 0.0)
+            || (unclamped < lo && error < 0.0)
+            || (held == Held::Up && error > 0.0)
+            || (held == Held::Down && error < 0.0);
         if !pushing_further {
-            state.integral = clamp(candidate, self.out_min, self.out_max);
+            state.integral = clamp(candidate, lo, hi);
         }
-        clamp(
-            ff + self.kp * error + state.integral,
-            self.out_min,
-            self.out_max,
-        )
+        clamp(ff + self.kp * error + state.integral, lo, hi)
     }
 }

@@ -1,6 +1,6 @@
 //! PI controller: clamp and anti-windup.
 
-use pmsm_sensorless::pi::{PiConfig, PiState};
+use pmsm_sensorless::pi::{Held, PiConfig, PiState};
 
 #[test]
 fn anti_windup_recovers_at_once_after_saturation() {
@@ -96,4 +96,51 @@ fn bad_settings_and_inputs() {
     assert_eq!(pi.update(&mut s, f32::NAN, 0.0), 0.3);
     assert_eq!(pi.update(&mut s, 1.0, f32::INFINITY), 0.3);
     assert_eq!(s.integral, 0.3);
+}
+
+/// A PI of limits ±1 (kp 0.5, ki 100 at 1 ms).
+fn unit_pi() -> pmsm_sensorless::pi::Pi {
+    PiConfig {
+        kp: 0.5,
+        ki: 100.0,
+        out_min: -1.0,
+        out_max: 1.0,
+    }
+    .build(1e-3)
+    .unwrap()
+}
+
+#[test]
+fn moving_limits_bound_the_output_and_the_integrator() {
+    let pi = unit_pi();
+    let mut s = PiState::default();
+    // The field-weakening current limit: 0.6 instead of 1 for a long positive error.
+    for _ in 0..1000 {
+        let u = pi.update_within(&mut s, 10.0, 0.0, (-0.6, 0.6), Held::No);
+        assert!(u <= 0.6, "{u}");
+    }
+    assert!(s.integral <= 0.6, "{}", s.integral);
+    // The error reverses: out of the limit in the first sample.
+    assert!(pi.update_within(&mut s, -1.0, 0.0, (-0.6, 0.6), Held::No) < 0.6);
+}
+
+#[test]
+fn a_held_integrator_does_not_wind_but_the_output_still_answers() {
+    let pi = unit_pi();
+    let mut s = PiState::default();
+    // A downstream limit (the voltage) holds it up: a positive error leaves the integrator,
+    // the proportional part still acts; a negative error moves it down.
+    for _ in 0..1000 {
+        let u = pi.update_within(&mut s, 0.4, 0.0, (-1.0, 1.0), Held::Up);
+        assert_eq!(u, 0.5 * 0.4);
+    }
+    assert_eq!(s.integral, 0.0);
+    pi.update_within(&mut s, -0.4, 0.0, (-1.0, 1.0), Held::Up);
+    assert!(s.integral < 0.0);
+    // Held down: the mirror image.
+    let mut s = PiState::default();
+    pi.update_within(&mut s, -0.4, 0.0, (-1.0, 1.0), Held::Down);
+    assert_eq!(s.integral, 0.0);
+    pi.update_within(&mut s, 0.4, 0.0, (-1.0, 1.0), Held::Down);
+    assert!(s.integral > 0.0);
 }

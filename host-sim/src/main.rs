@@ -1145,6 +1145,16 @@ fn run(args: RunArgs) -> anyhow::Result<(String, bool)> {
     if let Some(v) = summary.lowest_sensorless_rpm {
         outln!(out, "lowest sensorless speed {v:.1} rpm");
     }
+    if let Some(a) = &summary.adapted {
+        outln!(
+            out,
+            "adapted model: R {:.4} Ω ({:+.2} % of the plant's), ψ_f {:.5} Wb ({:+.2} %)",
+            a.r_ohm,
+            a.r_err_pct,
+            a.flux_wb,
+            a.flux_err_pct
+        );
+    }
     if let Some((csv, png)) = files {
         outln!(out, "plot: {}", png.display());
         outln!(out, "csv:  {}", csv.display());

@@ -6,7 +6,7 @@ use anyhow::Context;
 use std::path::{Path, PathBuf};
 
 /// Column names of the CSV, with units.
-pub const CSV_HEADER: [&str; 21] = [
+pub const CSV_HEADER: [&str; 24] = [
     "t_s",
     "speed_cmd_rpm",
     "omega_m_rpm",
@@ -27,6 +27,9 @@ pub const CSV_HEADER: [&str; 21] = [
     "driving",
     "residual_primary",
     "residual_monitor",
+    "r_hat_ohm",
+    "flux_hat_wb",
+    "voltage_limited",
     "transition",
 ];
 
@@ -62,6 +65,11 @@ pub fn write_csv(run: &Run, path: &Path) -> anyhow::Result<()> {
                 .unwrap_or_default(),
             opt(r.health.map(|h| h.residual_primary)),
             opt(r.health.map(|h| h.residual_monitor)),
+            opt(r.health.map(|h| h.r_ohm)),
+            opt(r.health.map(|h| h.flux_wb)),
+            r.health
+                .map(|h| u8::from(h.voltage_limited).to_string())
+                .unwrap_or_default(),
             r.transition
                 .map(|t| format!("{:?}->{:?}: {:?}", t.from, t.to, t.reason))
                 .unwrap_or_default(),

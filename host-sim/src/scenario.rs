@@ -275,7 +275,7 @@ pub struct Spec {
 }
 
 /// The built-in scenario files, in listing order.
-const BUILT_IN: [(&str, &str); 24] = [
+const BUILT_IN: [(&str, &str); 25] = [
     (
         "horng-ramp-brake",
         include_str!("../scenarios/horng-ramp-brake.toml"),
@@ -368,6 +368,10 @@ const BUILT_IN: [(&str, &str); 24] = [
     (
         "sup-reverse-20",
         include_str!("../scenarios/sup-reverse-20.toml"),
+    ),
+    (
+        "warm-winding",
+        include_str!("../scenarios/warm-winding.toml"),
     ),
 ];
 

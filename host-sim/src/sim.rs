@@ -224,6 +224,12 @@ pub struct RowHealth {
     pub residual_primary: f64,
     /// The monitor's residual.
     pub residual_monitor: f64,
+    /// The drive's adapted stator resistance \[Ω] (0 before the first enable).
+    pub r_ohm: f64,
+    /// The drive's adapted flux linkage \[Wb].
+    pub flux_wb: f64,
+    /// The current loop's voltage was at its limit in the last millisecond.
+    pub voltage_limited: bool,
 }
 
 impl Row {
@@ -604,6 +610,9 @@ impl Sim {
                     driving: tel.driving,
                     residual_primary: tel.residual_primary as f64,
                     residual_monitor: tel.residual_monitor as f64,
+                    r_ohm: tel.r_ohm as f64,
+                    flux_wb: tel.flux_wb as f64,
+                    voltage_limited: tel.voltage_limited,
                 });
                 // The angle the controller runs on: the driving observer's while sensorless.
                 let sensorless = tel.mode == Mode::Sensorless;

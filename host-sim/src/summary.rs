@@ -84,6 +84,22 @@ pub struct Summary {
     /// Drive scenarios: lowest |true speed| while sensorless \[rpm].
     #[serde(skip_serializing_if = "Option::is_none")]
     pub lowest_sensorless_rpm: Option<f64>,
+    /// Drive scenarios: the drive's adapted motor model at the end of the run.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub adapted: Option<Adapted>,
+}
+
+/// The drive's adapted motor model (`Telemetry::r_ohm`, `flux_wb`) against the plant's.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Adapted {
+    /// Stator resistance \[Ω].
+    pub r_ohm: f64,
+    /// Flux linkage \[Wb].
+    pub flux_wb: f64,
+    /// `100 (R̂ − R)/R` \[%] against the plant's.
+    pub r_err_pct: f64,
+    /// `100 (ψ̂ − ψ)/ψ` \[%].
+    pub flux_err_pct: f64,
 }
 
 /// One mode change of the drive.
@@ -258,6 +274,22 @@ impl Summary {
                 .map(|(t, _)| *t)
                 .collect(),
             lowest_sensorless_rpm: sensorless.map(|r| r.speed_rpm.abs()).reduce(f64::min),
+            adapted: run
+                .rows
+                .iter()
+                .rev()
+                .filter_map(|r| r.health)
+                .find(|h| h.r_ohm > 0.0)
+                .map(|h| {
+                    let plant = &sc.motor.params;
+                    let err = |x: f64, truth: f32| 100.0 * (x / truth as f64 - 1.0);
+                    Adapted {
+                        r_ohm: h.r_ohm,
+                        flux_wb: h.flux_wb,
+                        r_err_pct: err(h.r_ohm, plant.r_ohm),
+                        flux_err_pct: err(h.flux_wb, plant.flux_wb),
+                    }
+                }),
         }
     }
 

@@ -19,7 +19,7 @@
 //! value, every cell (CSV and JSON) and a heat map of the pass fraction over the first two
 //! axes.
 
-use crate::summary::Summary;
+use crate::summary::{Adapted, Summary};
 use anyhow::{bail, ensure, Context};
 use indexmap::IndexMap;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -71,6 +71,8 @@ pub struct CellResult {
     pub worst_speed_err_pct: Option<f64>,
     /// Largest |θ̂_e − θ_e| in the windows [deg, electrical].
     pub theta_err_max_deg_e: Option<f64>,
+    /// Drive runs: the adapted motor model at the end, against the plant's.
+    pub adapted: Option<Adapted>,
 }
 
 /// The sweep's answer.
@@ -298,6 +300,7 @@ pub fn run(
                         lost_lock: s.lost_lock,
                         worst_speed_err_pct: s.worst_speed_err_pct,
                         theta_err_max_deg_e: s.theta_err_max_deg_e,
+                        adapted: s.adapted,
                     },
                     Err(e) => CellResult {
                         params: cell.params.clone(),
@@ -307,6 +310,7 @@ pub fn run(
                         lost_lock: false,
                         worst_speed_err_pct: None,
                         theta_err_max_deg_e: None,
+                        adapted: None,
                     },
                 };
                 bar.inc(1);
@@ -378,6 +382,8 @@ impl Report {
                 "lost_lock",
                 "worst_speed_err_pct",
                 "theta_err_max_deg_e",
+                "r_err_pct",
+                "flux_err_pct",
                 "reasons",
             ]
             .map(String::from),
@@ -392,6 +398,8 @@ impl Report {
                 c.lost_lock.to_string(),
                 opt(c.worst_speed_err_pct),
                 opt(c.theta_err_max_deg_e),
+                opt(c.adapted.as_ref().map(|a| a.r_err_pct)),
+                opt(c.adapted.as_ref().map(|a| a.flux_err_pct)),
                 c.reasons.join("; "),
             ]);
             w.write_record(&row)?;

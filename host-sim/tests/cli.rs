@@ -105,7 +105,7 @@ fn run_json_contract_and_files() {
     }
     let csv = std::fs::read_to_string(dir.join("run.csv")).unwrap();
     let mut lines = csv.lines();
-    assert_eq!(lines.next().unwrap(), "t_s,speed_cmd_rpm,omega_m_rpm,omega_m_hat_rpm,theta_e_deg,theta_e_hat_deg,i_d_a,i_q_a,v_alpha_v,v_beta_v,load_nm,load_hat_nm,s_a_a,ks_a_per_s,ks_min_a_per_s,mode,theta_e_monitor_deg,driving,residual_primary,residual_monitor,transition");
+    assert_eq!(lines.next().unwrap(), "t_s,speed_cmd_rpm,omega_m_rpm,omega_m_hat_rpm,theta_e_deg,theta_e_hat_deg,i_d_a,i_q_a,v_alpha_v,v_beta_v,load_nm,load_hat_nm,s_a_a,ks_a_per_s,ks_min_a_per_s,mode,theta_e_monitor_deg,driving,residual_primary,residual_monitor,r_hat_ohm,flux_hat_wb,voltage_limited,transition");
     assert_eq!(lines.count(), 24_000);
     let png = std::fs::read(dir.join("run.png")).unwrap();
     assert_eq!(&png[1..4], b"PNG");

@@ -15,7 +15,7 @@
 
 use super::supervision::Seed;
 use super::{Drive, Fault, ModeState, Next, ObserverStates, Reason};
-use crate::frames::{AlphaBeta, SinCos};
+use crate::frames::{AlphaBeta, Dq};
 use crate::math::{atan2, rsqrt_normal};
 use crate::observer::{Observer, Rotor};
 use core::f32::consts::FRAC_PI_2;
@@ -117,9 +117,9 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         }
         self.supervise(obs, i_ab, 0.0);
         if obs.health.usable() {
-            let (_, _, omega_m, load_nm) = self.driving(obs, SinCos::ZERO);
+            let (_, omega_m, load_nm) = self.driving_now(obs);
             let i_q = self.foc.current_for_torque(load_nm.unwrap_or(0.0));
-            let s = self.sensorless_at(omega_m, i_q);
+            let s = self.sensorless_at(omega_m, Dq::new(0.0, i_q), load_nm);
             return Next::Switch(ModeState::Sensorless(s), Reason::Caught);
         }
         c.checks = c.checks.saturating_add(1);

@@ -5,7 +5,7 @@ use super::identify::{self, IdentifyConfig};
 use super::open_loop;
 use super::schedule::SLOTS;
 use super::supervision;
-use super::{align, catch, sensorless, Drive};
+use super::{adaptation, align, catch, sensorless, Drive};
 use crate::bounds::{ks_max_e2, ks_max_t};
 use crate::dead_time::DeadTimeConfig;
 use crate::foc::FocConfig;
@@ -19,6 +19,7 @@ use crate::observer::sliding::{SlidingConfig, SlidingGain, SlidingObserver};
 use crate::observer::Observer;
 use crate::param::{Allowed, Checks, ParamError};
 use crate::units::{RAD_PER_DEG, RAD_S_PER_RPM};
+use core::f32::consts::TAU;
 
 /// The sliding observer's back-EMF angle and the controller's output angle lead the sample by
 /// half a period of rotation: the middle of the period the voltage is held over.
@@ -27,6 +28,21 @@ const ADVANCE_PERIODS: f32 = 0.5;
 /// Natural frequency \[Hz] and damping of the PLL on the flux observer's angle.
 const PLL_BANDWIDTH_HZ: f32 = 50.0;
 const PLL_DAMPING: f32 = 1.0;
+
+/// The adapted resistance stays within R₀/3..3 R₀ (`adaptation.rs`): a copper winding from
+/// −40 °C to 150 °C spans 1.75×, and a datasheet's line-to-line figure taken for the phase's
+/// is 2× off.
+const ADAPT_RANGE: f32 = 3.0;
+/// The adapted flux linkage stays within ψ₀/1.5..1.5 ψ₀: NdFeB loses about 12 % per 100 K;
+/// a back-EMF constant read as peak for RMS is √2 off.
+const FLUX_ADAPT_RANGE: f32 = 1.5;
+/// ψ_f's low-pass time constant \[s].
+const FLUX_ADAPT_TIME_S: f32 = 0.25;
+/// ψ_f is measured above this fraction of the rated speed ...
+const FLUX_ADAPT_MIN_SPEED: f32 = 0.2;
+/// ... where `R i` is at most this share of the back-EMF: a 30 % resistance error moves it by
+/// 3 % at most.
+const FLUX_ADAPT_MAX_R_SHARE: f32 = 0.1;
 
 /// Protection limits.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -437,7 +453,28 @@ impl DriveConfig {
                 gain_a_per_v: 0.2 / (m.n() * self.ratings.speed_rpm * RAD_S_PER_RPM * m.l_h),
                 i_max_a: l.i_max_a,
             },
+            // Five speed-loop time constants, 1/(2π f_speed) each: the speed loop takes the
+            // torque over as the d current fades.
+            handover_decay: 1.0 - SLOTS as f32 * ts * TAU * self.speed_bandwidth_hz / 5.0,
             limits: l,
+            adaptation: adaptation::Settings {
+                r0_ohm: m.r_ohm,
+                flux0_wb: m.flux_wb,
+                r_range: (m.r_ohm / ADAPT_RANGE, m.r_ohm * ADAPT_RANGE),
+                flux_range: (m.flux_wb / FLUX_ADAPT_RANGE, m.flux_wb * FLUX_ADAPT_RANGE),
+                l_h: m.l_h,
+                pole_pairs: m.n(),
+                half_ts: 0.5 * ts,
+                flux_gain: SLOTS as f32 * ts / FLUX_ADAPT_TIME_S,
+                // A time constant of one lock time (20 ms): over an electrical period at a
+                // fifth of the rated speed or faster.
+                current_gain: SLOTS as f32 * ts / h.lock_time_s,
+                flux_min_omega_e: m.n()
+                    * FLUX_ADAPT_MIN_SPEED
+                    * self.ratings.speed_rpm
+                    * RAD_S_PER_RPM,
+                flux_max_r_share: FLUX_ADAPT_MAX_R_SHARE,
+            },
             catch: catch::Settings {
                 v_min: m.torque_constant() * s.handback_rpm * RAD_S_PER_RPM,
                 omega_m_per_v: 1.0 / m.torque_constant(),
@@ -454,7 +491,12 @@ impl DriveConfig {
             identify_offset_limit_a: 0.05 * l.i_sense_max_a,
             align: align::Settings {
                 current_a: s.align_current_a,
-                steps: steps(s.align_time_s).max(1),
+                sixteenth: steps(s.align_time_s).div_ceil(16).max(1),
+                rest_vq2: {
+                    let rest_speed = align::REST_SPEED * self.ratings.speed_rpm * RAD_S_PER_RPM;
+                    let emf_v = m.torque_constant() * rest_speed;
+                    emf_v * emf_v
+                },
             },
             open_loop: open_loop::Settings {
                 current_a: s.open_loop_current_a,

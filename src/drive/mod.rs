@@ -28,6 +28,7 @@
 //! cycles`, when this was introduced). The log record is not built here: [`Drive::telemetry`]
 //! reads it from the state at the log's rate.
 
+mod adaptation;
 mod align;
 mod catch;
 mod config;
@@ -47,7 +48,7 @@ pub use report::{Derived, Warning};
 pub use schedule::{Slot, SLOTS};
 
 use crate::foc::{CurrentLoopState, Foc, Request};
-use crate::frames::{AlphaBeta, SinCos};
+use crate::frames::{AlphaBeta, Dq, SinCos};
 use crate::load_observer::LoadObserver;
 use crate::math::atan2;
 use crate::math::clamp;
@@ -79,7 +80,11 @@ pub struct Drive<P, M> {
     max_speed_rpm: f32,
     /// Field weakening.
     field_weakening: sensorless::FieldWeakening,
+    /// The hand-over's d current decays by this factor per millisecond.
+    handover_decay: f32,
     limits: Limits,
+    /// The motor model's adaptation (R, ψ_f).
+    adaptation: adaptation::Settings,
     catch: catch::Settings,
     align: align::Settings,
     /// The identification's coefficients (`identify/`).
@@ -107,6 +112,11 @@ pub struct DriveState<PS, MS> {
     v_ab_last: AlphaBeta,
     /// The bus voltage of the last sample \[V].
     v_bus_last: f32,
+    /// Steps of this millisecond in which the current loop cut its voltage to the limit.
+    voltage_cut_steps: u8,
+    /// ... in every step of the last millisecond ([`Drive::tick`] sets it): the voltage at its
+    /// limit, not a noise spike on one sample.
+    voltage_limited: bool,
     /// False after a fault is cleared until the enable command has been seen low.
     armed: bool,
     /// The current sensors' offsets in the stationary frame, measured with the PWM off
@@ -128,6 +138,8 @@ impl<PS: Default, MS: Default> Default for DriveState<PS, MS> {
             i_ab_last: AlphaBeta::default(),
             v_ab_last: AlphaBeta::default(),
             v_bus_last: 0.0,
+            voltage_cut_steps: 0,
+            voltage_limited: false,
             armed: true,
             offset_ab: AlphaBeta::default(),
             idle_window: Calibrate::default(),
@@ -137,14 +149,16 @@ impl<PS: Default, MS: Default> Default for DriveState<PS, MS> {
 }
 
 impl<PS: Default, MS: Default> DriveState<PS, MS> {
-    /// A fresh state in `mode`, the offsets measured kept.
+    /// Starts afresh in `mode`, the adapted motor model and the offsets measured kept.
     fn restart(&mut self, mode: ModeState) {
+        let model = self.obs.model;
         *self = DriveState {
             mode,
             offset_ab: self.offset_ab,
             offset_implausible: self.offset_implausible,
             ..DriveState::default()
         };
+        self.obs.model = model;
     }
 }
 
@@ -266,6 +280,9 @@ struct ObserverStates<PS, MS> {
     sample: AngleSample,
     /// Each observer's lock, which drives.
     health: Health,
+    /// The adapted motor model the observers take their inputs through (`adaptation.rs`);
+    /// kept from one run to the next.
+    model: adaptation::Model,
 }
 
 /// The angles the 1 kHz comparisons take, all of one sample (the last tick's
@@ -344,6 +361,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                         ModeState::Align(Align::default())
                     };
                     st.restart(mode);
+                    self.adaptation.ensure(&mut st.obs.model);
                     reason = Some(Reason::Enabled);
                 }
             }
@@ -422,6 +440,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             ModeState::Identify(_) => return self.identify_tick(st),
             _ => {}
         }
+        st.voltage_limited = core::mem::take(&mut st.voltage_cut_steps) >= SLOTS as u8;
         let obs = &mut st.obs;
         self.primary.read_out(&mut obs.primary, ReadOut::Angle);
         self.monitor.read_out(&mut obs.monitor, ReadOut::Angle);
@@ -438,8 +457,12 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             ModeState::Catch(c) => self.catch_tick(c, obs, i_ab),
             ModeState::OpenLoop(ol) => self.open_loop_tick(ol, obs, cmd_rpm, i_ab),
             ModeState::Sensorless(s) => {
-                let v_max = self.foc.v_max(st.v_bus_last);
-                self.sensorless_tick(s, obs, cmd_rpm, i_ab, (st.v_ab_last, v_max))
+                let applied = sensorless::Applied {
+                    v_ab: st.v_ab_last,
+                    v_max: self.foc.v_max(st.v_bus_last),
+                    limited: st.voltage_limited,
+                };
+                self.sensorless_tick(s, obs, cmd_rpm, i_ab, applied)
             }
             _ => Next::Stay,
         };
@@ -485,15 +508,17 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     /// estimate) and for benches.
     pub fn running_state(&self, i_ab: AlphaBeta, rotor: Rotor) -> StateOf<P, M> {
         let mut st = StateOf::<P, M>::default();
-        self.primary.seed(&mut st.obs.primary, i_ab, rotor);
-        self.monitor.seed(&mut st.obs.monitor, i_ab, rotor);
+        self.adaptation.ensure(&mut st.obs.model);
+        self.seed_observers(&mut st.obs, Seed::BOTH, i_ab, rotor);
         st.obs.sample = AngleSample {
             theta_primary: self.primary.theta_e(&st.obs.primary),
             theta_monitor: self.monitor.theta_e(&st.obs.monitor),
         };
         st.obs.health = Health::AT_KNOWN_STATE;
         let i_q = self.foc.current_for_torque(rotor.load_nm);
-        st.mode = ModeState::Sensorless(self.sensorless_at(rotor.omega_m, i_q));
+        let (_, _, load_nm) = self.driving_now(&st.obs);
+        let s = self.sensorless_at(rotor.omega_m, Dq::new(0.0, i_q), load_nm);
+        st.mode = ModeState::Sensorless(s);
         st
     }
 
@@ -503,9 +528,12 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     // Not inlined: it belongs to the log path, not the control path.
     #[inline(never)]
     pub fn telemetry(&self, st: &StateOf<P, M>) -> Telemetry {
+        let model = &st.obs.model;
         let off = Telemetry {
             mode: st.mode(),
             fault: st.fault(),
+            r_ohm: model.r_ohm,
+            flux_wb: model.flux_wb,
             ..Telemetry::default()
         };
         // The angles of this very sample (the 1 kHz task reads them out once a millisecond),
@@ -550,7 +578,11 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             theta_e_control: theta,
             i_d: i_dq.d,
             i_q: i_dq.q,
-            load_nm: self.primary.load_nm(&ps),
+            load_nm: self
+                .primary
+                .load_nm(&ps)
+                .map(|t| model.torque_from_observer(t)),
+            voltage_limited: st.voltage_limited,
             driving,
             residual_primary,
             residual_monitor,
@@ -567,6 +599,8 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     fn observe(&self, st: &mut StateOf<P, M>, i_ab: AlphaBeta, v: AlphaBeta) -> bool {
         st.i_ab_last = i_ab;
         let obs = &mut st.obs;
+        // Through the adapted model (`adaptation.rs`).
+        let (i_ab, v) = obs.model.observer_input(i_ab, v);
         let ok_p = self.primary.update(&mut obs.primary, i_ab, v);
         let ok_m = self.monitor.update(&mut obs.monitor, i_ab, v);
         ok_p && ok_m
@@ -597,8 +631,12 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 };
             }
             ModeState::Align(a) => {
-                let (request, done) = self.align.step(a);
+                let (request, done) = self.align.step(a, i_ab, st.v_ab_last);
                 if done {
+                    cold_path();
+                    // The resistance of this start (kept unless implausible).
+                    let r_ohm = self.align.resistance(a);
+                    self.adaptation.take_resistance(&mut st.obs.model, r_ohm);
                     // Rotor at θ_e = 0, at rest: start the observers there, both locked.
                     self.seed_observers(&mut st.obs, Seed::BOTH, i_ab, Rotor::default());
                     st.obs.health = Health::AT_KNOWN_STATE;
@@ -628,6 +666,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             Outcome::Fault(f) => return (None, Some(enter_fault(st, f))),
         };
         let out = self.foc.run(&mut st.current, &request, i_ab, v_bus);
+        st.voltage_cut_steps = st.voltage_cut_steps.saturating_add(u8::from(out.saturated));
         st.v_ab_last = out.v_ab;
         st.v_bus_last = v_bus;
         (Some(out.duties), reason)
@@ -657,10 +696,21 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         obs: &ObserverStates<P::State, M::State>,
         lead: SinCos,
     ) -> (SinCos, SinCos, f32, Option<f32>) {
-        match obs.health.driving {
+        let (frame, frame_out, omega_m, load) = match obs.health.driving {
             Role::Primary => estimate(&self.primary, &obs.primary, lead),
             Role::Monitor => estimate(&self.monitor, &obs.monitor, lead),
-        }
+        };
+        let load_nm = load.map(|t| obs.model.torque_from_observer(t));
+        (frame, frame_out, omega_m, load_nm)
+    }
+
+    /// The driving observer's frame now, its speed [rad/s, mechanical] and its load-torque
+    /// estimate \[N·m] if it has one: [`Drive::driving`] for the 1 kHz task and the mode
+    /// changes, out of line (one copy for all of them, not one inlined at each).
+    #[inline(never)]
+    fn driving_now(&self, obs: &ObserverStates<P::State, M::State>) -> (SinCos, f32, Option<f32>) {
+        let (frame, _, omega_m, load_nm) = self.driving(obs, SinCos::ZERO);
+        (frame, omega_m, load_nm)
     }
 
     /// The health check of [`Drive::tick`] (`supervision.rs`) and the seeds it asks
@@ -699,7 +749,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         load_nm: f32,
     ) {
         cold_path();
-        let (frame, _, omega_m, load) = self.driving(obs, SinCos::ZERO);
+        let (frame, omega_m, load) = self.driving_now(obs);
         let rotor = Rotor {
             theta_e: atan2(frame.sin, frame.cos),
             omega_m,
@@ -709,7 +759,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     }
 
     /// Restarts the observers `seed` names at the rotor state `rotor`, `i_ab` the currents
-    /// now \[A].
+    /// now \[A] (both taken through the adapted model).
     // Out of line, like the other mode changes: rare, kept off the every-step path.
     #[inline(never)]
     fn seed_observers(
@@ -719,6 +769,11 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         i_ab: AlphaBeta,
         rotor: Rotor,
     ) {
+        let (i_ab, _) = obs.model.observer_input(i_ab, AlphaBeta::default());
+        let rotor = Rotor {
+            load_nm: obs.model.torque_to_observer(rotor.load_nm),
+            ..rotor
+        };
         if seed.primary {
             self.primary.seed(&mut obs.primary, i_ab, rotor);
         }

@@ -136,7 +136,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             return Next::Fault(Fault::ObserverLoss);
         }
         if obs.health.usable() {
-            let (_, _, omega_hat, _) = self.driving(obs, SinCos::ZERO);
+            let (_, omega_hat, _) = self.driving_now(obs);
             // Pulled out: the rotor is not where the ramp is (above the hand-back speed: below
             // it a rotor still accelerating from rest lags the ramp too).
             let off = (omega_hat - omega_m).abs() > 0.5 * omega_m.abs();
@@ -168,8 +168,9 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         Next::Stay
     }
 
-    /// The hand-over: the speed loop starts from the torque the open-loop current makes in the
-    /// driving observer's frame, the reference from its speed.
+    /// The hand-over: the open-loop current in the driving observer's frame (its q part the
+    /// speed loop's start, its d part fading, [`Drive::sensorless_at`]), the reference from
+    /// its speed.
     // Out of line, like the other mode changes: rare, kept off the every-step path.
     #[inline(never)]
     fn enter_sensorless(
@@ -178,10 +179,13 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         obs: &ObserverStates<P::State, M::State>,
     ) -> Sensorless {
         cold_path();
-        let (p, _, omega_m, _) = self.driving(obs, SinCos::ZERO);
-        // sin(θ_ol − θ̂) of this sample.
+        let (p, omega_m, load_nm) = self.driving_now(obs);
+        // cos and sin(θ_ol − θ̂) of this sample.
+        let cos_load_angle = ol.frame.cos * p.cos + ol.frame.sin * p.sin;
         let sin_load_angle = ol.frame.sin * p.cos - ol.frame.cos * p.sin;
-        self.sensorless_at(omega_m, self.open_loop.current_a * sin_load_angle)
+        let i = self.open_loop.current_a;
+        let i_dq = Dq::new(i * cos_load_angle, i * sin_load_angle);
+        self.sensorless_at(omega_m, i_dq, load_nm)
     }
 }
 

@@ -12,7 +12,7 @@ use crate::frames::{AlphaBeta, Dq, SinCos};
 use crate::load_observer::LoadObserverState;
 use crate::math::{clamp, sqrt_or_zero};
 use crate::observer::Observer;
-use crate::pi::PiState;
+use crate::pi::{Held, PiState};
 use crate::units::{RAD_S_PER_RPM, RPM_PER_RAD_S};
 
 /// Field weakening by voltage feedback (Kim & Sul, "Speed control of interior permanent
@@ -53,6 +53,17 @@ impl FieldWeakening {
     }
 }
 
+/// What the current loop applied over the last millisecond, for the 1 kHz task.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Applied {
+    /// The voltage of the last period \[V].
+    pub(super) v_ab: AlphaBeta,
+    /// The current loop's voltage limit \[V].
+    pub(super) v_max: f32,
+    /// The voltage was at its limit through the last millisecond.
+    pub(super) limited: bool,
+}
+
 /// The state of [`Mode::Sensorless`](super::Mode::Sensorless).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Sensorless {
@@ -62,7 +73,12 @@ pub(super) struct Sensorless {
     speed_pi: PiState,
     /// The speed loop's i_q command \[A].
     i_q_ref: f32,
-    /// The field-weakening i_d command \[A] (≤ 0).
+    /// The field-weakening i_d \[A] (≤ 0).
+    i_d_fw: f32,
+    /// The open loop's d current at the hand-over, decaying \[A] (see
+    /// [`Drive::sensorless_at`]).
+    i_d_handover: f32,
+    /// The d current command, their sum \[A].
     i_d_ref: f32,
     /// sin/cos of the output angle's lead at the driving observer's speed
     /// (`Foc::output_rotation`), renewed by the 1 kHz task (the speed read-outs move at
@@ -72,6 +88,8 @@ pub(super) struct Sensorless {
     stall: u32,
     /// The speed loop's load-torque observer (`load_observer.rs`).
     load: LoadObserverState,
+    /// The load torque fed forward last \[N·m].
+    ff_nm: f32,
 }
 
 impl Sensorless {
@@ -82,23 +100,43 @@ impl Sensorless {
 }
 
 impl<P: Observer, M: Observer> Drive<P, M> {
-    /// Sensorless control of a rotor at `omega_m` \[rad/s]: the reference there, the speed
-    /// loop's integrator (and command) at `i_q_a` \[A], the load-torque observer at the torque
-    /// it makes.
+    /// Sensorless control of a rotor at `omega_m` \[rad/s] carrying the current `i_dq` \[A] in
+    /// the driving observer's frame, `driving_load_nm` its load estimate \[N·m] if it has one:
+    /// the reference there, the command at `i_dq.q`, the load-torque observer at the torque
+    /// it makes, the speed PI's integrator at what the feed-forward (the driving observer's
+    /// load, else the load-torque observer's) leaves of the command. A d current (the
+    /// open loop's, at the hand-over) is kept and decays over [`Drive::handover_decay`]'s
+    /// time: the current vector does not jump when the frame changes, so an angle error of
+    /// the observer at the hand-over does not turn into a torque step; the speed loop takes
+    /// the torque over as the d current fades (the smooth I/f transition of Fatu, Teodorescu,
+    /// Boldea, Andreescu & Blaabjerg, "I-F starting method with smooth transition to EMF based
+    /// motion-sensorless vector control of PM synchronous motor/generator", IEEE PESC 2008).
     // Out of line, like the other mode changes: rare, kept off the every-step path.
     #[inline(never)]
-    pub(super) fn sensorless_at(&self, omega_m: f32, i_q_a: f32) -> Sensorless {
+    pub(super) fn sensorless_at(
+        &self,
+        omega_m: f32,
+        i_dq: Dq,
+        driving_load_nm: Option<f32>,
+    ) -> Sensorless {
         let mut load = LoadObserverState::default();
-        let torque = self.foc.torque_for_current(i_q_a);
+        let torque = self.foc.torque_for_current(i_dq.q);
         self.load_observer.reset(&mut load, torque, omega_m);
+        let ff_nm = driving_load_nm.unwrap_or(torque);
+        let ff_a = self.foc.current_for_torque(ff_nm);
         Sensorless {
             speed_ref_rpm: omega_m * RPM_PER_RAD_S,
-            speed_pi: PiState { integral: i_q_a },
-            i_q_ref: i_q_a,
-            i_d_ref: 0.0,
+            speed_pi: PiState {
+                integral: i_dq.q - ff_a,
+            },
+            i_q_ref: i_dq.q,
+            i_d_fw: 0.0,
+            i_d_handover: i_dq.d,
+            i_d_ref: i_dq.d,
             out_rot: self.foc.output_rotation(omega_m),
             stall: 0,
             load,
+            ff_nm,
         }
     }
 
@@ -130,15 +168,22 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         obs: &mut ObserverStates<P::State, M::State>,
         cmd_rpm: f32,
         i_ab: AlphaBeta,
-        (v_ab, v_max): (AlphaBeta, f32),
+        applied: Applied,
     ) -> Next {
         let torque = self.foc.torque_for_current(s.i_q_ref);
         let (verdict, note) = self.supervise(obs, i_ab, torque);
-        let (frame, _, omega_m, load_nm) = self.driving(obs, s.out_rot);
+        let (frame, omega_m, load_nm) = self.driving_now(obs);
         let speed_rpm = omega_m * RPM_PER_RAD_S;
         let handback = self.supervision.handback_rpm;
         match verdict {
-            Verdict::Drive | Verdict::Switched => {}
+            // The flux linkage from the back-EMF while the driving observer is locked
+            // (`adaptation.rs`).
+            Verdict::Drive => {
+                let i_ref_a = s.i_d_ref.abs() + s.i_q_ref.abs();
+                let sample = (i_ab, applied.v_ab);
+                (self.adaptation).track_flux(&mut obs.model, sample, omega_m, i_ref_a);
+            }
+            Verdict::Switched => {}
             // Without an observer at low speed, open loop carries the rotor on.
             Verdict::NoLock if s.speed_ref_rpm.abs() < handback && speed_rpm.abs() < handback => {
                 let ol = self.open_loop_at(frame, omega_m);
@@ -152,17 +197,39 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         s.out_rot = self.foc.output_rotation(omega_m);
         s.speed_ref_rpm = slew(s.speed_ref_rpm, cmd_rpm, self.slew_per_slot_cycle_rpm);
         let omega_m_ref = s.speed_ref_rpm * RAD_S_PER_RPM;
-        // The driving observer's load estimate fed forward, else the speed loop's own.
+        // The driving observer's load estimate fed forward, else the speed loop's own. When
+        // the driving observer changes, so may the feed-forward: the integrator takes the
+        // step, so the command does not jump (bumpless transfer).
         let own = self.load_observer.update(&mut s.load, omega_m, s.i_q_ref);
         let ff_nm = load_nm.unwrap_or(own);
+        if note.is_some() {
+            s.speed_pi.integral += self.foc.current_for_torque(s.ff_nm - ff_nm);
+        }
+        s.ff_nm = ff_nm;
         // The field-weakening i_d, and i_q within what it leaves of the current limit.
         let fw = &self.field_weakening;
-        s.i_d_ref = fw.i_d(s.i_d_ref, v_ab, v_max);
+        s.i_d_fw = fw.i_d(s.i_d_fw, applied.v_ab, applied.v_max);
+        s.i_d_handover *= self.handover_decay;
+        s.i_d_ref = s.i_d_fw + s.i_d_handover;
         let i_q_max = sqrt_or_zero(fw.i_max_a * fw.i_max_a - s.i_d_ref * s.i_d_ref);
-        let i_q = self
-            .foc
-            .speed_step(&mut s.speed_pi, omega_m_ref, omega_m, ff_nm);
-        s.i_q_ref = clamp(i_q, -i_q_max, i_q_max);
+        // Anti-windup at both limits: the speed PI's output and integrator within i_q_max;
+        // and at the voltage limit with the field weakening at its end (all of i_max on the d
+        // axis: nothing frees voltage any more), the integrator held against more motoring
+        // current, which would need voltage the loop does not have. While the field weakening
+        // still has room, it answers the voltage, not the speed loop. Braking current
+        // (against the rotation) lowers the voltage and stays free.
+        let exhausted = applied.limited && s.i_d_fw <= -fw.i_max_a;
+        let held = match (exhausted, omega_m >= 0.0) {
+            (false, _) => Held::No,
+            (true, true) => Held::Up,
+            (true, false) => Held::Down,
+        };
+        s.i_q_ref = self.foc.speed_step_within(
+            &mut s.speed_pi,
+            (omega_m_ref, omega_m),
+            ff_nm,
+            ((-i_q_max, i_q_max), held),
+        );
         if self
             .supervision
             .stalled(&mut s.stall, omega_m, s.speed_ref_rpm, s.i_q_ref)

@@ -108,8 +108,10 @@ mod firmware {
     const IDENTIFY_HOLD_STEPS: u32 = 2 * crate::pwm::CONTROL_HZ;
 
     /// The control context, installed by `main`; the interrupt steps it, the main loop runs
-    /// its 1 kHz task, each inside a critical section.
-    static CONTROL: Mutex<RefCell<Option<Control>>> = Mutex::new(RefCell::new(None));
+    /// its 1 kHz task, each inside a critical section. A reference to a `singleton!` (zeroed
+    /// `.bss`): an `Option<Control>` itself would start as a `None` that is not all zeros and
+    /// take its whole size of flash for the initial value.
+    static CONTROL: Mutex<RefCell<Option<&'static mut Control>>> = Mutex::new(RefCell::new(None));
 
     /// The control interrupt: ADC1 end of injected sequence (ADC1 and ADC2 share the vector).
     /// [`Control::step`]: read the ADC, step the drive, write the compare registers, push
@@ -184,10 +186,12 @@ mod firmware {
         // Drop any sequence that completed since the calibration, so the first step starts on
         // a fresh sample (a stale one could make the first step look like an overrun).
         stage.discard_samples();
+        let control = Control::new(drive, stage, watchdog, sender);
+        let Some(control) = cortex_m::singleton!(: Control = control) else {
+            defmt::panic!("control context taken twice");
+        };
         cortex_m::interrupt::free(|cs| {
-            CONTROL
-                .borrow(cs)
-                .replace(Some(Control::new(drive, stage, watchdog, sender)));
+            CONTROL.borrow(cs).replace(Some(control));
         });
         NVIC::unpend(Interrupt::ADC1_2);
         // SAFETY: the handler's context is installed above; unmasking cannot break a
