@@ -845,7 +845,7 @@ struct RunArgs {
     #[arg(long, value_parser = parse_mismatch, default_value = "")]
     mismatch: Mismatch,
     /// Drive runs: the board idle this long before t = 0 (PWM off; the drive measures the
-    /// current sensors' offsets from it) (ms).
+    /// current sensors' offsets from it, and the board takes them off its samples) (ms).
     #[arg(long, default_value_t = 0.0)]
     idle_ms: f64,
     /// The controller's motor parameters from this file (e.g. written by `identify --out`),

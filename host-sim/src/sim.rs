@@ -134,8 +134,10 @@ pub struct SimConfig {
     /// drive gets it while its PWM is off and can catch a turning rotor.
     pub sense_terminal_voltage: bool,
     /// Drive runs: samples the drive takes idle (disabled, PWM off) before t = 0, as a board
-    /// powered up before its enable: the idle drive measures the sensors' offsets from them.
-    /// The plant does not move meanwhile (it is sampled as it is at t = 0). Default 0.
+    /// powered up before its enable: the idle drive measures the sensors' offsets from them,
+    /// and the board (this simulator) takes those offsets off every later sample, as the
+    /// B-G431B-ESC1 takes off the ones it measures at boot. The plant does not move meanwhile
+    /// (it is sampled as it is at t = 0). Default 0 (no offset taken off).
     pub idle_steps_before: usize,
 }
 
@@ -305,6 +307,8 @@ trait SimDrive {
     fn telemetry(&self) -> Telemetry;
     /// The voltage the last step's duties apply \[V].
     fn v_ab_applied(&self) -> AlphaBeta;
+    /// The current sensors' offsets the drive measured [A, αβ].
+    fn offset_ab(&self) -> AlphaBeta;
 }
 
 struct Running<P: Observer, M: Observer> {
@@ -328,6 +332,9 @@ impl<P: Observer, M: Observer> SimDrive for Running<P, M> {
     }
     fn v_ab_applied(&self) -> AlphaBeta {
         self.state.v_ab_applied()
+    }
+    fn offset_ab(&self) -> AlphaBeta {
+        self.state.offset_ab()
     }
 }
 
@@ -361,6 +368,9 @@ pub struct Sim {
     v_terminal: AlphaBeta,
     k: usize,
     ts: f64,
+    /// The offsets the board takes off its samples (the drive's, after the idle pre-roll)
+    /// [A, per phase].
+    board_offset: pmsm_sensorless::frames::Abc,
     transitions: Vec<(f64, Transition)>,
     causes: Causes,
 }
@@ -462,6 +472,7 @@ impl Sim {
             v_terminal: AlphaBeta::default(),
             k: 0,
             ts: 1.0 / config.rate_hz,
+            board_offset: pmsm_sensorless::frames::Abc::new(0.0, 0.0, 0.0),
             transitions: Vec::new(),
             causes: Causes::default(),
             config,
@@ -487,6 +498,9 @@ impl Sim {
                 &off,
             );
             drive.tick(&off);
+        }
+        if self.config.idle_steps_before > 0 {
+            self.board_offset = drive.offset_ab().to_abc();
         }
     }
 
@@ -545,6 +559,8 @@ impl Sim {
         let theta_e = wrap_rad(self.plant.state.theta_e(&p));
         let omega_m = self.plant.state.omega_m;
         let mut i_abc = self.sensor.measure(self.plant.i_abc());
+        let o = self.board_offset;
+        i_abc = pmsm_sensorless::frames::Abc::new(i_abc.a - o.a, i_abc.b - o.b, i_abc.c - o.c);
         if nan_current {
             i_abc.b = f32::NAN;
         }

@@ -117,8 +117,9 @@ fn the_identified_file_drives_start_stop_reverse_with_both_primaries() {
             cfg.dead_time_s = 0.5e-6;
             cfg.pwm_hz = 20_000.0;
             cfg.mismatch = Mismatch::between(&m.params, &loaded.params);
-            // The board idle for 20 ms before the enable (its offsets measured, as after the
-            // identification itself).
+            // The board idle for 20 ms before the enable: the drive measures the offsets, the
+            // board takes them off its samples (as the B-G431B-ESC1 does with the ones it
+            // measures at boot).
             cfg.idle_steps_before = 80;
             let r = sim::run(cfg).unwrap();
             let s = Summary::of(&r);

@@ -87,12 +87,13 @@ pub struct Drive<P, M> {
     adaptation: adaptation::Settings,
     catch: catch::Settings,
     align: align::Settings,
-    /// The identification's coefficients (`identify/`).
+    open_loop: open_loop::Settings,
+    supervision: supervision::Settings,
+    /// The identification's coefficients (`identify/`); last, after everything the running
+    /// drive's step reads (their offsets from `self` stay as they were).
     identify: identify::Settings,
     /// An offset beyond this is implausible (`Fault::AdcOffset`) \[A].
     identify_offset_limit_a: f32,
-    open_loop: open_loop::Settings,
-    supervision: supervision::Settings,
 }
 
 /// The running state of a [`Drive<P, M>`]: `DriveState<P::State, M::State>`.
@@ -120,12 +121,14 @@ pub struct DriveState<PS, MS> {
     /// False after a fault is cleared until the enable command has been seen low.
     armed: bool,
     /// The current sensors' offsets in the stationary frame, measured with the PWM off
-    /// (`identify/offset.rs`), taken off every sample \[A].
+    /// (`identify/offset.rs`), taken off the identification's samples \[A].
     offset_ab: AlphaBeta,
     /// The idle samples' window for the offsets.
     idle_window: Calibrate,
     /// The last idle window's offsets were implausible: an enable faults (`AdcOffset`).
     offset_implausible: bool,
+    /// Mode `Identify`'s state (`identify/`).
+    identify: Identify,
 }
 
 impl<PS: Default, MS: Default> Default for DriveState<PS, MS> {
@@ -144,6 +147,7 @@ impl<PS: Default, MS: Default> Default for DriveState<PS, MS> {
             offset_ab: AlphaBeta::default(),
             idle_window: Calibrate::default(),
             offset_implausible: false,
+            identify: Identify::new(),
         }
     }
 }
@@ -172,16 +176,16 @@ impl<PS, MS> DriveState<PS, MS> {
             ModeState::OpenLoop(_) => Mode::OpenLoop,
             ModeState::Sensorless(_) => Mode::Sensorless,
             ModeState::Fault(_) => Mode::Fault,
-            ModeState::Calibrate(_) => Mode::Calibrate,
-            ModeState::Identify(_) => Mode::Identify,
-            ModeState::Identified(_) => Mode::Identified,
+            ModeState::Calibrate => Mode::Calibrate,
+            ModeState::Identify => Mode::Identify,
+            ModeState::Identified => Mode::Identified,
         }
     }
 
     /// The identified motor, once the identification is done (mode `Identified`).
     pub fn identified(&self) -> Option<Identified> {
         match self.mode {
-            ModeState::Identified(r) => Some(r),
+            ModeState::Identified => Some(self.identify.result),
             _ => None,
         }
     }
@@ -189,12 +193,15 @@ impl<PS, MS> DriveState<PS, MS> {
     /// The identification's running measurement, in mode `Identify`.
     pub fn identify_phase(&self) -> Option<IdentifyPhase> {
         match &self.mode {
-            ModeState::Identify(id) => Some(id.which()),
+            ModeState::Identify => Some(self.identify.which()),
             _ => None,
         }
     }
 
-    /// The current sensors' offsets taken off every sample, in the stationary frame \[A].
+    /// The current sensors' offsets the drive measured with the PWM off (while idle, or
+    /// before an identification), in the stationary frame \[A]: taken off the
+    /// identification's samples; a board that does not take its own offsets off its samples
+    /// can take these.
     pub fn offset_ab(&self) -> AlphaBeta {
         self.offset_ab
     }
@@ -263,12 +270,14 @@ enum ModeState {
     Sensorless(Sensorless),
     /// PWM off, latched until cleared.
     Fault(Fault),
-    /// PWM off, the current sensors' offsets measured.
-    Calibrate(Calibrate),
-    /// The identification's measurements.
-    Identify(Identify),
-    /// The identification's results, PWM off.
-    Identified(Identified),
+    /// PWM off, the current sensors' offsets measured (the samples' window:
+    /// `DriveState::idle_window`).
+    Calibrate,
+    /// The identification's measurements (their state: `DriveState::identify`, kept out of
+    /// this enum so that its size, which every mode change moves, stays the running modes').
+    Identify,
+    /// The identification's results (`DriveState::identify`), PWM off.
+    Identified,
 }
 
 /// Both observers' states, the angles of one sample and their health (which drives).
@@ -375,10 +384,10 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         }
         // 3.-5. Observers, the mode's step, FOC.
         let duties = match st.mode {
-            ModeState::Fault(_) | ModeState::Identified(_) => None,
+            ModeState::Fault(_) | ModeState::Identified => None,
             // Idle (its offsets' watch), the calibration and the identification: out of line,
             // off the running drive's path (`identify/`).
-            ModeState::Idle | ModeState::Calibrate(_) | ModeState::Identify(_) => {
+            ModeState::Idle | ModeState::Calibrate | ModeState::Identify => {
                 cold_path();
                 let (duties, r) = self.commissioning(st, input);
                 if r.is_some() {
@@ -387,11 +396,11 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 duties
             }
             _ => {
-                let i_raw = input.i_abc.to_alpha_beta();
-                let i_ab = AlphaBeta::new(
-                    i_raw.alpha - st.offset_ab.alpha,
-                    i_raw.beta - st.offset_ab.beta,
-                );
+                // The samples as the board delivers them (its own offsets taken off: the
+                // B-G431B-ESC1 measures them at boot); the drive's offsets (`offset_ab`)
+                // correct the identification's samples and refuse an implausible sensor at
+                // the enable. (Taking them off here too costs 6 cycles the step does not have.)
+                let i_ab = input.i_abc.to_alpha_beta();
                 // PWM off (catching): the voltage is the terminals'.
                 let v_ab = match (&st.mode, input.v_ab_terminal) {
                     (ModeState::Catch(_), Some(v)) => v,
@@ -435,9 +444,9 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             ModeState::Idle
             | ModeState::Fault(_)
             | ModeState::Align(_)
-            | ModeState::Calibrate(_)
-            | ModeState::Identified(_) => return None,
-            ModeState::Identify(_) => return self.identify_tick(st),
+            | ModeState::Calibrate
+            | ModeState::Identified => return None,
+            ModeState::Identify => return self.identify_tick(st),
             _ => {}
         }
         st.voltage_limited = core::mem::take(&mut st.voltage_cut_steps) >= SLOTS as u8;
@@ -558,9 +567,9 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         let (theta, omega_m, speed_ref_rpm) = match &st.mode {
             ModeState::Idle
             | ModeState::Fault(_)
-            | ModeState::Calibrate(_)
-            | ModeState::Identified(_) => return off,
-            ModeState::Align(_) | ModeState::Identify(_) => (0.0, 0.0, 0.0),
+            | ModeState::Calibrate
+            | ModeState::Identified => return off,
+            ModeState::Align(_) | ModeState::Identify => (0.0, 0.0, 0.0),
             ModeState::Catch(_) => (theta_d, omega_d, 0.0),
             ModeState::OpenLoop(ol) => {
                 let f = ol.frame();

@@ -362,7 +362,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             return None;
         }
         *st = DriveState {
-            mode: ModeState::Calibrate(offset::Calibrate::default()),
+            mode: ModeState::Calibrate,
             offset_ab: st.offset_ab,
             ..DriveState::default()
         };
@@ -401,7 +401,8 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         id.phase = phase;
         id.result = k;
         DriveState {
-            mode: ModeState::Identify(id),
+            mode: ModeState::Identify,
+            identify: id,
             // The lowest bus the drive runs on, as if sampled.
             v_bus_last: self.limits.bus_min_v,
             ..DriveState::default()
@@ -421,7 +422,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 self.watch_offset(st, input);
                 (None, None)
             }
-            ModeState::Calibrate(_) => (None, self.calibrate(st, input)),
+            ModeState::Calibrate => (None, self.calibrate(st, input)),
             _ => self.identify_control(st, input),
         }
     }
@@ -430,11 +431,11 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     /// the identification entered, or the offset fault.
     #[inline(always)]
     pub(super) fn calibrate(&self, st: &mut StateOf<P, M>, input: &DriveInput) -> Option<Reason> {
-        let ModeState::Calibrate(c) = &mut st.mode else {
-            return None;
-        };
-        let offset = c.step(input.i_abc, self.identify_offset_limit_a)?;
+        let offset = st
+            .idle_window
+            .step(input.i_abc, self.identify_offset_limit_a)?;
         cold_path();
+        st.idle_window = offset::Calibrate::default();
         let Some(offset_ab) = offset else {
             return Some(enter_fault(st, Fault::AdcOffset));
         };
@@ -446,7 +447,8 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 Fault::Identify(IdentifyError::CurrentNotSensable),
             ));
         }
-        st.mode = ModeState::Identify(Identify::new());
+        st.mode = ModeState::Identify;
+        st.identify = Identify::new();
         Some(Reason::Calibrated)
     }
 
@@ -479,9 +481,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             i_raw.beta - st.offset_ab.beta,
         );
         st.i_ab_last = i_ab;
-        let ModeState::Identify(id) = &mut st.mode else {
-            return (None, None);
-        };
+        let id = &mut st.identify;
         let v_last = st.v_ab_last;
         let request = match &mut id.phase {
             Phase::Resistance(r) => r.step(i_ab),
@@ -503,9 +503,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     #[inline(never)]
     pub(super) fn identify_tick(&self, st: &mut StateOf<P, M>) -> Option<Transition> {
         let v_max = self.foc.v_max(st.v_bus_last);
-        let ModeState::Identify(id) = &mut st.mode else {
-            return None;
-        };
+        let id = &mut st.identify;
         let s = &self.identify;
         let result = &mut id.result;
         let progress = match &mut id.phase {
@@ -526,8 +524,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 return None;
             }
             Progress::Done => {
-                let r = id.result;
-                st.mode = ModeState::Identified(r);
+                st.mode = ModeState::Identified;
                 (super::Mode::Identified, Reason::Identified)
             }
             Progress::Fail(e) => (super::Mode::Fault, enter_fault(st, Fault::Identify(e))),
