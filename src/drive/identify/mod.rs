@@ -51,7 +51,7 @@ use inductance::Inductance;
 use mechanics::Mechanics;
 use resistance::Resistance;
 
-/// Why an identification stopped (the drive's [`Fault::Identify`](super::Fault::Identify)).
+/// Why an identification stopped (the drive's [`Fault::Identify`]).
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum IdentifyError {
