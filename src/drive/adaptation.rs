@@ -48,11 +48,13 @@ pub(super) struct Settings {
     pub(super) half_ts: f32,
     /// ψ_f's low-pass gain per 1 kHz check, `T/τ`.
     pub(super) flux_gain: f32,
-    /// The current command's low-pass gain per check (the operating point's mean).
-    pub(super) current_gain: f32,
+    /// ψ_f is taken once the operating point has been inside its range this many checks
+    /// running, and from then on while it stays.
+    pub(super) steady_checks: u16,
     /// ψ_f is measured above this electrical speed \[rad/s] ...
     pub(super) flux_min_omega_e: f32,
-    /// ... where `R₀ |i_ref|` is at most this fraction of the back-EMF `ψ₀ ω_e`.
+    /// ... where `R₀ |i_q|` (R's first-order part of `|e|`) is at most this fraction of the
+    /// back-EMF `ψ₀ ω_e`.
     pub(super) flux_max_r_share: f32,
 }
 
@@ -68,8 +70,8 @@ pub(super) struct Model {
     scale: f32,
     /// `s (R − R₀)` \[Ω].
     scaled_dr_ohm: f32,
-    /// The current command's length, low-pass filtered (`Settings::current_gain`) \[A].
-    i_ref_mean_a: f32,
+    /// Consecutive 1 kHz checks inside ψ_f's operating range.
+    steady_checks: u16,
 }
 
 impl Model {
@@ -125,7 +127,7 @@ impl Settings {
             flux_wb,
             scale,
             scaled_dr_ohm: scale * (r_ohm - self.r0_ohm),
-            i_ref_mean_a: 0.0,
+            steady_checks: 0,
         }
     }
 
@@ -137,7 +139,7 @@ impl Settings {
         let ok = r_ohm >= lo && r_ohm <= hi; // false for NaN
         if ok {
             *m = Model {
-                i_ref_mean_a: m.i_ref_mean_a,
+                steady_checks: m.steady_checks,
                 ..self.model(r_ohm, m.flux_wb)
             };
         }
@@ -146,24 +148,33 @@ impl Settings {
 
     /// One 1 kHz check of ψ_f in steady running: `i_ab` the current sampled now \[A], `v_ab`
     /// the voltage applied over the period that ended with it \[V], `omega_m` the speed
-    /// [rad/s, mechanical], `i_ref_a` at least the length of the current command \[A]. Outside the
-    /// operating range where it is measured, the model stays. The range is judged on the
-    /// command's mean, not on the sampled current or the command now: a ripple (an offset's, at
-    /// the electrical frequency, which the speed loop answers) must not choose which samples
-    /// are taken, or it biases their mean (measured: −5 % with a 2 % offset under load).
+    /// [rad/s, mechanical], `i_q_ref_a` the q current commanded \[A] (R's error moves `|e|` by
+    /// itself times the current along the back-EMF, to first order; a d current, at right
+    /// angles to it, only to second order). Outside the operating range where it is measured,
+    /// the model stays. The samples are taken only after the operating point has stayed in
+    /// range for [`Settings::steady_checks`] running, never picked one by one: a ripple (an
+    /// offset's, at the electrical frequency, which the speed loop answers) that moved a
+    /// sample in and out of range would choose which are taken, and bias their mean (measured:
+    /// −5 % with a 2 % offset under load).
     #[inline(always)]
     pub(super) fn track_flux(
         &self,
         m: &mut Model,
         (i_ab, v_ab): (AlphaBeta, AlphaBeta),
         omega_m: f32,
-        i_ref_a: f32,
+        i_q_ref_a: f32,
     ) {
         let omega_e = self.pole_pairs * omega_m;
         let w = omega_e.abs();
-        m.i_ref_mean_a += self.current_gain * (i_ref_a - m.i_ref_mean_a);
-        let r_share = self.r0_ohm * m.i_ref_mean_a;
-        if !(w >= self.flux_min_omega_e && r_share <= self.flux_max_r_share * self.flux0_wb * w) {
+        let r_share = self.r0_ohm * i_q_ref_a.abs();
+        let in_range =
+            w >= self.flux_min_omega_e && r_share <= self.flux_max_r_share * self.flux0_wb * w;
+        m.steady_checks = if in_range {
+            m.steady_checks.saturating_add(1)
+        } else {
+            0
+        };
+        if m.steady_checks < self.steady_checks {
             return;
         }
         // The voltage of the period's middle, turned on by half a period to the sample's
@@ -187,7 +198,7 @@ impl Settings {
         if measured >= lo && measured <= hi {
             let flux = m.flux_wb + self.flux_gain * (measured - m.flux_wb);
             *m = Model {
-                i_ref_mean_a: m.i_ref_mean_a,
+                steady_checks: m.steady_checks,
                 ..self.model(m.r_ohm, flux)
             };
         }

@@ -179,9 +179,8 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             // The flux linkage from the back-EMF while the driving observer is locked
             // (`adaptation.rs`).
             Verdict::Drive => {
-                let i_ref_a = s.i_d_ref.abs() + s.i_q_ref.abs();
                 let sample = (i_ab, applied.v_ab);
-                (self.adaptation).track_flux(&mut obs.model, sample, omega_m, i_ref_a);
+                (self.adaptation).track_flux(&mut obs.model, sample, omega_m, s.i_q_ref);
             }
             Verdict::Switched => {}
             // Without an observer at low speed, open loop carries the rotor on.
