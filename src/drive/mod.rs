@@ -59,6 +59,7 @@ use align::Align;
 use catch::Catch;
 use core::hint::cold_path;
 use identify::offset::Calibrate;
+#[cfg(feature = "identify")]
 use identify::Identify;
 use open_loop::OpenLoop;
 use sensorless::Sensorless;
@@ -128,6 +129,7 @@ pub struct DriveState<PS, MS> {
     /// The last idle window's offsets were implausible: an enable faults (`AdcOffset`).
     offset_implausible: bool,
     /// Mode `Identify`'s state (`identify/`).
+    #[cfg(feature = "identify")]
     identify: Identify,
 }
 
@@ -147,6 +149,7 @@ impl<PS: Default, MS: Default> Default for DriveState<PS, MS> {
             offset_ab: AlphaBeta::default(),
             idle_window: Calibrate::default(),
             offset_implausible: false,
+            #[cfg(feature = "identify")]
             identify: Identify::new(),
         }
     }
@@ -185,6 +188,7 @@ impl<PS, MS> DriveState<PS, MS> {
     /// The identified motor, once the identification is done (mode `Identified`).
     pub fn identified(&self) -> Option<Identified> {
         match self.mode {
+            #[cfg(feature = "identify")]
             ModeState::Identified => Some(self.identify.result),
             _ => None,
         }
@@ -193,6 +197,7 @@ impl<PS, MS> DriveState<PS, MS> {
     /// The identification's running measurement, in mode `Identify`.
     pub fn identify_phase(&self) -> Option<IdentifyPhase> {
         match &self.mode {
+            #[cfg(feature = "identify")]
             ModeState::Identify => Some(self.identify.which()),
             _ => None,
         }
@@ -257,6 +262,8 @@ impl<PS, MS> DriveState<PS, MS> {
 
 /// The mode and the state it owns.
 #[derive(Clone, Copy, Debug, PartialEq)]
+// Without the feature `identify`, Calibrate, Identify and Identified are never entered.
+#[cfg_attr(not(feature = "identify"), allow(dead_code))]
 enum ModeState {
     /// PWM off, waiting for enable.
     Idle,
@@ -271,7 +278,7 @@ enum ModeState {
     /// PWM off, latched until cleared.
     Fault(Fault),
     /// PWM off, the current sensors' offsets measured (the samples' window:
-    /// `DriveState::idle_window`).
+    /// `DriveState::idle_window`). Entered only with the feature `identify`.
     Calibrate,
     /// The identification's measurements (their state: `DriveState::identify`, kept out of
     /// this enum so that its size, which every mode change moves, stays the running modes').
@@ -446,7 +453,11 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             | ModeState::Align(_)
             | ModeState::Calibrate
             | ModeState::Identified => return None,
+            #[cfg(feature = "identify")]
             ModeState::Identify => return self.identify_tick(st),
+            // Without the feature `identify` the mode is never entered.
+            #[cfg(not(feature = "identify"))]
+            ModeState::Identify => return None,
             _ => {}
         }
         st.voltage_limited = core::mem::take(&mut st.voltage_cut_steps) >= SLOTS as u8;

@@ -255,6 +255,8 @@ impl Control {
             speed_rpm: SPEED_CMD_RPM,
             clear_fault: false,
         };
+        // The commissioning firmware (`cargo fw-identify`) only.
+        #[cfg(feature = "identify")]
         if IDENTIFY.swap(false, Ordering::Relaxed) {
             if let Some(tr) = self.drive.start_identification(&mut self.state) {
                 self.telemetry.send(Event::Transition {

@@ -205,9 +205,12 @@ mod firmware {
         let mut pressed_at = 0u32;
         let mut last_poll = 0u32;
         let mut faulted = false;
+        #[cfg(feature = "identify")]
         defmt::info!(
             "running; press the user button (PC10) to enable/disable, hold it 2 s to identify the motor"
         );
+        #[cfg(not(feature = "identify"))]
+        defmt::info!("running; press the user button (PC10) to enable/disable");
 
         loop {
             // The drive's 1 kHz task, between two steps.
@@ -238,7 +241,10 @@ mod firmware {
                         ENABLE.store(false, Ordering::Relaxed);
                         CLEAR_FAULT.store(true, Ordering::Relaxed);
                         defmt::info!("button: clear fault (drive stays disabled)");
-                    } else if held >= IDENTIFY_HOLD_STEPS && !ENABLE.load(Ordering::Relaxed) {
+                    } else if cfg!(feature = "identify")
+                        && held >= IDENTIFY_HOLD_STEPS
+                        && !ENABLE.load(Ordering::Relaxed)
+                    {
                         ENABLE.store(true, Ordering::Relaxed);
                         IDENTIFY.store(true, Ordering::Relaxed);
                         defmt::info!("button held: identification (the motor turns)");

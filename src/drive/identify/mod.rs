@@ -34,6 +34,8 @@
 //! [`Fault::Identify`]: super::Fault::Identify
 //! [`DriveConfig::new`]: super::DriveConfig::new
 //! [`MotorParams`]: crate::motor::MotorParams
+// Without the feature `identify` the modes are never entered and their code is unused.
+#![cfg_attr(not(feature = "identify"), allow(dead_code, unused_imports))]
 
 pub(super) mod flux;
 pub(super) mod inductance;
@@ -357,6 +359,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     /// nothing done in any other mode. Read the results with
     /// [`DriveState::identified`](super::DriveState::identified) once the mode is
     /// `Identified`.
+    #[cfg(feature = "identify")]
     pub fn start_identification(&self, st: &mut StateOf<P, M>) -> Option<Transition> {
         if !(matches!(st.mode, ModeState::Idle) && st.armed) {
             return None;
@@ -377,6 +380,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     /// before it taken as `known` (a rotor at rest at θ_e = 0; for the flux's spin and the
     /// torque steps, the frame at θ_e = 0 turning at 30 % of rated speed): for benches and
     /// tests that measure one phase's step without running the ones before.
+    #[cfg(feature = "identify")]
     pub fn identification_state(&self, phase: IdentifyPhase, known: Identified) -> StateOf<P, M> {
         let s = &self.identify;
         let k = known;
@@ -422,14 +426,20 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 self.watch_offset(st, input);
                 (None, None)
             }
+            #[cfg(feature = "identify")]
             ModeState::Calibrate => (None, self.calibrate(st, input)),
+            #[cfg(feature = "identify")]
             _ => self.identify_control(st, input),
+            // Without the feature `identify` its modes are never entered.
+            #[cfg(not(feature = "identify"))]
+            _ => (None, None),
         }
     }
 
     /// Mode `Calibrate`'s step (PWM off): the sample summed; at the end the offsets kept and
     /// the identification entered, or the offset fault.
     #[inline(always)]
+    #[cfg(feature = "identify")]
     pub(super) fn calibrate(&self, st: &mut StateOf<P, M>, input: &DriveInput) -> Option<Reason> {
         let offset = st
             .idle_window
@@ -470,6 +480,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
 
     /// Mode `Identify`'s step: the measurement's request through its FOC (no observers run).
     #[inline(always)]
+    #[cfg(feature = "identify")]
     pub(super) fn identify_control(
         &self,
         st: &mut StateOf<P, M>,
@@ -501,6 +512,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     /// Mode `Identify`'s 1 kHz work: the measurement's decisions; the next measurement, the
     /// results, or the named error.
     #[inline(never)]
+    #[cfg(feature = "identify")]
     pub(super) fn identify_tick(&self, st: &mut StateOf<P, M>) -> Option<Transition> {
         let v_max = self.foc.v_max(st.v_bus_last);
         let id = &mut st.identify;
