@@ -1,7 +1,9 @@
 //! The drive's configuration in SI units, its validation, and what it derives: the FOC gains,
 //! the observers' settings, and each mode's per-step coefficients.
 
-use super::identify::{self, IdentifyConfig};
+#[cfg(feature = "identify")]
+use super::identify;
+use super::identify::IdentifyConfig;
 use super::open_loop;
 use super::schedule::SLOTS;
 use super::supervision;
@@ -296,6 +298,7 @@ impl DriveConfig {
             ],
         );
         c.done()?;
+        #[cfg(feature = "identify")]
         self.identify.check()?;
         Ok(m)
     }
@@ -483,6 +486,7 @@ impl DriveConfig {
                 half_n_ts: 0.5 * m.n() * ts,
                 timeout_checks: 5 * slot_cycles(h.lock_time_s).max(1),
             },
+            #[cfg(feature = "identify")]
             identify: identify::Settings::new(
                 &self.ratings,
                 m.n(),

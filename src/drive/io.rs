@@ -53,7 +53,8 @@ pub enum Fault {
     /// A current sensor's offset, measured with the PWM off, is beyond a twentieth of the
     /// sensing range: a broken sensing path, or a current flowing.
     AdcOffset,
-    /// The identification stopped: why.
+    /// The identification stopped: why (with the feature `identify`).
+    #[cfg(feature = "identify")]
     Identify(super::identify::IdentifyError),
 }
 

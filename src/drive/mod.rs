@@ -92,6 +92,7 @@ pub struct Drive<P, M> {
     supervision: supervision::Settings,
     /// The identification's coefficients (`identify/`); last, after everything the running
     /// drive's step reads (their offsets from `self` stay as they were).
+    #[cfg(feature = "identify")]
     identify: identify::Settings,
     /// An offset beyond this is implausible (`Fault::AdcOffset`) \[A].
     identify_offset_limit_a: f32,
@@ -103,6 +104,9 @@ pub type StateOf<P, M> = DriveState<<P as Observer>::State, <M as Observer>::Sta
 /// Running state of the drive (`PS`, `MS`: the primary's and the monitor's observer state).
 /// `Default` is idle, armed.
 #[derive(Clone, Copy, Debug, PartialEq)]
+// In declaration order (C layout): what the running step reads first, the identification's
+// state last, so that adding it does not move the hot fields' offsets.
+#[repr(C)]
 pub struct DriveState<PS, MS> {
     mode: ModeState,
     slot: Slot,
@@ -157,6 +161,8 @@ impl<PS: Default, MS: Default> Default for DriveState<PS, MS> {
 
 impl<PS: Default, MS: Default> DriveState<PS, MS> {
     /// Starts afresh in `mode`, the adapted motor model and the offsets measured kept.
+    // Out of line: a mode change (enable, disable, stop, clear), one copy for all of them.
+    #[inline(never)]
     fn restart(&mut self, mode: ModeState) {
         let model = self.obs.model;
         *self = DriveState {

@@ -4,9 +4,9 @@
 
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
-use pmsm_sensorless::drive::{
-    Command, Drive, DriveConfig, Identified, Mode, StateOf, Telemetry, Transition,
-};
+#[cfg(feature = "identify")]
+use pmsm_sensorless::drive::Identified;
+use pmsm_sensorless::drive::{Command, Drive, DriveConfig, Mode, StateOf, Telemetry, Transition};
 use pmsm_sensorless::frames::Abc;
 use pmsm_sensorless::motor::{Motor, Ratings, HORNG_SINANO};
 use pmsm_sensorless::observer::flux_speed::FluxPll;
@@ -79,7 +79,8 @@ pub enum Event {
         step: u32,
         tr: Transition,
     },
-    /// The identification's results: the motor file's lines.
+    /// The identification's results: the motor file's lines (the commissioning firmware).
+    #[cfg(feature = "identify")]
     Identified(Identified),
 }
 
@@ -89,6 +90,7 @@ impl Event {
         let mode = match self {
             Event::Telemetry { tel, .. } => tel.mode,
             Event::Transition { tr, .. } => tr.to,
+            #[cfg(feature = "identify")]
             Event::Identified(_) => Mode::Identified,
         };
         mode == Mode::Fault
@@ -109,6 +111,7 @@ impl defmt::Format for Event {
             ),
             // The motor file `pmsm-sim run --motor-file` loads (README, "Your motor"), with the
             // pole pairs and ratings of `MOTOR`.
+            #[cfg(feature = "identify")]
             Event::Identified(m) => defmt::write!(
                 f,
                 "identified motor file:\nname = \"identified\"\npole_pairs = {=u32}\nr_ohm = {=f32}\nl_h = {=f32}\nflux_wb = {=f32}\nj_kgm2 = {=f32}\nb_nms = {=f32}\n# l_d_h = {=f32}, l_q_h = {=f32}\n[ratings]\nbus_v = {=f32}\ncurrent_a = {=f32}\ntorque_nm = {=f32}\nspeed_rpm = {=f32}",
@@ -270,6 +273,7 @@ impl Control {
                 step: self.step,
                 tr,
             });
+            #[cfg(feature = "identify")]
             if let Some(m) = self.state.identified() {
                 // Done: the motor file in the log; the drive back to idle.
                 self.telemetry.send(Event::Identified(m));
