@@ -119,20 +119,7 @@ fn identify(args: IdentifyArgs) -> anyhow::Result<(String, bool)> {
     cfg.offset_a = args.offset_pct.map(|p| 0.01 * p * rated_a);
     cfg.adc_lsb_a = args.adc_lsb_a;
     cfg.sense_range_a = args.sense_range_a;
-    anyhow::ensure!(
-        args.pwm_hz.is_finite() && (1e3..=2e5).contains(&args.pwm_hz),
-        "--pwm-hz = {}: allowed [1000, 200000] Hz",
-        number(args.pwm_hz)
-    );
-    cfg.pwm_hz = args.pwm_hz;
-    let dead_max_us = 0.1e6 / args.pwm_hz;
-    anyhow::ensure!(
-        args.dead_time_us.is_finite() && (0.0..=dead_max_us).contains(&args.dead_time_us),
-        "--dead-time-us = {}: allowed [0, {dead_max_us}] µs (a tenth of the {} Hz PWM period)",
-        number(args.dead_time_us),
-        args.pwm_hz
-    );
-    cfg.dead_time_s = args.dead_time_us * 1e-6;
+    (cfg.pwm_hz, cfg.dead_time_s) = power_stage(args.pwm_hz, args.dead_time_us)?;
     cfg.seed = args.seed;
     cfg.fault = args
         .motor_fault
@@ -1059,22 +1046,26 @@ fn prepare(args: &RunArgs) -> anyhow::Result<SimConfig> {
         );
         cfg.sensorless_from_rpm = Some(x);
     }
-    anyhow::ensure!(
-        args.pwm_hz.is_finite() && (1e3..=2e5).contains(&args.pwm_hz),
-        "--pwm-hz = {}: allowed [1000, 200000] Hz",
-        number(args.pwm_hz)
-    );
-    cfg.pwm_hz = args.pwm_hz;
-    // A dead time is a small part of the PWM period: at most a tenth of it.
-    let dead_max_us = 0.1e6 / args.pwm_hz;
-    anyhow::ensure!(
-        args.dead_time_us.is_finite() && (0.0..=dead_max_us).contains(&args.dead_time_us),
-        "--dead-time-us = {}: allowed [0, {dead_max_us}] µs (a tenth of the {} Hz PWM period)",
-        number(args.dead_time_us),
-        args.pwm_hz
-    );
-    cfg.dead_time_s = args.dead_time_us * 1e-6;
+    (cfg.pwm_hz, cfg.dead_time_s) = power_stage(args.pwm_hz, args.dead_time_us)?;
     Ok(cfg)
+}
+
+/// `--pwm-hz` and `--dead-time-us` checked: the PWM frequency \[Hz] and the dead time \[s].
+fn power_stage(pwm_hz: f64, dead_time_us: f64) -> anyhow::Result<(f64, f64)> {
+    anyhow::ensure!(
+        pwm_hz.is_finite() && (1e3..=2e5).contains(&pwm_hz),
+        "--pwm-hz = {}: allowed [1000, 200000] Hz",
+        number(pwm_hz)
+    );
+    // A dead time is a small part of the PWM period: at most a tenth of it.
+    let dead_max_us = 0.1e6 / pwm_hz;
+    anyhow::ensure!(
+        dead_time_us.is_finite() && (0.0..=dead_max_us).contains(&dead_time_us),
+        "--dead-time-us = {}: allowed [0, {dead_max_us}] µs (a tenth of the {} Hz PWM period)",
+        number(dead_time_us),
+        pwm_hz
+    );
+    Ok((pwm_hz, dead_time_us * 1e-6))
 }
 
 /// `run`: the text (or JSON) to print, and whether the run passed.
