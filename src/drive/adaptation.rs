@@ -59,7 +59,7 @@ pub(super) struct Settings {
 }
 
 /// The adapted model and the observers' input transform; `Default` is unset (the drive
-/// starts it at the configured values, [`Settings::initial`]).
+/// starts it at the configured values, [`Settings::ensure`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(super) struct Model {
     /// Stator resistance \[Ω].
@@ -107,43 +107,29 @@ impl Model {
 }
 
 impl Settings {
-    /// The configured model.
-    pub(super) fn initial(&self) -> Model {
-        self.model(self.r0_ohm, self.flux0_wb)
-    }
-
     /// Sets the configured model into `m` if it has never been set.
     pub(super) fn ensure(&self, m: &mut Model) {
         if m.scale.is_nan() || m.scale <= 0.0 {
-            *m = self.initial();
+            self.set(m, self.r0_ohm, self.flux0_wb);
         }
     }
 
-    /// The model at `r_ohm`, `flux_wb`.
-    fn model(&self, r_ohm: f32, flux_wb: f32) -> Model {
-        let scale = self.flux0_wb / flux_wb;
-        Model {
-            r_ohm,
-            flux_wb,
-            scale,
-            scaled_dr_ohm: scale * (r_ohm - self.r0_ohm),
-            steady_checks: 0,
-        }
+    /// `m` at `r_ohm`, `flux_wb`, with its input transform.
+    fn set(&self, m: &mut Model, r_ohm: f32, flux_wb: f32) {
+        m.r_ohm = r_ohm;
+        m.flux_wb = flux_wb;
+        m.scale = self.flux0_wb / flux_wb;
+        m.scaled_dr_ohm = m.scale * (r_ohm - self.r0_ohm);
     }
 
     /// Takes a standstill measurement of R \[Ω] (`align.rs`); one beyond the range (a
-    /// disturbed or impossible measurement) is refused and the model kept. Returns whether it
-    /// was taken.
-    pub(super) fn take_resistance(&self, m: &mut Model, r_ohm: f32) -> bool {
+    /// disturbed or impossible measurement) is refused and the model kept.
+    pub(super) fn take_resistance(&self, m: &mut Model, r_ohm: f32) {
         let (lo, hi) = self.r_range;
-        let ok = r_ohm >= lo && r_ohm <= hi; // false for NaN
-        if ok {
-            *m = Model {
-                steady_checks: m.steady_checks,
-                ..self.model(r_ohm, m.flux_wb)
-            };
+        if r_ohm >= lo && r_ohm <= hi {
+            // false for NaN
+            self.set(m, r_ohm, m.flux_wb);
         }
-        ok
     }
 
     /// One 1 kHz check of ψ_f in steady running: `i_ab` the current sampled now \[A], `v_ab`
@@ -179,7 +165,8 @@ impl Settings {
         }
         // The voltage of the period's middle, turned on by half a period to the sample's
         // angle: (c, s) ≈ (1 − x²/2, x), x = ω_e T/2 (≤ 0.2 rad below the drive's speed
-        // limits; error below 1e-4).
+        // limits; error below 1e-4). Not `SinCos::of_small`: its higher terms and its
+        // fallback cost 100 bytes of the firmware's last 170.
         let x = omega_e * self.half_ts;
         let (c, s) = (1.0 - 0.5 * x * x, x);
         let v = AlphaBeta::new(
@@ -197,10 +184,7 @@ impl Settings {
         let (lo, hi) = self.flux_range;
         if measured >= lo && measured <= hi {
             let flux = m.flux_wb + self.flux_gain * (measured - m.flux_wb);
-            *m = Model {
-                steady_checks: m.steady_checks,
-                ..self.model(m.r_ohm, flux)
-            };
+            self.set(m, m.r_ohm, flux);
         }
     }
 }
