@@ -12,6 +12,7 @@
 #![warn(missing_docs)]
 
 pub mod bounds;
+pub mod control;
 pub mod dead_time;
 pub mod drive;
 pub mod foc;

@@ -1,284 +1,245 @@
-//! The drive as this board runs it: the motor and the command, the drive built for the board's
-//! rate and limits, what the control step reports, and the control step itself. The only
-//! module that uses the drive's API.
+//! The drive's two tasks on this board, on the core's shared control loop
+//! (`pmsm_sensorless::control`): the step in the ADC's interrupt (`ADC1_2`, the highest
+//! priority, 4 kHz) and the drive's 1 kHz task in a spare interrupt below it ([`TICK_IRQ`],
+//! pended by the step when the task is due); the commands the main loop gives them.
+//!
+//! # The two priorities
+//!
+//! The step owns the control (the drive, its state, the power stage), the watchdog and its
+//! event queue; the task owns a [`TickCopy`] and its own queue. `Drive::tick` must never run
+//! in the middle of a step, and the step must not wait for a whole task: the task runs on a
+//! copy of the state. It takes the copy with interrupts off (`take`, one copy of the drive's
+//! state: 304 bytes, 464 with the identification), runs `Drive::tick` on it with interrupts
+//! on (the step preempts it freely), and puts it back with interrupts off again (`give`, the
+//! same copy) if no step ran since the take; else it takes again, and so acts after that
+//! step, as a late task always did. The task is pended at the end of every fourth step and
+//! runs right after it (tail-chained), about 10 µs before the next step is due 250 µs later:
+//! a retry needs the task held off for some 230 µs by something else (the main loop's
+//! critical sections, each one defmt frame), and is counted in the log.
+//!
+//! Latency: the step waits at most for one of those two copies (a few hundred cycles, some
+//! 2-3 µs at 170 MHz), where it waited for a whole `Drive::tick` (up to 1500 cycles, 9 µs)
+//! when the main loop ran the task in a critical section; the main loop's own critical
+//! sections (defmt-rtt's) are as before.
 
+use core::cell::RefCell;
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
-#[cfg(feature = "identify")]
-use pmsm_sensorless::drive::Identified;
-use pmsm_sensorless::drive::{Command, Drive, DriveConfig, Mode, StateOf, Telemetry, Transition};
-use pmsm_sensorless::frames::Abc;
-use pmsm_sensorless::motor::{Motor, Ratings, HORNG_SINANO};
-use pmsm_sensorless::observer::flux_speed::FluxPll;
-use pmsm_sensorless::observer::sliding::SlidingObserver;
-use pmsm_sensorless::power_stage::PowerStage;
+use cortex_m::interrupt::Mutex;
+use cortex_m::peripheral::NVIC;
+use pmsm_sensorless::control::{Commands, TickCopy};
+use stm32g4::stm32g431::{interrupt, Interrupt};
 
-use crate::adc::{AMPS_PER_LSB, I_ADC_RANGE_A};
 use crate::power_stage::Esc1;
-use crate::protection::{Watchdog, BOARD_BUS_MAX_V};
-use crate::pwm::CONTROL_HZ;
-use crate::telemetry::{seconds, Sender, TELEMETRY_EVERY};
+use crate::protection::Watchdog;
+use crate::settings::{BoardDrive, Monitor, Primary, SPEED_CMD_RPM};
+use crate::telemetry::{Event, Sender, TELEMETRY_EVERY};
 
-// -------------------------------------------------------------------------------------------
-// User settings
-// -------------------------------------------------------------------------------------------
-
-/// The board's default motor: Horng & Chin's Sinano motor ([`HORNG_SINANO`], R, L, K, N,
-/// J, B of their Table 1) with its bus rating moved from 48 V to 24 V, the bus this board
-/// takes (UM2516: up to 6S LiPo). Everything else is the preset's (its 1000 rpm rating
-/// stays, as the sliding-gain bounds are checked there; at 24 V the motor's back-EMF
-/// limits it to about 570 rpm, hence [`SPEED_CMD_RPM`]). Replace this with your motor.
-pub const MOTOR: Motor = Motor {
-    name: "sinano-24v",
-    params: HORNG_SINANO.params,
-    ratings: Ratings {
-        bus_v: 24.0,
-        ..HORNG_SINANO.ratings
-    },
-};
-
-/// The observer feeding the controller (Horng & Chin's sliding torque observer) and the one
-/// watching it (Ortega et al.'s flux observer with its PLL). To swap them, swap these two and
-/// call `DriveConfig::build_flux_primary` in [`build_drive`].
-type Primary = SlidingObserver;
-type Monitor = FluxPll;
-
-/// The drive this board runs.
-pub type BoardDrive = Drive<Primary, Monitor>;
-
-/// Speed command while enabled [rpm, mechanical].
-pub const SPEED_CMD_RPM: f32 = 400.0;
+/// The step's interrupt: ADC1 end of injected sequence (ADC1 and ADC2 share the vector).
+pub const STEP_IRQ: Interrupt = Interrupt::ADC1_2;
+/// The 1 kHz task's interrupt: SPI3's vector, pended by software only (SPI3 is not used on
+/// this board, its interrupt sources stay disabled).
+pub const TICK_IRQ: Interrupt = Interrupt::SPI3;
+/// NVIC priorities (the STM32G4 implements the top 4 bits; lower is more urgent): the step
+/// preempts the task.
+pub const STEP_PRIORITY: u8 = 0x00;
+/// See [`STEP_PRIORITY`].
+pub const TICK_PRIORITY: u8 = 0x10;
 
 // -------------------------------------------------------------------------------------------
 // Command path
 // -------------------------------------------------------------------------------------------
 
-/// Run command, written by the main loop (button), read by the interrupt.
+/// Run command, written by the main loop (button), read by both interrupts.
 pub static ENABLE: AtomicBool = AtomicBool::new(false);
-/// Clear-fault request, set by the main loop, consumed (swapped to false) by the interrupt.
+/// Clear-fault request, set by the main loop, consumed (swapped to false) by the step.
 pub static CLEAR_FAULT: AtomicBool = AtomicBool::new(false);
 /// Control steps done, for the main loop's timing.
 pub static STEPS: AtomicU32 = AtomicU32::new(0);
-/// Identification request (the user button held), set by the main loop, consumed by
-/// [`Control::tick`]: the drive measures the motor from idle (issue #19) and the log prints the
+/// Identification request (the user button held), set by the main loop, consumed by the
+/// 1 kHz task: the drive measures the motor from idle (issue #19) and the log prints the
 /// motor file.
 pub static IDENTIFY: AtomicBool = AtomicBool::new(false);
-/// Set by the step when the drive's 1 kHz task ([`Control::tick`]) is due; the main loop runs
-/// it.
-pub static TICK_DUE: AtomicBool = AtomicBool::new(false);
+/// 1 kHz tasks taken again because a step ran while they computed (see the module's doc).
+pub static TICK_RETRIES: AtomicU32 = AtomicU32::new(0);
 
-/// What the interrupt sends to the main loop.
-pub enum Event {
-    Telemetry {
-        step: u32,
-        tel: Telemetry,
-        i_abc: Abc,
-        v_bus: f32,
-    },
-    Transition {
-        step: u32,
-        tr: Transition,
-    },
-    /// The identification's results: the motor file's lines (the commissioning firmware).
-    #[cfg(feature = "identify")]
-    Identified(Identified),
-}
+/// The core's control loop on this board's power stage.
+type BoardControl = pmsm_sensorless::control::Control<Primary, Monitor, Esc1>;
 
-impl Event {
-    /// Whether the drive is in `Fault` after this event.
-    pub fn faulted(&self) -> bool {
-        let mode = match self {
-            Event::Telemetry { tel, .. } => tel.mode,
-            Event::Transition { tr, .. } => tr.to,
-            #[cfg(feature = "identify")]
-            Event::Identified(_) => Mode::Identified,
-        };
-        mode == Mode::Fault
-    }
-}
+/// The step's context, installed by [`start`]; the task reaches it for its two copies, with
+/// interrupts off. A reference to a `singleton!` (zeroed `.bss`): an `Option<Control>` itself
+/// would start as a `None` that is not all zeros and take its whole size of flash for the
+/// initial value.
+static CONTROL: Mutex<RefCell<Option<&'static mut Control>>> = Mutex::new(RefCell::new(None));
+/// The task's context, installed by [`start`], moved into the task's interrupt on its first
+/// run.
+static TICK: Mutex<RefCell<Option<&'static mut Tick>>> = Mutex::new(RefCell::new(None));
 
-/// The log line of an event.
-impl defmt::Format for Event {
-    fn format(&self, f: defmt::Formatter) {
-        match self {
-            Event::Transition { step, tr } => defmt::write!(
-                f,
-                "t = {=f32} s: {} -> {} ({})",
-                seconds(*step),
-                tr.from,
-                tr.to,
-                tr.reason
-            ),
-            // The motor file `pmsm-sim run --motor-file` loads (README, "Your motor"), with the
-            // pole pairs and ratings of `MOTOR`.
-            #[cfg(feature = "identify")]
-            Event::Identified(m) => defmt::write!(
-                f,
-                "identified motor file:\nname = \"identified\"\npole_pairs = {=u32}\nr_ohm = {=f32}\nl_h = {=f32}\nflux_wb = {=f32}\nj_kgm2 = {=f32}\nb_nms = {=f32}\n# l_d_h = {=f32}, l_q_h = {=f32}\n[ratings]\nbus_v = {=f32}\ncurrent_a = {=f32}\ntorque_nm = {=f32}\nspeed_rpm = {=f32}",
-                MOTOR.params.pole_pairs,
-                m.r_ohm,
-                m.l_h(),
-                m.flux_wb,
-                m.j_kgm2,
-                m.b_nms,
-                m.l_d_h,
-                m.l_q_h,
-                MOTOR.ratings.bus_v,
-                MOTOR.ratings.current_a,
-                MOTOR.ratings.torque_nm,
-                MOTOR.ratings.speed_rpm
-            ),
-            Event::Telemetry {
-                step,
-                tel,
-                i_abc,
-                v_bus,
-            } => defmt::write!(
-                f,
-                "t = {=f32} s: bus {=f32} V, i_abc [{=f32}, {=f32}, {=f32}] A, {}",
-                seconds(*step),
-                *v_bus,
-                i_abc.a,
-                i_abc.b,
-                i_abc.c,
-                tel
-            ),
-        }
-    }
-}
-
-/// The drive for [`MOTOR`] at [`CONTROL_HZ`], its limits narrowed to the board's: bus trip at
-/// most [`BOARD_BUS_MAX_V`], sensing range at most the ADC's ([`I_ADC_RANGE_A`]).
-pub fn build_drive() -> BoardDrive {
-    let mut cfg = DriveConfig::new(&MOTOR);
-    cfg.rate_hz = CONTROL_HZ as f32;
-    cfg.limits.bus_max_v = cfg.limits.bus_max_v.min(BOARD_BUS_MAX_V);
-    cfg.limits.i_sense_max_a = cfg.limits.i_sense_max_a.min(I_ADC_RANGE_A);
-    // What the identification checks a motor's rated current against.
-    cfg.identify.sense_range_a = I_ADC_RANGE_A;
-    cfg.identify.sense_lsb_a = AMPS_PER_LSB.abs();
-    let drive = match cfg.build_sliding_primary() {
-        Ok(d) => d,
-        Err(e) => defmt::panic!(
-            "drive configuration rejected: {=str} = {=f32}, allowed {=f32}..{=f32}",
-            e.field,
-            e.value,
-            e.allowed.min,
-            e.allowed.max
-        ),
-    };
-    defmt::info!(
-        "motor {=str}, primary {=str}, speed command {=f32} rpm, trip {=f32} A, bus {=f32}..{=f32} V",
-        MOTOR.name,
-        core::any::type_name::<Primary>(),
-        SPEED_CMD_RPM,
-        cfg.limits.i_trip_a,
-        cfg.limits.bus_min_v,
-        cfg.limits.bus_max_v
-    );
-    drive
-}
-
-/// Everything the 4 kHz interrupt owns.
+/// Everything the step's interrupt owns.
 pub struct Control {
-    drive: BoardDrive,
-    state: StateOf<Primary, Monitor>,
-    stage: Esc1,
+    control: BoardControl,
     watchdog: Watchdog,
-    telemetry: Sender,
-    step: u32,
+    events: Sender,
 }
 
 impl Control {
-    pub fn new(drive: BoardDrive, stage: Esc1, watchdog: Watchdog, telemetry: Sender) -> Self {
+    pub fn new(drive: BoardDrive, stage: Esc1, watchdog: Watchdog, events: Sender) -> Self {
         Self {
-            drive,
-            state: StateOf::<Primary, Monitor>::default(),
-            stage,
+            control: BoardControl::new(drive, stage).with_telemetry_every(TELEMETRY_EVERY),
             watchdog,
-            telemetry,
-            step: 0,
+            events,
         }
     }
 
-    /// One control period: read the samples, step the drive, load the timer, push telemetry.
+    /// One control period: the shared step (read the samples, step the drive, load the
+    /// timer), its events queued, the task pended when due.
     ///
-    /// Runs from CCM SRAM (`.ramfunc`, ramfunc.x), with `Drive::step` and everything it
-    /// inlines (observers, FOC, SVPWM) inlined into it: flash needs 4 wait states at
-    /// 170 MHz and the ART's 1 KiB instruction cache cannot hold the ~9 KiB step. The
-    /// sliding observer's sin/cos table sits beside it; `math::sin_cos` and the other cold
-    /// paths (mode changes, far angle wraps) stay in flash. The board's parts of the step
-    /// (sample, apply, queue, watchdog) are `#[inline(always)]` for the same reason. An
-    /// overrun is reported to the drive (it faults with `Overrun`).
+    /// Runs from CCM SRAM (`.ramfunc`, ramfunc.x), with the shared step, `Drive::step` and
+    /// everything they inline (observers, FOC, SVPWM) inlined into it: flash needs 4 wait
+    /// states at 170 MHz and the ART's 1 KiB instruction cache cannot hold the ~9 KiB step.
+    /// The sliding observer's sin/cos table sits beside it; `math::sin_cos` and the other cold
+    /// paths (mode changes, far angle wraps, the telemetry record) stay in flash. The board's
+    /// parts of the step (sample, apply, queue, watchdog) are `#[inline(always)]` for the same
+    /// reason. An overrun is reported to the drive (it faults with `Overrun`).
     // Not `unsafe`, but `#[link_section]` trips the `unsafe_code` lint: the section is one
     // ramfunc.x defines and `load_ramfunc` fills before the interrupt is enabled.
     #[link_section = ".ramfunc.control_step"]
     #[inline(never)]
     pub fn step(&mut self) {
-        let input = self.stage.sample();
-        let cmd = Command {
+        let cmd = Commands {
             enable: ENABLE.load(Ordering::Relaxed),
             speed_rpm: SPEED_CMD_RPM,
             clear_fault: CLEAR_FAULT.swap(false, Ordering::Relaxed),
+            identify: false,
         };
-        let out = self.drive.step(&mut self.state, &input, &cmd);
-        self.stage.apply(out.duties);
-
+        let out = self.control.step(&cmd);
         if let Some(tr) = out.transition {
-            self.telemetry.send(Event::Transition {
-                step: self.step,
-                tr,
+            self.events.send(Event::Transition { step: out.step, tr });
+        }
+        if let Some(r) = out.record {
+            self.events.send(Event::Telemetry {
+                step: out.step,
+                tel: r.telemetry,
+                i_abc: r.i_abc,
+                v_bus: r.v_bus,
             });
         }
-        if self.step.is_multiple_of(TELEMETRY_EVERY) {
-            self.telemetry.send(Event::Telemetry {
-                step: self.step,
-                tel: self.drive.telemetry(&self.state),
-                i_abc: input.i_abc,
-                v_bus: input.v_bus,
-            });
-        }
-        self.step = self.step.wrapping_add(1);
-        STEPS.store(self.step, Ordering::Relaxed);
-        if self.state.tick_due() {
-            TICK_DUE.store(true, Ordering::Relaxed);
+        STEPS.store(self.control.steps(), Ordering::Relaxed);
+        if out.tick_due {
+            NVIC::pend(TICK_IRQ);
         }
         self.watchdog.feed();
-        self.stage.end_step();
+        self.control.stage_mut().end_step();
+    }
+}
+
+/// Everything the 1 kHz task's interrupt owns.
+pub struct Tick {
+    copy: TickCopy<Primary, Monitor>,
+    events: Sender,
+}
+
+impl Tick {
+    /// The task of `control`'s drive.
+    pub fn new(control: &Control, events: Sender) -> Self {
+        Self {
+            copy: TickCopy::new(&control.control),
+            events,
+        }
     }
 
     /// The drive's 1 kHz task (`Drive::tick`: the observers' read-outs, the speed loop,
-    /// supervision, the mode decisions), run by the main loop once the step has set
-    /// [`TICK_DUE`], inside a critical section (the step's interrupt waits the few µs it
-    /// takes). In flash: it runs a thousand times a second, not four.
+    /// supervision, the mode decisions) on a copy of the state (see the module's doc), and
+    /// its events queued. In flash: it runs a thousand times a second, not four thousand.
     #[inline(never)]
-    pub fn tick(&mut self) {
-        let cmd = Command {
+    fn run(&mut self) {
+        let cmd = Commands {
             enable: ENABLE.load(Ordering::Relaxed),
             speed_rpm: SPEED_CMD_RPM,
             clear_fault: false,
+            // The commissioning firmware (`cargo fw-identify`) only.
+            identify: cfg!(feature = "identify") && IDENTIFY.swap(false, Ordering::Relaxed),
         };
-        // The commissioning firmware (`cargo fw-identify`) only.
+        let ticked = loop {
+            if with_control(|ctl| self.copy.take(&ctl.control)).is_none() {
+                return;
+            }
+            let ticked = self.copy.tick(&cmd);
+            if with_control(|ctl| self.copy.give(&mut ctl.control)) == Some(true) {
+                break ticked;
+            }
+            TICK_RETRIES.fetch_add(1, Ordering::Relaxed);
+        };
+        let step = self.copy.steps();
+        for tr in ticked.transitions() {
+            self.events.send(Event::Transition { step, tr });
+        }
         #[cfg(feature = "identify")]
-        if IDENTIFY.swap(false, Ordering::Relaxed) {
-            if let Some(tr) = self.drive.start_identification(&mut self.state) {
-                self.telemetry.send(Event::Transition {
-                    step: self.step,
-                    tr,
-                });
+        if let Some(motor) = ticked.identified {
+            // Done: the motor file in the log; the drive back to idle.
+            self.events.send(Event::Identified { step, motor });
+            ENABLE.store(false, Ordering::Relaxed);
+        }
+    }
+}
+
+/// `f` on the step's context with interrupts off (the step held off); `None` before [`start`].
+fn with_control<R>(f: impl FnOnce(&mut Control) -> R) -> Option<R> {
+    cortex_m::interrupt::free(|cs| {
+        // Never borrowed twice: the step's borrow is inside its own critical section, and the
+        // step cannot run inside this one.
+        let mut ctl = CONTROL.borrow(cs).try_borrow_mut().ok()?;
+        ctl.as_mut().map(|ctl| f(ctl))
+    })
+}
+
+/// Installs both contexts, sets the priorities and enables the two interrupts.
+pub fn start(nvic: &mut NVIC, control: Control, tick: Tick) {
+    let (Some(control), Some(tick)) = (
+        cortex_m::singleton!(: Control = control),
+        cortex_m::singleton!(: Tick = tick),
+    ) else {
+        defmt::panic!("control context taken twice");
+    };
+    cortex_m::interrupt::free(|cs| {
+        CONTROL.borrow(cs).replace(Some(control));
+        TICK.borrow(cs).replace(Some(tick));
+    });
+    NVIC::unpend(STEP_IRQ);
+    NVIC::unpend(TICK_IRQ);
+    // SAFETY: the handlers' contexts are installed above; changing priorities and unmasking
+    // cannot break a critical section (none is active here), and these two are the only
+    // interrupts enabled.
+    unsafe {
+        nvic.set_priority(STEP_IRQ, STEP_PRIORITY);
+        nvic.set_priority(TICK_IRQ, TICK_PRIORITY);
+        NVIC::unmask(TICK_IRQ);
+        NVIC::unmask(STEP_IRQ);
+    }
+}
+
+/// The step's interrupt ([`STEP_IRQ`]): [`Control::step`].
+#[interrupt]
+fn ADC1_2() {
+    cortex_m::interrupt::free(|cs| {
+        // Never borrowed twice (the task borrows it with interrupts off); no panic path
+        // either way.
+        if let Ok(mut ctl) = CONTROL.borrow(cs).try_borrow_mut() {
+            if let Some(ctl) = ctl.as_mut() {
+                ctl.step();
             }
         }
-        if let Some(tr) = self.drive.tick(&mut self.state, &cmd) {
-            self.telemetry.send(Event::Transition {
-                step: self.step,
-                tr,
-            });
-            #[cfg(feature = "identify")]
-            if let Some(m) = self.state.identified() {
-                // Done: the motor file in the log; the drive back to idle.
-                self.telemetry.send(Event::Identified(m));
-                ENABLE.store(false, Ordering::Relaxed);
-            }
-        }
+    });
+}
+
+/// The 1 kHz task's interrupt ([`TICK_IRQ`], pended by the step): [`Tick::run`].
+#[interrupt]
+fn SPI3() {
+    static mut TASK: Option<&'static mut Tick> = None;
+    if TASK.is_none() {
+        *TASK = cortex_m::interrupt::free(|cs| TICK.borrow(cs).take());
+    }
+    if let Some(task) = TASK {
+        task.run();
     }
 }

@@ -11,8 +11,8 @@
 //!
 //! # Use
 //!
-//! The motor is the constant `control::MOTOR` (edit it for yours), the speed command the
-//! constant `control::SPEED_CMD_RPM`. The user button toggles `enable` (on its release);
+//! The motor is the constant `settings::MOTOR` (edit it for yours), the speed command the
+//! constant `settings::SPEED_CMD_RPM`. The user button toggles `enable` (on its release);
 //! pressed while the drive is in `Fault` it clears the fault and leaves the drive disabled
 //! (press again to restart); held 2 s with the drive disabled, it starts the identification
 //! (issue #19), whose end prints the motor file in the log.
@@ -22,10 +22,11 @@
 //!
 //! `clocks` (170 MHz, peripheral clocks), `pwm` (TIM1: timing, dead time, duties), `adc`
 //! (OPAMPs, ADCs, offsets, scaling), `power_stage` (the core's `PowerStage` on those two),
-//! `control` (the drive: settings, building it, the control step; the only user of the drive's
-//! API), `protection` (watchdog, HardFault, debug halt, the board's bus limit), `telemetry`
-//! (the interrupt → main-loop queue and the defmt log). This file: start-up, the control
-//! interrupt, the button.
+//! `settings` (the motor, the observers, the speed command, the drive built from them),
+//! `control` (the core's shared control loop on this board: the step's interrupt, the 1 kHz
+//! task's interrupt below it, the commands), `protection` (watchdog, HardFault, debug halt, the
+//! board's bus limit), `telemetry` (the interrupts → main-loop queues and the defmt log). This
+//! file: start-up and the main loop (the button, the log).
 //!
 //! # Hardware map
 //!
@@ -56,9 +57,10 @@
 //! conduct (should the silicon put the UEV on the valley instead, start-up detects it and
 //! switches to PWM mode 2, which puts the low-side interval there). TRGO = UEV starts the
 //! injected conversions of ADC1 (U, W, bus) and ADC2 (V) at that instant; ADC1's
-//! end-of-injected-sequence interrupt runs the drive step and writes CCR1..3. PWM outputs stay
-//! off (MOE = 0) until the drive returns duties, and MOE is cleared in the same step in which
-//! it returns `None`.
+//! end-of-injected-sequence interrupt runs the drive step and writes CCR1..3; every fourth step
+//! pends the drive's 1 kHz task, which runs in SPI3's (unused) vector at a lower priority
+//! (`control`). PWM outputs stay off (MOE = 0) until the drive returns duties, and MOE is
+//! cleared in the same step in which it returns `None`.
 //!
 //! Safety nets: see `protection` (software trip only; watchdog fed by the control interrupt;
 //! MOE cleared on HardFault and panic; outputs inactive on debug halt).
@@ -84,50 +86,27 @@ mod protection;
 #[cfg(target_os = "none")]
 mod pwm;
 #[cfg(target_os = "none")]
+mod settings;
+#[cfg(target_os = "none")]
 mod telemetry;
 
 #[cfg(target_os = "none")]
 mod firmware {
-    use core::cell::RefCell;
     use core::sync::atomic::Ordering;
 
-    use cortex_m::interrupt::Mutex;
-    use cortex_m::peripheral::NVIC;
     use cortex_m_rt::entry;
     use panic_probe as _;
-    use stm32g4::stm32g431::{self as pac, interrupt, Interrupt};
+    use stm32g4::stm32g431 as pac;
 
-    use crate::control::{self, Control, CLEAR_FAULT, ENABLE, IDENTIFY, STEPS, TICK_DUE};
+    use crate::control::{self, Control, Tick, CLEAR_FAULT, ENABLE, IDENTIFY, STEPS, TICK_RETRIES};
     use crate::power_stage::Esc1;
-    use crate::{adc, clocks, protection, pwm, telemetry};
+    use crate::{adc, clocks, protection, pwm, settings, telemetry};
 
     /// The button is sampled every this many steps (40 steps = 10 ms, longer than contact
     /// bounce).
     const BUTTON_POLL_STEPS: u32 = 40;
     /// A press held this long (2 s) with the drive disabled starts the identification.
     const IDENTIFY_HOLD_STEPS: u32 = 2 * crate::pwm::CONTROL_HZ;
-
-    /// The control context, installed by `main`; the interrupt steps it, the main loop runs
-    /// its 1 kHz task, each inside a critical section. A reference to a `singleton!` (zeroed
-    /// `.bss`): an `Option<Control>` itself would start as a `None` that is not all zeros and
-    /// take its whole size of flash for the initial value.
-    static CONTROL: Mutex<RefCell<Option<&'static mut Control>>> = Mutex::new(RefCell::new(None));
-
-    /// The control interrupt: ADC1 end of injected sequence (ADC1 and ADC2 share the vector).
-    /// [`Control::step`]: read the ADC, step the drive, write the compare registers, push
-    /// telemetry.
-    #[interrupt]
-    fn ADC1_2() {
-        cortex_m::interrupt::free(|cs| {
-            // Never borrowed twice (the main loop borrows it with interrupts off); no panic
-            // path either way.
-            if let Ok(mut ctl) = CONTROL.borrow(cs).try_borrow_mut() {
-                if let Some(ctl) = ctl.as_mut() {
-                    ctl.step();
-                }
-            }
-        });
-    }
 
     /// Copies the control path (`.ramfunc`, placed by `ramfunc.x`) from its load image in
     /// flash to CCM SRAM. Must run before anything in it is called.
@@ -156,7 +135,8 @@ mod firmware {
     #[entry]
     fn main() -> ! {
         load_ramfunc();
-        let Some(dp) = pac::Peripherals::take() else {
+        let (Some(dp), Some(mut cp)) = (pac::Peripherals::take(), cortex_m::Peripherals::take())
+        else {
             defmt::panic!("peripherals taken twice");
         };
 
@@ -178,25 +158,17 @@ mod firmware {
         // Start the timer (outputs still off: MOE = 0) and find where its update lands.
         let pwm = pwm::start(dp.TIM1);
         let adc = adc::init(&dp.ADC12_COMMON, dp.ADC1, dp.ADC2);
-        let drive = control::build_drive();
-        let (sender, mut receiver) = telemetry::queue();
+        let drive = settings::build_drive();
+        let (step_events, tick_events, mut receiver) = telemetry::queues();
 
         let watchdog = protection::Watchdog::start(dp.IWDG);
         let stage = Esc1::new(pwm, adc);
         // Drop any sequence that completed since the calibration, so the first step starts on
         // a fresh sample (a stale one could make the first step look like an overrun).
         stage.discard_samples();
-        let control = Control::new(drive, stage, watchdog, sender);
-        let Some(control) = cortex_m::singleton!(: Control = control) else {
-            defmt::panic!("control context taken twice");
-        };
-        cortex_m::interrupt::free(|cs| {
-            CONTROL.borrow(cs).replace(Some(control));
-        });
-        NVIC::unpend(Interrupt::ADC1_2);
-        // SAFETY: the handler's context is installed above; unmasking cannot break a
-        // critical section (none is active here) and ADC1_2 is the only interrupt enabled.
-        unsafe { NVIC::unmask(Interrupt::ADC1_2) };
+        let control = Control::new(drive, stage, watchdog, step_events);
+        let tick = Tick::new(&control, tick_events);
+        control::start(&mut cp.NVIC, control, tick);
 
         let gpioc = dp.GPIOC;
         let button_idle = gpioc.idr().read().idr(10).bit();
@@ -213,17 +185,14 @@ mod firmware {
         defmt::info!("running; press the user button (PC10) to enable/disable");
 
         loop {
-            // The drive's 1 kHz task, between two steps.
-            if TICK_DUE.swap(false, Ordering::Relaxed) {
-                cortex_m::interrupt::free(|cs| {
-                    if let Ok(mut ctl) = CONTROL.borrow(cs).try_borrow_mut() {
-                        if let Some(ctl) = ctl.as_mut() {
-                            ctl.tick();
-                        }
-                    }
-                });
-            }
             receiver.log(|ev| faulted = ev.faulted());
+            let retries = TICK_RETRIES.swap(0, Ordering::Relaxed);
+            if retries > 0 {
+                defmt::warn!(
+                    "{=u32} 1 kHz tasks taken again (a step ran meanwhile)",
+                    retries
+                );
+            }
 
             // The button's idle level was read at boot, so its polarity does not matter.
             let now = STEPS.load(Ordering::Relaxed);

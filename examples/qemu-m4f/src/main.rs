@@ -1,7 +1,8 @@
-//! The drive's `step` on an emulated Cortex-M4F (QEMU `mps2-an386`) against an f32 plant
-//! model running in the same emulator: start from standstill to 1000 rpm, a 0.1 N·m brake at
-//! 1.5 s, 2.5 s in all, once with each observer feeding the controller. Logs with defmt over
-//! semihosting and exits 0 only if both runs meet their checks.
+//! The drive on an emulated Cortex-M4F (QEMU `mps2-an386`), run by the shared control loop
+//! (`pmsm_sensorless::control`: the step, then the 1 kHz task when due), against an f32 plant
+//! model (its power stage) running in the same emulator: start from standstill to 1000 rpm, a
+//! 0.1 N·m brake at 1.5 s, 2.5 s in all, once with each observer feeding the controller. Logs
+//! with defmt over semihosting and exits 0 only if both runs meet their checks.
 //!
 //! `cargo emu` (alias in .cargo/config.toml) builds it and runs it under QEMU, decoding the
 //! log with defmt-print (`.cargo/qemu-run.sh`, relative to the workspace root).
@@ -18,7 +19,8 @@ mod firmware {
     use cortex_m_semihosting::debug::{self, EXIT_FAILURE, EXIT_SUCCESS};
     use defmt_semihosting as _;
     use panic_probe as _;
-    use pmsm_sensorless::drive::{Command, Drive, DriveConfig, DriveInput, Mode, StateOf};
+    use pmsm_sensorless::control::{Commands, Control};
+    use pmsm_sensorless::drive::{Drive, DriveConfig, DriveInput, Mode};
     use pmsm_sensorless::frames::{Abc, AlphaBeta};
     use pmsm_sensorless::math::{sin_cos, wrap_pi};
     use pmsm_sensorless::motor::HORNG_SINANO;
@@ -123,41 +125,37 @@ mod firmware {
         }
     }
 
-    /// One run of `drive` (`name` in the log); returns whether it met its checks.
-    fn run<P: Observer, M: Observer>(name: &str, drive: &Drive<P, M>) -> bool {
-        let mut st = StateOf::<P, M>::default();
-        let mut plant = Plant {
+    /// One run of `drive` (`name` in the log) on the shared control loop (the step, then the
+    /// 1 kHz task when due); returns whether it met its checks.
+    fn run<P: Observer, M: Observer>(name: &str, drive: Drive<P, M>) -> bool {
+        let plant = Plant {
             i_ab: AlphaBeta::default(),
             theta_e: 0.3,
             omega_m: 0.0,
             duties: None,
         };
-        let cmd = Command {
+        let mut control = Control::new(drive, plant);
+        let cmd = Commands {
             enable: true,
             speed_rpm: SPEED_CMD_RPM,
-            clear_fault: false,
+            ..Commands::default()
         };
         let steps = (DURATION_S * RATE_HZ) as u32;
         let (mut n, mut speed_err, mut angle_err, mut handovers) = (0u32, 0.0f32, 0.0f32, 0u32);
         for k in 0..steps {
             let t = k as f32 / RATE_HZ;
-            let out = drive.step_on(&mut st, &mut plant, &cmd);
-            // The 1 kHz task after every fourth step.
-            let ticked = if st.tick_due() {
-                drive.tick(&mut st, &cmd)
-            } else {
-                None
-            };
-            for tr in [out.transition, ticked].into_iter().flatten() {
+            let (stepped, ticked) = control.run(&cmd);
+            for tr in stepped.transition.into_iter().chain(ticked.transitions()) {
                 defmt::info!("t = {=f32} s: {} -> {} ({})", t, tr.from, tr.to, tr.reason);
                 if tr.to == Mode::Sensorless && tr.from != Mode::Sensorless {
                     handovers += 1;
                 }
             }
-            let tel = drive.telemetry(&st);
+            let tel = control.telemetry();
             if k % 2000 == 0 {
                 defmt::info!("{}", tel);
             }
+            let plant = control.stage_mut();
             if t >= WINDOW_S.0 && t < WINDOW_S.1 {
                 n += 1;
                 speed_err += plant.omega_m / RAD_S_PER_RPM - SPEED_CMD_RPM;
@@ -165,6 +163,7 @@ mod firmware {
             }
             plant.advance(t);
         }
+        let st = control.state();
         let speed_err = speed_err / n.max(1) as f32;
         let angle_err_deg = angle_err / n.max(1) as f32 * DEG_PER_RAD;
         let ok = st.fault().is_none()
@@ -193,7 +192,7 @@ mod firmware {
         // stalls).
         cfg.power_stage.dead_time_s = 0.0;
         let ok = match (cfg.build_sliding_primary(), cfg.build_flux_primary()) {
-            (Ok(sliding), Ok(flux)) => run("SlidingTorque", &sliding) & run("Flux", &flux),
+            (Ok(sliding), Ok(flux)) => run("SlidingTorque", sliding) & run("Flux", flux),
             (Err(e), _) | (_, Err(e)) => {
                 defmt::error!("configuration: {}", e.field());
                 false

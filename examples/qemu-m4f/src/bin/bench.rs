@@ -80,8 +80,8 @@ mod firmware {
     const STEPS: u32 = 64;
 
     /// One control step as the board firmware's interrupt runs it (`Control::step` in
-    /// `examples/b-g431b-esc1/src/control.rs`): `Drive::step` inlined into a function of its
-    /// own, so the count includes that function's register saves and returns, and none of the
+    /// `examples/b-g431b-esc1/src/control.rs`, the shared `pmsm_sensorless::control` step
+    /// inlined into it): `Drive::step` inlined into a function of its own, so the count includes that function's register saves and returns, and none of the
     /// bench loop's own register pressure.
     #[inline(never)]
     fn control_step<P: Observer, M: Observer>(
@@ -93,7 +93,8 @@ mod firmware {
         drive.step(st, input, cmd)
     }
 
-    /// The drive's 1 kHz task as the board's main loop runs it (`Control::tick`).
+    /// The drive's 1 kHz task as the board's task interrupt runs it (`Tick::run`, on a copy
+    /// of the state; the copies are not counted).
     #[inline(never)]
     fn control_tick<P: Observer, M: Observer>(
         drive: &Drive<P, M>,

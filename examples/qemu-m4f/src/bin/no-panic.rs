@@ -15,12 +15,15 @@ fn main() {
 mod firmware {
     use core::ptr::{addr_of, addr_of_mut, read_volatile, write_volatile};
     use cortex_m_rt::entry;
-    use pmsm_sensorless::drive::{Command, Drive, DriveConfig, DriveInput, StateOf};
+    use pmsm_sensorless::control::{Commands, Control, TickCopy};
+    use pmsm_sensorless::drive::{Drive, DriveConfig, DriveInput, StateOf};
     use pmsm_sensorless::frames::{Abc, AlphaBeta};
     use pmsm_sensorless::motor::{Motor, MotorParams, Ratings};
     use pmsm_sensorless::observer::flux_speed::FluxIi;
     use pmsm_sensorless::observer::ii::IiConfig;
     use pmsm_sensorless::observer::{Observer, Rotor};
+    use pmsm_sensorless::power_stage::PowerStage;
+    use pmsm_sensorless::svpwm::Duties;
 
     extern "C" {
         /// Deliberately undefined: referenced only if a panic can happen.
@@ -40,6 +43,7 @@ mod firmware {
     static mut SAMPLE: [f32; 6] = [0.0; 6];
     static mut SPEED_RPM: f32 = 0.0;
     static mut FLAGS: [bool; 4] = [false; 4];
+    static mut RECORD_EVERY: u32 = 0;
     static mut SINK: f32 = 0.0;
 
     /// Reads a value through a volatile load.
@@ -88,16 +92,40 @@ mod firmware {
         Some(FluxIi::new(fp.flux, ii, cfg.motor.torque_constant()))
     }
 
-    /// Builds the drive of `primary` and `monitor` and steps it once on unknown inputs, from
-    /// a state that is either idle or sensorless at an unknown rotor state; its telemetry too.
-    fn exercise<P: Observer, M: Observer>(cfg: &DriveConfig, primary: P, monitor: M) {
+    /// A power stage whose samples are unknown and whose duties are kept alive.
+    struct Unknown;
+
+    impl PowerStage for Unknown {
+        fn sample(&mut self) -> DriveInput {
+            let x = unknown(addr_of!(SAMPLE));
+            let flags = unknown(addr_of!(FLAGS));
+            DriveInput {
+                i_abc: Abc::new(x[0], x[1], x[2]),
+                v_bus: x[3],
+                v_ab_terminal: flags[3].then_some(AlphaBeta::new(x[4], x[5])),
+                overrun: flags[0],
+            }
+        }
+
+        fn apply(&mut self, duties: Option<Duties>) {
+            sink(duties.map_or(0.0, |d| d.a + d.b + d.c));
+        }
+    }
+
+    /// Builds the drive of `primary` and `monitor` and runs the shared control loop on unknown
+    /// samples and commands (its step, its 1 kHz task in place and on a copy), from a state
+    /// that is either idle or sensorless at an unknown rotor state; its telemetry too.
+    fn exercise<P: Observer, M: Observer>(cfg: &DriveConfig, primary: P, monitor: M)
+    where
+        Drive<P, M>: Clone,
+    {
         let Ok(drive): Result<Drive<P, M>, _> = cfg.build(primary, monitor) else {
             return;
         };
         let x = unknown(addr_of!(SAMPLE));
         let flags = unknown(addr_of!(FLAGS));
         let speed_rpm = unknown(addr_of!(SPEED_RPM));
-        let mut st = if flags[0] {
+        let st = if flags[0] {
             let rotor = Rotor {
                 theta_e: x[0],
                 omega_m: speed_rpm,
@@ -107,31 +135,36 @@ mod firmware {
         } else {
             StateOf::<P, M>::default()
         };
+        let mut control = Control::new(drive, Unknown)
+            .with_state(st)
+            .with_telemetry_every(unknown(addr_of!(RECORD_EVERY)));
+        let mut copy = TickCopy::new(&control);
         loop {
-            let x = unknown(addr_of!(SAMPLE));
             let flags = unknown(addr_of!(FLAGS));
-            let input = DriveInput {
-                i_abc: Abc::new(x[0], x[1], x[2]),
-                v_bus: x[3],
-                v_ab_terminal: flags[3].then_some(AlphaBeta::new(x[4], x[5])),
-                overrun: flags[0],
-            };
-            let cmd = Command {
+            let cmd = Commands {
                 enable: flags[1],
                 speed_rpm: unknown(addr_of!(SPEED_RPM)),
                 clear_fault: flags[2],
+                // The identification (issue #19), started whenever the unknown flags ask.
+                identify: flags[0] && flags[3],
             };
-            // The identification (issue #19), started whenever the unknown flags ask.
-            if flags[0] && flags[3] {
-                sink(drive.start_identification(&mut st).map_or(0.0, |_| 1.0));
+            let stepped = control.step(&cmd);
+            sink(stepped.record.map_or(0.0, |r| r.telemetry.speed_rpm));
+            // The 1 kHz task, whenever the unknown flag asks (any state it can see), in place
+            // or on a copy.
+            if flags[3] || stepped.tick_due {
+                let ticked = if flags[1] {
+                    control.tick(&cmd)
+                } else {
+                    copy.take(&control);
+                    let ticked = copy.tick(&cmd);
+                    sink(if copy.give(&mut control) { 1.0 } else { 0.0 });
+                    ticked
+                };
+                sink(ticked.transitions().count() as f32);
+                sink(ticked.identified.map_or(0.0, |m| m.r_ohm));
             }
-            let out = drive.step(&mut st, &input, &cmd);
-            sink(out.duties.map_or(0.0, |d| d.a + d.b + d.c));
-            // The 1 kHz task, whenever the unknown flag asks (any state it can see).
-            if flags[3] || st.tick_due() {
-                sink(drive.tick(&mut st, &cmd).map_or(0.0, |_| 1.0));
-            }
-            sink(drive.telemetry(&st).speed_rpm);
+            sink(control.telemetry().speed_rpm);
             if flags[2] && flags[1] {
                 break;
             }
