@@ -43,7 +43,8 @@ mod supervision;
 
 pub use config::{DriveConfig, HealthConfig, Limits, PowerStageConfig, StartConfig};
 pub use identify::{Identified, IdentifyConfig, IdentifyError, IdentifyPhase};
-pub use io::{Command, DriveInput, DriveOutput, Fault, Mode, Reason, Role, Telemetry, Transition};
+pub use crate::power_stage::DriveInput;
+pub use io::{Command, DriveOutput, Fault, Mode, Reason, Role, Telemetry, Transition};
 pub use report::{Derived, Warning};
 pub use schedule::{Slot, SLOTS};
 

@@ -2,7 +2,8 @@
 //! bus out of range. Checked first in every step; a fault turns the PWM off in the same step.
 
 use super::config::Limits;
-use super::io::{Command, DriveInput, Fault, Mode};
+use super::io::{Command, Fault, Mode};
+use crate::power_stage::DriveInput;
 use crate::math::{all_finite, max};
 use core::hint::cold_path;
 
