@@ -1,5 +1,8 @@
-//! Field-oriented control: d/q current loops with decoupling and back-EMF feed-forward, and the
-//! speed loop that commands `i_q`, run at a decimated rate inside the current-loop step.
+//! Field-oriented control: d/q current loops with decoupling and back-EMF feed-forward
+//! (`current.rs`), and the speed loop that commands `i_q`. Its interface is two calls:
+//! [`Foc::run`] each step (a drive mode's [`Request`]: current loop or voltage, dead-time
+//! compensation, SVPWM) and [`Foc::speed_step`] at the caller's slower rate (the drive's 1 kHz
+//! task; [`FocState`] for the FOC on a given angle without the drive, `bare.rs`).
 //!
 //! Gains come from the motor parameters and requested bandwidths (defaults of Horng & Chin
 //! Sec 5: current loop 300 Hz at 4 kHz, speed loop 20 Hz at 1 kHz):
