@@ -25,7 +25,7 @@ fn main() {
         omega_m_ref: 104.7,
         torque_ff_nm: 0.0,
     };
-    let out = foc.step(&mut state, &input);
+    let out = state.step(&foc, &input);
     println!("i_dq = {:?}, i_dq_ref = {:?}", out.i_dq, out.i_dq_ref);
     println!("v_ab = {:?}, duties = {:?}", out.v_ab, out.duties);
 
@@ -35,7 +35,7 @@ fn main() {
         i_abc: Abc::new(f32::NAN, 0.0, 0.0),
         ..input
     };
-    let out = foc.step(&mut state, &bad);
+    let out = state.step(&foc, &bad);
     println!("NaN current -> duties = {:?}", out.duties);
 
     // Impossible parameters are an error naming the field.

@@ -24,5 +24,7 @@ pub mod observer;
 pub mod param;
 pub mod pi;
 pub mod power_stage;
+pub mod schedule;
+
 pub mod svpwm;
 pub mod units;

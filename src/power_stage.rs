@@ -1,10 +1,28 @@
-//! The board's side of the drive: a power stage takes the period's sample and applies the
-//! duties the drive returns. A firmware implements it on its registers (the B-G431B-ESC1 crate
-//! under `examples/`), the simulators on their plant models; [`crate::drive::Drive::step`]
-//! stays the same in all of them.
+//! The board's side of the drive: a power stage takes the period's sample ([`DriveInput`]) and
+//! applies the duties the drive returns. A firmware implements it on its registers (the
+//! B-G431B-ESC1 crate under `examples/`), the simulators on their plant models;
+//! [`crate::drive::Drive::step`] stays the same in all of them. The lower layer: the drive
+//! depends on it, not it on the drive.
 
-use crate::drive::DriveInput;
+use crate::frames::{Abc, AlphaBeta};
 use crate::svpwm::Duties;
+
+/// Samples of one period.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DriveInput {
+    /// Phase currents \[A].
+    pub i_abc: Abc,
+    /// DC bus voltage \[V].
+    pub v_bus: f32,
+    /// The stator voltage over the period that just ended, measured at the terminals (αβ of
+    /// the phase voltages, common mode removed) \[V], on boards that sense it (the
+    /// B-G431B-ESC1's back-EMF dividers); `None` elsewhere. Read only while the PWM is off:
+    /// with it the drive catches a turning rotor without current (mode `Catch`); without it an
+    /// enable always aligns.
+    pub v_ab_terminal: Option<AlphaBeta>,
+    /// The previous step did not finish within its period.
+    pub overrun: bool,
+}
 
 /// Three half-bridges with phase-current and bus sensing.
 pub trait PowerStage {

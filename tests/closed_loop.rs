@@ -38,7 +38,7 @@ fn sensored_horng_ramp_brake_holds_speed() {
 fn current_loop_has_the_requested_bandwidth() {
     use pmsm_host_sim::inverter::Inverter;
     use pmsm_host_sim::plant::{Plant, PlantParams};
-    use pmsm_sensorless::foc::{CurrentLoopState, FocConfig, FocInput};
+    use pmsm_sensorless::foc::{CurrentLoopState, FocConfig, FocInput, Reference};
     use pmsm_sensorless::frames::Dq;
     use pmsm_sensorless::motor::HORNG_SINANO;
 
@@ -68,7 +68,8 @@ fn current_loop_has_the_requested_bandwidth() {
             omega_m_ref: 0.0,
             torque_ff_nm: 0.0,
         };
-        let out = foc.current_step(&mut st, &input, Dq::new(0.0, 1.0));
+        let req = input.request(&foc, Reference::Current(Dq::new(0.0, 1.0)));
+        let out = foc.run(&mut st, &req, input.i_ab(), input.v_bus);
         let held = inverter.hold(out.duties);
         for k in 0..n_sub {
             plant.advance(&held, |_, _| 0.0, ts / n_sub as f64, 1);

@@ -8,7 +8,9 @@ use pmsm_host_sim::sim::{run, SimConfig};
 use pmsm_host_sim::summary::Summary;
 use pmsm_sensorless::dead_time::DeadTimeConfig;
 use pmsm_sensorless::drive::DriveConfig;
-use pmsm_sensorless::foc::{CurrentLoopState, Foc, FocConfig, FocInput, FocOutput, FocState};
+use pmsm_sensorless::foc::{
+    CurrentLoopState, Foc, FocConfig, FocInput, FocOutput, FocState, Reference,
+};
 use pmsm_sensorless::frames::{Abc, AlphaBeta, Dq, SinCos};
 use pmsm_sensorless::motor::HORNG_SINANO;
 use pmsm_sensorless::svpwm::svpwm;
@@ -103,7 +105,8 @@ fn step(
         omega_m_ref: 0.0,
         torque_ff_nm: 0.0,
     };
-    foc.current_step(&mut st, &input, i_dq_ref)
+    let req = input.request(foc, Reference::Current(i_dq_ref));
+    foc.run(&mut st, &req, input.i_ab(), input.v_bus)
 }
 
 /// Zero dead time is today's FOC bit for bit, whatever the PWM frequency and band: the same
@@ -227,7 +230,7 @@ proptest! {
     ])) {
         let foc = foc(board(1e-6));
         let mut st = FocState::default();
-        let out = foc.step(&mut st, &FocInput {
+        let out = st.step(&foc, &FocInput {
             i_abc: Abc::new(x[0], x[1], x[2]),
             v_bus: x[3],
             theta_e: x[4],

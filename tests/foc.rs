@@ -1,6 +1,6 @@
 //! FOC configuration errors and safe outputs on bad input.
 
-use pmsm_sensorless::foc::{FocConfig, FocInput, FocState};
+use pmsm_sensorless::foc::{FocConfig, FocInput, FocState, Reference};
 use pmsm_sensorless::frames::Abc;
 use pmsm_sensorless::motor::HORNG_SINANO;
 use proptest::prelude::*;
@@ -75,7 +75,7 @@ proptest! {
         let foc = config().build().unwrap();
         let mut st = FocState::default();
         for x in steps {
-            let out = foc.step(&mut st, &FocInput {
+            let out = st.step(&foc, &FocInput {
                 i_abc: Abc::new(x[0], x[1], x[2]),
                 v_bus: x[3],
                 theta_e: x[4],
@@ -118,7 +118,8 @@ fn a_cut_voltage_stays_inside_the_linear_range() {
             torque_ff_nm: 0.0,
         };
         let mut st = CurrentLoopState::default();
-        let out = foc.current_step(&mut st, &input, Dq::new(-40.0, 60.0));
+        let req = input.request(&foc, Reference::Current(Dq::new(-40.0, 60.0)));
+        let out = foc.run(&mut st, &req, input.i_ab(), input.v_bus);
         assert!(out.saturated);
         let v_max = f64::from(v_bus) / 3f64.sqrt();
         let mag = f64::from(out.v_ab.alpha).hypot(f64::from(out.v_ab.beta));
@@ -171,7 +172,7 @@ proptest! {
         let rot = SinCos::of(out_angle);
         let sc_out = SinCos { sin: out_scale * rot.sin, cos: out_scale * rot.cos };
         for _ in 0..3 {
-            let out = foc.step_at(&mut st, &input, sc, sc_out);
+            let out = st.step_at(&foc, &input, sc, sc_out);
             for d in [out.duties.a, out.duties.b, out.duties.c] {
                 prop_assert!((0.0..=1.0).contains(&d), "duty {d}");
             }
@@ -199,14 +200,18 @@ fn a_negative_bus_gives_zero_volts_and_holds_the_integrators() {
         torque_ff_nm: 0.0,
     };
     let i_ref = Dq::new(0.0, 0.1);
+    let step = |st: &mut CurrentLoopState, input: FocInput| {
+        let req = input.request(&foc, Reference::Current(i_ref));
+        foc.run(st, &req, input.i_ab(), input.v_bus)
+    };
     let mut st = CurrentLoopState::default();
     for _ in 0..400 {
-        let out = foc.current_step(&mut st, &input(-24.0), i_ref);
+        let out = step(&mut st, input(-24.0));
         assert_eq!(out.duties, Duties::NEUTRAL);
         assert_eq!((out.v_ab.alpha, out.v_ab.beta), (0.0, 0.0));
     }
     assert_eq!(st, CurrentLoopState::default());
-    let after = foc.current_step(&mut st, &input(24.0), i_ref);
-    let fresh = foc.current_step(&mut CurrentLoopState::default(), &input(24.0), i_ref);
+    let after = step(&mut st, input(24.0));
+    let fresh = step(&mut CurrentLoopState::default(), input(24.0));
     assert_eq!(after, fresh);
 }

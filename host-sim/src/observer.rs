@@ -325,8 +325,8 @@ impl<O: Diagnostics> BareLoop<O> {
         // lock amplifies), the output angle turned by the controller's lead.
         let sc = SinCos::of(est.theta_e);
         let sc_out = self.foc.output_angle(sc, est.omega_m);
-        let out = self.foc.step_at(
-            &mut self.foc_state,
+        let out = self.foc_state.step_at(
+            &self.foc,
             &FocInput {
                 i_abc: input.i_abc,
                 v_bus: input.v_bus,

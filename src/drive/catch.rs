@@ -13,11 +13,12 @@
 //! switches start is the usual flying-start of sensorless drives (e.g. ST's motor-control
 //! SDK "on-the-fly start-up", VESC's observer on the sensed phase voltages).
 
-use super::supervision::Seed;
-use super::{Drive, Fault, ModeState, Next, ObserverStates, Reason};
+use super::mode::{Driving, Entry, Next};
+use super::{Fault, Reason};
+use crate::foc::Foc;
 use crate::frames::{AlphaBeta, Dq};
 use crate::math::{atan2, rsqrt_normal};
-use crate::observer::{Observer, Rotor};
+use crate::observer::Rotor;
 use core::f32::consts::FRAC_PI_2;
 
 /// Catch's coefficients.
@@ -46,84 +47,84 @@ pub(super) struct Catch {
     checks: u32,
 }
 
-impl<P: Observer, M: Observer> Drive<P, M> {
+/// What a catch step saw.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum Seen {
+    /// Nothing yet (or the observers already seeded).
+    Wait,
+    /// The rotor at rest: align it.
+    AtRest,
+    /// The back-EMF's rotor: seed both observers there.
+    Rotor(Rotor),
+}
+
+impl Catch {
+    /// The observers have been seeded.
+    pub(super) fn seeded(&self) -> bool {
+        self.seeded
+    }
+}
+
+impl Settings {
     /// One catch step with the PWM off, `v_ab` the terminal voltage of the period that just
-    /// ended \[V], `i_ab` the currents \[A]. Before the seed: two samples of back-EMF above
-    /// `v_min` in a row (a first sample taken before any period was measured reads zero), or
-    /// the rotor at rest (returns the alignment); then both observers seeded at the
-    /// back-EMF's rotor.
+    /// ended \[V]. Before the seed: two samples of back-EMF above `v_min` in a row (a first
+    /// sample taken before any period was measured reads zero), or the rotor at rest; then the
+    /// back-EMF's rotor, once (the drive seeds both observers there).
     // Out of line, like the mode changes: only between an enable and the start.
     #[inline(never)]
-    pub(super) fn catch_step(
-        &self,
-        c: &mut Catch,
-        obs: &mut ObserverStates<P::State, M::State>,
-        i_ab: AlphaBeta,
-        v_ab: AlphaBeta,
-    ) -> Option<ModeState> {
+    pub(super) fn step(&self, c: &mut Catch, v_ab: AlphaBeta) -> Seen {
         c.steps = c.steps.saturating_add(1);
         if c.seeded {
-            return None;
+            return Seen::Wait;
         }
-        let s = &self.catch;
         let emf2 = v_ab.alpha * v_ab.alpha + v_ab.beta * v_ab.beta;
         let prev = c.v_prev;
         let emf2_prev = prev.alpha * prev.alpha + prev.beta * prev.beta;
         c.v_prev = v_ab;
         // A back-EMF seen (false for a NaN sample too); squares compared.
-        let v_min2 = s.v_min * s.v_min;
+        let v_min2 = self.v_min * self.v_min;
         let (seen, seen_prev) = (emf2 >= v_min2, emf2_prev >= v_min2);
         if c.steps < 2 || !seen_prev {
             // A first sample, or the last one too small: the rotor at rest once two are.
             if c.steps >= 3 && !seen {
-                return Some(ModeState::Align(Default::default()));
+                return Seen::AtRest;
             }
-            return None;
+            return Seen::Wait;
         }
         if !seen {
-            return Some(ModeState::Align(Default::default()));
+            return Seen::AtRest;
         }
         // The back-EMF turns with the rotor: its turn between the two samples is the sign.
         let turn = prev.alpha * v_ab.beta - prev.beta * v_ab.alpha;
         let sign = if turn < 0.0 { -1.0 } else { 1.0 };
         // |v| ≥ v_min > 0: a normal square.
         let emf = emf2 * rsqrt_normal(emf2, 3);
-        let omega_m = sign * emf * s.omega_m_per_v;
+        let omega_m = sign * emf * self.omega_m_per_v;
         let theta_mid = atan2(v_ab.beta, v_ab.alpha) - sign * FRAC_PI_2;
-        let rotor = Rotor {
-            theta_e: theta_mid + s.half_n_ts * omega_m,
+        c.seeded = true;
+        Seen::Rotor(Rotor {
+            theta_e: theta_mid + self.half_n_ts * omega_m,
             omega_m,
             load_nm: 0.0,
-        };
-        self.seed_observers(obs, Seed::BOTH, i_ab, rotor);
-        obs.health.primary.seeded();
-        obs.health.monitor.seeded();
-        c.seeded = true;
-        None
+        })
     }
 
-    /// Catch's 1 kHz work ([`Drive::tick`]): after the seed, the health check until an
-    /// observer locks (closed loop at its speed with zero current) or the time limit (an
-    /// observer loss).
+    /// Catch's 1 kHz work after the seed, `driving` the driving observer's estimate once one is
+    /// usable (the drive's health check ran): closed loop at its speed with the current of
+    /// its load estimate (zero without one), or an observer loss at the time limit.
     #[inline(never)]
-    pub(super) fn catch_tick(
-        &self,
-        c: &mut Catch,
-        obs: &mut ObserverStates<P::State, M::State>,
-        i_ab: AlphaBeta,
-    ) -> Next {
-        if !c.seeded {
-            return Next::Stay;
-        }
-        self.supervise(obs, i_ab, 0.0);
-        if obs.health.usable() {
-            let (_, omega_m, load_nm) = self.driving_now(obs);
-            let i_q = self.foc.current_for_torque(load_nm.unwrap_or(0.0));
-            let s = self.sensorless_at(omega_m, Dq::new(0.0, i_q), load_nm);
-            return Next::Switch(ModeState::Sensorless(s), Reason::Caught);
+    pub(super) fn tick(&self, c: &mut Catch, foc: &Foc, driving: Option<Driving>) -> Next {
+        if let Some(d) = driving {
+            let i_q = foc.current_for_torque(d.load_nm.unwrap_or(0.0));
+            let entry = Entry {
+                omega_m: d.omega_m,
+                i_dq: Dq::new(0.0, i_q),
+                load_nm: d.load_nm,
+            };
+            return Next::Sensorless(entry, Reason::Caught);
         }
         c.checks = c.checks.saturating_add(1);
-        if c.checks >= self.catch.timeout_checks {
+        if c.checks >= self.timeout_checks {
             return Next::Fault(Fault::ObserverLoss);
         }
         Next::Stay

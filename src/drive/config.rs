@@ -5,7 +5,7 @@
 use super::identify;
 use super::identify::IdentifyConfig;
 use super::open_loop;
-use super::schedule::SLOTS;
+use super::ramp::Ramp;
 use super::supervision;
 use super::{adaptation, align, catch, sensorless, Drive};
 use crate::bounds::{ks_max_e2, ks_max_t};
@@ -20,6 +20,7 @@ use crate::observer::pll::PllConfig;
 use crate::observer::sliding::{SlidingConfig, SlidingGain, SlidingObserver};
 use crate::observer::Observer;
 use crate::param::{Allowed, Checks, ParamError};
+use crate::schedule::SLOTS;
 use crate::units::{RAD_PER_DEG, RAD_S_PER_RPM};
 use core::f32::consts::TAU;
 
@@ -47,6 +48,25 @@ const FLUX_ADAPT_MIN_SPEED: f32 = 0.1;
 /// ... where `R |i_q|` is at most this share of the back-EMF: R just measured (within 1.2 % in
 /// the robustness matrix) moves ψ_f by 0.4 % at most; a winding warmed 30 % since, by 9 %.
 const FLUX_ADAPT_MAX_R_SHARE: f32 = 0.3;
+
+/// Why the sliding torque observer was not built ([`DriveConfig::sliding_torque`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum SlidingRefused {
+    /// Its constant `K_s` is outside the window of Horng & Chin Sec 4: at or above the
+    /// discrete-time bound `(K_s,max)_T`, or above `(K_s,max)_E2` at the rated speed (where the
+    /// unstable second equilibrium exists). The motor is run by the flux observer alone.
+    KsWindow(ParamError),
+    /// Another setting is invalid.
+    Invalid(ParamError),
+}
+
+impl From<SlidingRefused> for ParamError {
+    fn from(r: SlidingRefused) -> Self {
+        match r {
+            SlidingRefused::KsWindow(e) | SlidingRefused::Invalid(e) => e,
+        }
+    }
+}
 
 /// Protection limits.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -91,10 +111,11 @@ pub struct StartConfig {
 /// Health supervision settings (`supervision.rs`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct HealthConfig {
-    /// An observer is healthy after its residual has stayed below ½ this long \[s].
+    /// An observer is healthy after the running mean of its residual has stayed below ¼ this
+    /// long \[s].
     pub lock_time_s: f32,
-    /// A healthy observer is lost after its residual has stayed at or above 1 this long: the
-    /// other one drives \[s].
+    /// A healthy observer is lost after the running mean of its residual has stayed at or
+    /// above ½ (half way to its edge of lock) this long: the other one drives \[s].
     pub failover_time_s: f32,
     /// Largest tolerated angle disagreement between two healthy observers [deg, electrical].
     pub max_disagreement_deg: f32,
@@ -310,6 +331,7 @@ impl DriveConfig {
     /// the (always unstable) second equilibrium exists, as in the paper's own experiment.
     pub fn sliding_torque(&self) -> Result<SlidingObserver, ParamError> {
         self.checked_sliding(self.sliding_config())
+            .map_err(ParamError::from)
     }
 
     /// The sliding observer as a monitor: [`DriveConfig::sliding_torque`], or, for a motor
@@ -319,31 +341,35 @@ impl DriveConfig {
     ///
     /// [`Derived::warnings`]: super::Derived::warnings
     pub fn sliding_monitor(&self) -> Result<SlidingObserver, ParamError> {
-        match self.sliding_torque() {
-            Err(e) if e.field == "ks" => SlidingConfig {
+        match self.checked_sliding(self.sliding_config()) {
+            Ok(observer) => Ok(observer),
+            Err(SlidingRefused::KsWindow(_)) => SlidingConfig {
                 min_speed_rad_s: f32::INFINITY,
                 ..self.sliding_config()
             }
             .build(),
-            other => other,
+            Err(SlidingRefused::Invalid(e)) => Err(e),
         }
     }
 
-    /// `cfg` built, its `K_s` checked inside its bounds (see [`DriveConfig::sliding_torque`]).
-    fn checked_sliding(&self, cfg: SlidingConfig) -> Result<SlidingObserver, ParamError> {
-        let m = self.validate()?;
+    /// `cfg` built, its `K_s` checked inside its window (see [`DriveConfig::sliding_torque`]).
+    fn checked_sliding(&self, cfg: SlidingConfig) -> Result<SlidingObserver, SlidingRefused> {
+        let m = self.validate().map_err(SlidingRefused::Invalid)?;
         if let SlidingGain::Constant(ks) = cfg.ks {
             let eps = cfg.epsilon_a;
             let rated = self.ratings.speed_rpm * RAD_S_PER_RPM;
             let e2 = ks_max_e2(&m, rated, eps);
+            let window = |e: ParamError| SlidingRefused::KsWindow(e);
             Allowed::strictly_between(0.0, ks_max_t(&m, self.rate_hz, eps))
                 .because("(K_s,max)_T")
-                .check("ks", ks)?;
+                .check("ks", ks)
+                .map_err(window)?;
             Allowed::above_up_to(0.0, e2)
                 .because("(K_s,max)_E2 at rated speed")
-                .check("ks", ks)?;
+                .check("ks", ks)
+                .map_err(window)?;
         }
-        cfg.build()
+        cfg.build().map_err(SlidingRefused::Invalid)
     }
 
     /// Ortega et al.'s flux observer, γ recommended for the lowest sensorless speed
@@ -446,21 +472,14 @@ impl DriveConfig {
         let ts = 1.0 / rate;
         let steps = |t: f32| (t * rate) as u32;
         let slot_cycles = |t: f32| (t * rate / SLOTS as f32) as u32;
+        let ramp = Ramp {
+            max_rpm: self.ratings.speed_rpm,
+            step_rpm: s.accel_rpm_per_s * ts * SLOTS as f32,
+        };
         Ok(Drive {
             primary,
             monitor,
             foc,
-            slew_per_slot_cycle_rpm: s.accel_rpm_per_s * ts * SLOTS as f32,
-            load_observer: self.load_observer_config().build()?,
-            max_speed_rpm: self.ratings.speed_rpm,
-            field_weakening: sensorless::FieldWeakening {
-                margin: 0.95,
-                gain_a_per_v: 0.2 / (m.n() * self.ratings.speed_rpm * RAD_S_PER_RPM * m.l_h),
-                i_max_a: l.i_max_a,
-            },
-            // Five speed-loop time constants, 1/(2π f_speed) each: the speed loop takes the
-            // torque over as the d current fades.
-            handover_decay: 1.0 - SLOTS as f32 * ts * TAU * self.speed_bandwidth_hz / 5.0,
             limits: l,
             adaptation: adaptation::Settings {
                 r0_ohm: m.r_ohm,
@@ -513,6 +532,26 @@ impl DriveConfig {
                 )
                 .max(1),
                 pullout_checks: slot_cycles(h.lock_time_s).max(1),
+                handback_rpm: s.handback_rpm,
+                ramp,
+            },
+            sensorless: sensorless::Settings {
+                ramp,
+                load_observer: self.load_observer_config().build()?,
+                field_weakening: sensorless::FieldWeakening {
+                    margin: 0.95,
+                    gain_a_per_v: 0.2 / (m.n() * self.ratings.speed_rpm * RAD_S_PER_RPM * m.l_h),
+                    i_max_a: l.i_max_a,
+                },
+                // Five speed-loop time constants, 1/(2π f_speed) each: the speed loop takes the
+                // torque over as the d current fades.
+                handover_decay: 1.0 - SLOTS as f32 * ts * TAU * self.speed_bandwidth_hz / 5.0,
+                handback_rpm: s.handback_rpm,
+                stop_rpm: s.stop_rpm,
+                stall: sensorless::Stall {
+                    checks: slot_cycles(h.stall_time_s).max(1),
+                    i_limit_a: 0.99 * l.i_max_a,
+                },
             },
             supervision: supervision::Settings {
                 lock_checks: slot_cycles(h.lock_time_s).max(1),
@@ -521,10 +560,6 @@ impl DriveConfig {
                 loss_checks: slot_cycles(h.loss_time_s).max(1),
                 max_disagreement: h.max_disagreement_deg * RAD_PER_DEG,
                 max_speed_disagreement_rpm: h.max_speed_disagreement_rpm,
-                stall_checks: slot_cycles(h.stall_time_s).max(1),
-                i_limit_a: 0.99 * l.i_max_a,
-                handback_rpm: s.handback_rpm,
-                stop_rpm: s.stop_rpm,
             },
         })
     }

@@ -1,7 +1,6 @@
 //! What goes into and out of the drive: the sample, the command, the output, the modes as the
 //! outside sees them, faults, transitions and the log record.
 
-use crate::frames::{Abc, AlphaBeta};
 use crate::svpwm::Duties;
 
 /// Operating mode.
@@ -116,23 +115,6 @@ pub enum Role {
     Primary,
     /// The monitor, while the primary is not healthy.
     Monitor,
-}
-
-/// Samples of one period.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct DriveInput {
-    /// Phase currents \[A].
-    pub i_abc: Abc,
-    /// DC bus voltage \[V].
-    pub v_bus: f32,
-    /// The stator voltage over the period that just ended, measured at the terminals (αβ of
-    /// the phase voltages, common mode removed) \[V], on boards that sense it (the
-    /// B-G431B-ESC1's back-EMF dividers); `None` elsewhere. Read only while the PWM is off:
-    /// with it the drive catches a turning rotor without current (mode `Catch`); without it an
-    /// enable always aligns.
-    pub v_ab_terminal: Option<AlphaBeta>,
-    /// The previous step did not finish within its period.
-    pub overrun: bool,
 }
 
 /// What the user asks for.

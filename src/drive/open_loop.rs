@@ -12,15 +12,13 @@
 //! limit, at any speed (a blocked rotor at a small command); stopped when the ramp is at zero
 //! with a zero command.
 
-use super::sensorless::Sensorless;
+use super::mode::{Driving, Entry, Next};
+use super::ramp::Ramp;
 use super::supervision::{consecutive, Verdict};
-use super::{Drive, Fault, ModeState, Next, ObserverStates, Reason};
-use crate::foc::{Reference, Request};
-use crate::frames::{AlphaBeta, Dq, SinCos};
-use crate::math::clamp;
-use crate::observer::Observer;
+use super::{Fault, Reason};
+use crate::foc::{Foc, Reference, Request};
+use crate::frames::{Dq, SinCos};
 use crate::units::{RAD_S_PER_RPM, RPM_PER_RAD_S};
-use core::hint::cold_path;
 
 /// Open loop's per-step coefficients.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -36,6 +34,11 @@ pub(super) struct Settings {
     pub(super) timeout_checks: u32,
     /// Checks of a rotor pulled out of the ramp, or following it, before the hand-over.
     pub(super) pullout_checks: u32,
+    /// Above this |ω_ol| a rotor off the ramp has pulled out (below it a rotor still
+    /// accelerating from rest lags the ramp too) \[rpm]: the hand-back speed.
+    pub(super) handback_rpm: f32,
+    /// The command's limit and the frequency ramp.
+    pub(super) ramp: Ramp,
 }
 
 /// The state of [`Mode::OpenLoop`](super::Mode::OpenLoop).
@@ -80,116 +83,110 @@ impl OpenLoop {
     }
 }
 
-impl<P: Observer, M: Observer> Drive<P, M> {
+impl Settings {
     /// The open loop at θ_ol = angle of `frame` and ω_ol = `omega_m` \[rad/s] (the hand-back).
     // Out of line, like the other mode changes: rare, kept off the every-step path.
     #[inline(never)]
-    pub(super) fn open_loop_at(&self, frame: SinCos, omega_m: f32) -> OpenLoop {
+    pub(super) fn at(&self, foc: &Foc, frame: SinCos, omega_m: f32) -> OpenLoop {
         let mut ol = OpenLoop {
             frame,
             speed_rpm: omega_m * RPM_PER_RAD_S,
             ..OpenLoop::AT_REST
         };
-        self.set_open_loop_speed(&mut ol);
+        self.set_speed(&mut ol, foc);
         ol
     }
 
     /// The rotations for the speed `speed_rpm` just set: θ_ol's advance per step and the
     /// output angle's lead.
     #[inline(always)]
-    fn set_open_loop_speed(&self, ol: &mut OpenLoop) {
+    fn set_speed(&self, ol: &mut OpenLoop, foc: &Foc) {
         let omega_m = ol.speed_rpm * RAD_S_PER_RPM;
-        ol.step_rot = SinCos::of_small(self.open_loop.n_ts * omega_m);
-        ol.out_rot = self.foc.output_rotation(omega_m);
+        ol.step_rot = SinCos::of_small(self.n_ts * omega_m);
+        ol.out_rot = foc.output_rotation(omega_m);
     }
 
     /// One open-loop step: the frame turned by `N ω_ol T`; the request is the I/f current in
     /// θ_ol's frame.
     #[inline(always)]
-    pub(super) fn open_loop_step(&self, ol: &mut OpenLoop) -> Request {
+    pub(super) fn step(&self, ol: &mut OpenLoop) -> Request {
         ol.frame = ol.frame.rotated(ol.step_rot);
         Request {
             frame: ol.frame,
             frame_out: ol.frame.rotated(ol.out_rot),
             omega_m: ol.speed_rpm * RAD_S_PER_RPM,
-            reference: Reference::Current(Dq::new(self.open_loop.current_a, 0.0)),
+            reference: Reference::Current(Dq::new(self.current_a, 0.0)),
         }
     }
 
-    /// The open loop's 1 kHz work ([`Drive::tick`]): the health check and the hand-over, the
-    /// time limit, the frame's length renewed, the ramp and the stop at zero.
+    /// The open loop's 1 kHz work ([`Drive::tick`](super::Drive::tick)), after the health
+    /// check (its `verdict`; `driving` the driving observer's estimate when one is usable):
+    /// the hand-over, the time limit, the frame's length renewed, the ramp toward the user's
+    /// `cmd_rpm` and the stop at zero.
     // Out of line (in flash on a board whose step runs from RAM): the start-up's, not the
     // running drive's.
     #[inline(never)]
-    pub(super) fn open_loop_tick(
+    pub(super) fn tick(
         &self,
         ol: &mut OpenLoop,
-        obs: &mut ObserverStates<P::State, M::State>,
+        foc: &Foc,
+        verdict: Verdict,
+        driving: Option<Driving>,
         cmd_rpm: f32,
-        i_ab: AlphaBeta,
     ) -> Next {
-        let s = &self.open_loop;
+        let cmd_rpm = self.ramp.command(cmd_rpm);
         let omega_m = ol.speed_rpm * RAD_S_PER_RPM;
-        let (verdict, _) = self.supervise(obs, i_ab, 0.0);
         ol.checks = ol.checks.saturating_add(1);
         if verdict == Verdict::Contradiction {
             return Next::Fault(Fault::ObserverLoss);
         }
-        if obs.health.usable() {
-            let (_, omega_hat, _) = self.driving_now(obs);
+        if let Some(d) = driving {
             // Pulled out: the rotor is not where the ramp is (above the hand-back speed: below
             // it a rotor still accelerating from rest lags the ramp too).
-            let off = (omega_hat - omega_m).abs() > 0.5 * omega_m.abs();
-            let fast = ol.speed_rpm.abs() >= self.supervision.handback_rpm;
+            let off = (d.omega_m - omega_m).abs() > 0.5 * omega_m.abs();
+            let fast = ol.speed_rpm.abs() >= self.handback_rpm;
             ol.pulled_out = consecutive(ol.pulled_out, off && fast);
             // Seen following the ramp at the hand-over speed (or the command, if lower): below
             // it a blocked rotor shows no back-EMF, so the observer must see it turn with the
             // I/f current's frame, which it does even at a standstill.
-            let reached = ol.speed_rpm.abs() >= s.handover_rpm.min(cmd_rpm.abs());
+            let reached = ol.speed_rpm.abs() >= self.handover_rpm.min(cmd_rpm.abs());
             ol.following = consecutive(ol.following, !off && ol.speed_rpm != 0.0);
-            let seen_following = ol.following >= s.pullout_checks;
-            if (reached && seen_following) || ol.pulled_out >= s.pullout_checks {
-                let sl = self.enter_sensorless(ol, obs);
-                return Next::Switch(ModeState::Sensorless(sl), Reason::HandOver);
+            let seen_following = ol.following >= self.pullout_checks;
+            if (reached && seen_following) || ol.pulled_out >= self.pullout_checks {
+                return Next::Sensorless(self.handover(ol, d), Reason::HandOver);
             }
         }
         // No hand-over within the time limit, at any speed.
-        if ol.checks >= s.timeout_checks {
+        if ol.checks >= self.timeout_checks {
             return Next::Fault(Fault::Stall);
         }
         // The rotations since the last time moved the frame's length by a few 1e-7.
         ol.frame = ol.frame.renormalized();
         // The I/f frequency ramp.
-        ol.speed_rpm = slew(ol.speed_rpm, cmd_rpm, self.slew_per_slot_cycle_rpm);
-        self.set_open_loop_speed(ol);
+        ol.speed_rpm = self.ramp.slew(ol.speed_rpm, cmd_rpm);
+        self.set_speed(ol, foc);
         if cmd_rpm == 0.0 && ol.speed_rpm == 0.0 {
             return Next::Stopped;
         }
         Next::Stay
     }
 
-    /// The hand-over: the open-loop current in the driving observer's frame (its q part the
-    /// speed loop's start, its d part fading, [`Drive::sensorless_at`]), the reference from
-    /// its speed.
+    /// The hand-over: the open-loop current in the driving observer's frame `d` (its q part
+    /// the speed loop's start, its d part fading, `sensorless::Settings::enter`), the
+    /// reference from its speed.
     // Out of line, like the other mode changes: rare, kept off the every-step path.
     #[inline(never)]
-    fn enter_sensorless(
-        &self,
-        ol: &OpenLoop,
-        obs: &ObserverStates<P::State, M::State>,
-    ) -> Sensorless {
-        cold_path();
-        let (p, omega_m, load_nm) = self.driving_now(obs);
+    fn handover(&self, ol: &OpenLoop, d: Driving) -> Entry {
+        core::hint::cold_path();
+        let p = d.frame;
         // cos and sin(θ_ol − θ̂) of this sample.
         let cos_load_angle = ol.frame.cos * p.cos + ol.frame.sin * p.sin;
         let sin_load_angle = ol.frame.sin * p.cos - ol.frame.cos * p.sin;
-        let i = self.open_loop.current_a;
-        let i_dq = Dq::new(i * cos_load_angle, i * sin_load_angle);
-        self.sensorless_at(omega_m, i_dq, load_nm)
+        let i = self.current_a;
+        Entry {
+            omega_m: d.omega_m,
+            i_dq: Dq::new(i * cos_load_angle, i * sin_load_angle),
+            load_nm: d.load_nm,
+        }
     }
-}
-
-/// `x` moved toward `target` by at most `step`.
-pub(super) fn slew(x: f32, target: f32, step: f32) -> f32 {
-    x + clamp(target - x, -step, step)
 }

@@ -1,9 +1,11 @@
 //! Faults that a sample (and the command) alone show: overrun, invalid samples, over-current,
 //! bus out of range. Checked first in every step; a fault turns the PWM off in the same step.
+//! And the arming: after a fault is cleared, no start until the enable has been seen low.
 
 use super::config::Limits;
-use super::io::{Command, DriveInput, Fault, Mode};
+use super::io::{Command, Fault, Mode};
 use crate::math::{all_finite, max};
+use crate::power_stage::DriveInput;
 use core::hint::cold_path;
 
 /// The fault `input` shows, if any. `starting`: this step leaves idle.
@@ -45,4 +47,38 @@ pub(super) fn check_input(
 fn found(fault: Fault) -> Option<Fault> {
     cold_path();
     Some(fault)
+}
+
+/// Whether a start may follow: false after a fault is cleared until the enable command has
+/// been seen low. Written by the step's commands ([`Arming::see`], [`Arming::disarm`]), read
+/// by the starts ([`Arming::armed`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct Arming(bool);
+
+impl Default for Arming {
+    /// Armed.
+    fn default() -> Self {
+        Self(true)
+    }
+}
+
+impl Arming {
+    /// The command of this step: an enable seen low arms.
+    #[inline(always)]
+    pub(super) fn see(&mut self, cmd: &Command) {
+        if !cmd.enable {
+            self.0 = true;
+        }
+    }
+
+    /// A fault cleared: disarmed until the enable is seen low.
+    pub(super) fn disarm(&mut self) {
+        self.0 = false;
+    }
+
+    /// A start may follow.
+    #[inline(always)]
+    pub(super) fn armed(&self) -> bool {
+        self.0
+    }
 }

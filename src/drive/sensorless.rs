@@ -4,16 +4,67 @@
 //! both observers (`supervision.rs`), the stall check, the stop at zero, and the hand-back to
 //! open loop where no observer is healthy at low speed.
 
-use super::open_loop::slew;
-use super::supervision::Verdict;
-use super::{Drive, Fault, ModeState, Next, ObserverStates, Reason};
-use crate::foc::{Reference, Request};
+use super::applied::Applied;
+use super::mode::{Driving, Entry, Next};
+use super::ramp::Ramp;
+use super::supervision::{consecutive, Verdict};
+use super::{Fault, Reason};
+use crate::foc::{Foc, Reference, Request};
 use crate::frames::{AlphaBeta, Dq, SinCos};
-use crate::load_observer::LoadObserverState;
+use crate::load_observer::{LoadObserver, LoadObserverState};
 use crate::math::{clamp, sqrt_or_zero};
-use crate::observer::Observer;
 use crate::pi::{Held, PiState};
 use crate::units::{RAD_S_PER_RPM, RPM_PER_RAD_S};
+
+/// Sensorless control's coefficients.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Settings {
+    /// The command's limit and the speed reference's slew.
+    pub(super) ramp: Ramp,
+    /// The speed loop's load-torque observer, for a driving observer without one.
+    pub(super) load_observer: LoadObserver,
+    /// Field weakening.
+    pub(super) field_weakening: FieldWeakening,
+    /// The hand-over's d current decays by this factor per millisecond.
+    pub(super) handover_decay: f32,
+    /// Without a usable observer, below this |speed| and |reference| open loop takes over
+    /// again \[rpm].
+    pub(super) handback_rpm: f32,
+    /// With a zero command, stopped below this estimated |speed| \[rpm].
+    pub(super) stop_rpm: f32,
+    /// The stall check.
+    pub(super) stall: Stall,
+}
+
+/// Sensorless stall: the driving observer's speed below half the slewed reference (or turning
+/// the wrong way) for `checks` in a row with the speed loop's command at its limit. (A rotor
+/// blocked before it turned never leaves the open loop: it is not seen following the ramp.)
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Stall {
+    /// Checks of collapsed speed at the current limit before a stall.
+    pub(super) checks: u32,
+    /// |i_q command| at or above this is the speed loop at its limit \[A].
+    pub(super) i_limit_a: f32,
+}
+
+impl Stall {
+    /// One check: the speed `omega_m` [rad/s] of the driving observer, the slewed reference
+    /// `speed_ref_rpm`, the speed loop's command `i_q_ref_a`; true once stalled.
+    #[inline(always)]
+    pub(super) fn stalled(
+        &self,
+        count: &mut u32,
+        omega_m: f32,
+        speed_ref_rpm: f32,
+        i_q_ref_a: f32,
+    ) -> bool {
+        let speed = omega_m * RPM_PER_RAD_S;
+        let along = if speed_ref_rpm < 0.0 { -speed } else { speed };
+        let at_limit = i_q_ref_a.abs() >= self.i_limit_a;
+        *count = consecutive(*count, along < 0.5 * speed_ref_rpm.abs() && at_limit);
+        *count >= self.checks
+    }
+}
 
 /// Field weakening by voltage feedback (Kim & Sul, "Speed control of interior permanent
 /// magnet synchronous motor drives in the flux weakening region", IEEE Trans. Ind. Appl.
@@ -53,17 +104,6 @@ impl FieldWeakening {
     }
 }
 
-/// What the current loop applied over the last millisecond, for the 1 kHz task.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(super) struct Applied {
-    /// The voltage of the last period \[V].
-    pub(super) v_ab: AlphaBeta,
-    /// The current loop's voltage limit \[V].
-    pub(super) v_max: f32,
-    /// The voltage was at its limit through the last millisecond.
-    pub(super) limited: bool,
-}
-
 /// The state of [`Mode::Sensorless`](super::Mode::Sensorless).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Sensorless {
@@ -76,7 +116,7 @@ pub(super) struct Sensorless {
     /// The field-weakening i_d \[A] (≤ 0).
     i_d_fw: f32,
     /// The open loop's d current at the hand-over, decaying \[A] (see
-    /// [`Drive::sensorless_at`]).
+    /// [`Settings::enter`]).
     i_d_handover: f32,
     /// The d current command, their sum \[A].
     i_d_ref: f32,
@@ -97,15 +137,25 @@ impl Sensorless {
     pub(super) fn speed_ref_rpm(&self) -> f32 {
         self.speed_ref_rpm
     }
+
+    /// The speed loop's i_q command \[A].
+    pub(super) fn i_q_ref(&self) -> f32 {
+        self.i_q_ref
+    }
+
+    /// sin/cos of the output angle's lead at the driving observer's speed.
+    pub(super) fn out_rot(&self) -> SinCos {
+        self.out_rot
+    }
 }
 
-impl<P: Observer, M: Observer> Drive<P, M> {
-    /// Sensorless control of a rotor at `omega_m` \[rad/s] carrying the current `i_dq` \[A] in
-    /// the driving observer's frame, `driving_load_nm` its load estimate \[N·m] if it has one:
+impl Settings {
+    /// Sensorless control of a rotor at `e.omega_m` \[rad/s] carrying the current `e.i_dq` \[A]
+    /// in the driving observer's frame, `e.load_nm` its load estimate \[N·m] if it has one:
     /// the reference there, the command at `i_dq.q`, the load-torque observer at the torque
     /// it makes, the speed PI's integrator at what the feed-forward (the driving observer's
     /// load, else the load-torque observer's) leaves of the command. A d current (the
-    /// open loop's, at the hand-over) is kept and decays over [`Drive::handover_decay`]'s
+    /// open loop's, at the hand-over) is kept and decays over `handover_decay`'s
     /// time: the current vector does not jump when the frame changes, so an angle error of
     /// the observer at the hand-over does not turn into a torque step; the speed loop takes
     /// the torque over as the d current fades (the smooth I/f transition of Fatu, Teodorescu,
@@ -113,17 +163,13 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     /// motion-sensorless vector control of PM synchronous motor/generator", IEEE PESC 2008).
     // Out of line, like the other mode changes: rare, kept off the every-step path.
     #[inline(never)]
-    pub(super) fn sensorless_at(
-        &self,
-        omega_m: f32,
-        i_dq: Dq,
-        driving_load_nm: Option<f32>,
-    ) -> Sensorless {
+    pub(super) fn enter(&self, foc: &Foc, e: Entry) -> Sensorless {
+        let (omega_m, i_dq) = (e.omega_m, e.i_dq);
         let mut load = LoadObserverState::default();
-        let torque = self.foc.torque_for_current(i_dq.q);
+        let torque = foc.torque_for_current(i_dq.q);
         self.load_observer.reset(&mut load, torque, omega_m);
-        let ff_nm = driving_load_nm.unwrap_or(torque);
-        let ff_a = self.foc.current_for_torque(ff_nm);
+        let ff_nm = e.load_nm.unwrap_or(torque);
+        let ff_a = foc.current_for_torque(ff_nm);
         Sensorless {
             speed_ref_rpm: omega_m * RPM_PER_RAD_S,
             speed_pi: PiState {
@@ -133,22 +179,24 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             i_d_fw: 0.0,
             i_d_handover: i_dq.d,
             i_d_ref: i_dq.d,
-            out_rot: self.foc.output_rotation(omega_m),
+            out_rot: foc.output_rotation(omega_m),
             stall: 0,
             load,
             ff_nm,
         }
     }
 
-    /// One sensorless step: the speed loop's i_q in the driving observer's frame, applied at
-    /// its output angle.
+    /// One sensorless step: the speed loop's currents in the driving observer's frame `frame`
+    /// (sin/cos of θ̂_e), applied at its output angle `frame_out` (`frame` turned by
+    /// [`Sensorless::out_rot`], or the observer's own), `omega_m` its speed [rad/s].
     #[inline(always)]
-    pub(super) fn sensorless_step(
+    pub(super) fn step(
         &self,
         s: &Sensorless,
-        obs: &ObserverStates<P::State, M::State>,
+        frame: SinCos,
+        frame_out: SinCos,
+        omega_m: f32,
     ) -> Request {
-        let (frame, frame_out, omega_m, _) = self.driving(obs, s.out_rot);
         Request {
             frame,
             frame_out,
@@ -157,44 +205,43 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         }
     }
 
-    /// Sensorless control's 1 kHz work ([`Drive::tick`]): the health check (failover, the
-    /// hand-back where no observer is healthy at low speed, observer loss), the stop at zero,
-    /// the output lead at the new speed, the speed loop with the load torque fed forward, the
-    /// stall check.
+    /// Sensorless control's 1 kHz work ([`Drive::tick`](super::Drive::tick)), after the
+    /// health check (its `verdict`, and `note` when the driving observer changed; `d` the
+    /// driving observer's estimate now): the hand-back where no observer is healthy at low
+    /// speed, observer loss, the stop at zero, the output lead at the new speed, the speed loop
+    /// toward the user's `cmd_rpm` with the load torque fed forward, the stall check.
+    /// `applied`: what the current loop applied over the last millisecond.
     #[inline(always)]
-    pub(super) fn sensorless_tick(
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn tick(
         &self,
         s: &mut Sensorless,
-        obs: &mut ObserverStates<P::State, M::State>,
+        foc: &Foc,
+        (verdict, note): (Verdict, Option<Reason>),
+        d: Driving,
         cmd_rpm: f32,
-        i_ab: AlphaBeta,
         applied: Applied,
     ) -> Next {
-        let torque = self.foc.torque_for_current(s.i_q_ref);
-        let (verdict, note) = self.supervise(obs, i_ab, torque);
-        let (frame, omega_m, load_nm) = self.driving_now(obs);
+        let cmd_rpm = self.ramp.command(cmd_rpm);
+        let (omega_m, load_nm) = (d.omega_m, d.load_nm);
         let speed_rpm = omega_m * RPM_PER_RAD_S;
-        let handback = self.supervision.handback_rpm;
+        let handback = self.handback_rpm;
         match verdict {
-            // The flux linkage from the back-EMF while the driving observer is locked
-            // (`adaptation.rs`).
-            Verdict::Drive => {
-                let sample = (i_ab, applied.v_ab);
-                (self.adaptation).track_flux(&mut obs.model, sample, omega_m, s.i_q_ref);
-            }
-            Verdict::Switched => {}
+            Verdict::Drive | Verdict::Switched => {}
             // Without an observer at low speed, open loop carries the rotor on.
             Verdict::NoLock if s.speed_ref_rpm.abs() < handback && speed_rpm.abs() < handback => {
-                let ol = self.open_loop_at(frame, omega_m);
-                return Next::Switch(ModeState::OpenLoop(ol), Reason::HandBack);
+                return Next::OpenLoop {
+                    frame: d.frame,
+                    omega_m,
+                };
             }
             Verdict::NoLock | Verdict::Contradiction => return Next::Fault(Fault::ObserverLoss),
         }
-        if cmd_rpm == 0.0 && s.speed_ref_rpm == 0.0 && speed_rpm.abs() < self.supervision.stop_rpm {
+        if cmd_rpm == 0.0 && s.speed_ref_rpm == 0.0 && speed_rpm.abs() < self.stop_rpm {
             return Next::Stopped;
         }
-        s.out_rot = self.foc.output_rotation(omega_m);
-        s.speed_ref_rpm = slew(s.speed_ref_rpm, cmd_rpm, self.slew_per_slot_cycle_rpm);
+        s.out_rot = foc.output_rotation(omega_m);
+        s.speed_ref_rpm = self.ramp.slew(s.speed_ref_rpm, cmd_rpm);
         let omega_m_ref = s.speed_ref_rpm * RAD_S_PER_RPM;
         // The driving observer's load estimate fed forward, else the speed loop's own. When
         // the driving observer changes, so may the feed-forward: the integrator takes the
@@ -202,7 +249,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         let own = self.load_observer.update(&mut s.load, omega_m, s.i_q_ref);
         let ff_nm = load_nm.unwrap_or(own);
         if note.is_some() {
-            s.speed_pi.integral += self.foc.current_for_torque(s.ff_nm - ff_nm);
+            s.speed_pi.integral += foc.current_for_torque(s.ff_nm - ff_nm);
         }
         s.ff_nm = ff_nm;
         // The field-weakening i_d, and i_q within what it leaves of the current limit.
@@ -223,16 +270,13 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             (true, true) => Held::Up,
             (true, false) => Held::Down,
         };
-        s.i_q_ref = self.foc.speed_step_within(
+        s.i_q_ref = foc.speed_step(
             &mut s.speed_pi,
             (omega_m_ref, omega_m),
             ff_nm,
-            ((-i_q_max, i_q_max), held),
+            Some(((-i_q_max, i_q_max), held)),
         );
-        if self
-            .supervision
-            .stalled(&mut s.stall, omega_m, s.speed_ref_rpm, s.i_q_ref)
-        {
+        if (self.stall).stalled(&mut s.stall, omega_m, s.speed_ref_rpm, s.i_q_ref) {
             return Next::Fault(Fault::Stall);
         }
         match note {

@@ -1,7 +1,8 @@
 //! Supervision, apart from control: each observer's health from its own evidence
 //! ([`Observer::residual`](crate::observer::Observer::residual)), which observer drives, which
-//! is re-seeded, and the checks that end in a fault (observer loss, stall), each once a
-//! millisecond in the drive's 1 kHz task (`Drive::tick`) on the estimates of one sample.
+//! is re-seeded, and the checks that end in an observer loss, each once a
+//! millisecond in the drive's 1 kHz task (`Drive::tick`) on the estimates of one sample. (The
+//! stall check is sensorless control's, `sensorless.rs`.)
 //!
 //! The rules, for any pair of observers:
 //! - an observer is *healthy* after `lock_checks` checks in a row with the running mean of its
@@ -30,24 +31,26 @@
 
 use super::io::Role;
 use crate::math::wrap_pi;
+use crate::observer::EDGE_OF_LOCK;
 use crate::units::RPM_PER_RAD_S;
 use core::hint::cold_path;
 
 /// The weight of a check's residual in its running mean.
 const MEAN_WEIGHT: f32 = 1.0 / 8.0;
-/// A healthy observer whose mean residual stays at or above this is lost.
-const LOST: f32 = 0.5;
-/// An observer whose mean residual stays below this has locked.
-const LOCKED: f32 = 0.25;
+/// A healthy observer whose mean residual stays at or above this is lost: half way to the
+/// edge of lock ([`EDGE_OF_LOCK`], an observer's residual 1), before the estimate is wrong.
+const LOST: f32 = 0.5 * EDGE_OF_LOCK;
+/// An observer whose mean residual stays below this has locked: a quarter of the edge.
+const LOCKED: f32 = 0.25 * EDGE_OF_LOCK;
 /// Residuals are taken up to this (a NaN or infinite one counts as this).
 const RESIDUAL_CAP: f32 = 100.0;
 
 /// Supervision's thresholds, in the units and counts the checks use.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Settings {
-    /// Checks with the residual below ½ before an observer is healthy.
+    /// Checks with the mean residual below ¼ (`LOCKED`) before an observer is healthy.
     pub(super) lock_checks: u32,
-    /// Checks with the residual at or above 1 before a healthy observer is lost.
+    /// Checks with the mean residual at or above ½ (`LOST`) before a healthy observer is lost.
     pub(super) failover_checks: u32,
     /// Checks between two seeds of an observer that does not lock.
     pub(super) reseed_checks: u32,
@@ -57,15 +60,6 @@ pub(super) struct Settings {
     pub(super) max_disagreement: f32,
     /// Largest tolerated speed disagreement of two usable observers \[rpm].
     pub(super) max_speed_disagreement_rpm: f32,
-    /// Checks of collapsed speed at the current limit before a stall.
-    pub(super) stall_checks: u32,
-    /// |i_q command| at or above this is the speed loop at its limit \[A].
-    pub(super) i_limit_a: f32,
-    /// Without a usable observer, below this |speed| and |reference| open loop takes over
-    /// again \[rpm].
-    pub(super) handback_rpm: f32,
-    /// With a zero command, stopped below this estimated |speed| \[rpm].
-    pub(super) stop_rpm: f32,
 }
 
 /// One observer's health, counted over the checks.
@@ -318,25 +312,6 @@ impl Settings {
             h.monitor.seeded();
         }
         (verdict, seed)
-    }
-
-    /// Sensorless stall: the speed `omega_m` [rad/s] of the driving observer below half the
-    /// slewed reference `speed_ref_rpm` (or turning the wrong way) for `stall_checks` in a row
-    /// with the speed loop's command `i_q_ref_a` at its limit. (A rotor blocked before it
-    /// turned never leaves the open loop: it is not seen following the ramp.)
-    #[inline(always)]
-    pub(super) fn stalled(
-        &self,
-        count: &mut u32,
-        omega_m: f32,
-        speed_ref_rpm: f32,
-        i_q_ref_a: f32,
-    ) -> bool {
-        let speed = omega_m * RPM_PER_RAD_S;
-        let along = if speed_ref_rpm < 0.0 { -speed } else { speed };
-        let at_limit = i_q_ref_a.abs() >= self.i_limit_a;
-        *count = consecutive(*count, along < 0.5 * speed_ref_rpm.abs() && at_limit);
-        *count >= self.stall_checks
     }
 }
 

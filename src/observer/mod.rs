@@ -15,6 +15,11 @@ pub mod ii;
 pub mod pll;
 pub mod sliding;
 
+/// An observer's [`Observer::residual`] at the edge of lock: below it the observer's model fits
+/// the measurements, above it the estimate is lost. The drive's supervision judges lock on
+/// fractions of it (`drive/supervision.rs`: locked below ¼, lost at ½).
+pub const EDGE_OF_LOCK: f32 = 1.0;
+
 /// The parts of an observer's read-out that a drive may run at a lower rate than its state
 /// equations (the drive runs them at 1 kHz in its 1 kHz task, `Drive::tick`); a caller that
 /// wants the estimates every sample runs both after each [`Observer::update`].

@@ -361,12 +361,12 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     /// `Identified`.
     #[cfg(feature = "identify")]
     pub fn start_identification(&self, st: &mut StateOf<P, M>) -> Option<Transition> {
-        if !(matches!(st.mode, ModeState::Idle) && st.armed) {
+        if !(matches!(st.mode, ModeState::Idle) && st.arming.armed()) {
             return None;
         }
         *st = DriveState {
             mode: ModeState::Calibrate,
-            offset_ab: st.offset_ab,
+            offsets: st.offsets.for_identification(),
             ..DriveState::default()
         };
         Some(Transition {
@@ -404,13 +404,14 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         id.gains = Gains::of(s, k.r_ohm, k.l_h(), k.flux_wb);
         id.phase = phase;
         id.result = k;
-        DriveState {
+        let mut st = DriveState {
             mode: ModeState::Identify,
             identify: id,
-            // The lowest bus the drive runs on, as if sampled.
-            v_bus_last: self.limits.bus_min_v,
             ..DriveState::default()
-        }
+        };
+        // The lowest bus the drive runs on, as if sampled.
+        st.last.record_bus(self.limits.bus_min_v);
+        st
     }
 
     /// The step of modes `Idle` (the offsets' watch), `Calibrate` and `Identify`: the duties
@@ -429,10 +430,17 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             #[cfg(feature = "identify")]
             ModeState::Calibrate => (None, self.calibrate(st, input)),
             #[cfg(feature = "identify")]
-            _ => self.identify_control(st, input),
+            ModeState::Identify => self.identify_control(st, input),
             // Without the feature `identify` its modes are never entered.
             #[cfg(not(feature = "identify"))]
-            _ => (None, None),
+            ModeState::Calibrate | ModeState::Identify => (None, None),
+            // Not commissioning: `Drive::step` does not call this in these modes.
+            ModeState::Catch(_)
+            | ModeState::Align(_)
+            | ModeState::OpenLoop(_)
+            | ModeState::Sensorless(_)
+            | ModeState::Fault(_)
+            | ModeState::Identified => (None, None),
         }
     }
 
@@ -441,16 +449,14 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     #[inline(always)]
     #[cfg(feature = "identify")]
     pub(super) fn calibrate(&self, st: &mut StateOf<P, M>, input: &DriveInput) -> Option<Reason> {
-        let offset = st
-            .idle_window
-            .step(input.i_abc, self.identify_offset_limit_a)?;
+        let plausible = st
+            .offsets
+            .calibrated(input.i_abc, self.identify_offset_limit_a)?;
         cold_path();
-        st.idle_window = offset::Calibrate::default();
-        let Some(offset_ab) = offset else {
+        if !plausible {
             return Some(enter_fault(st, Fault::AdcOffset));
-        };
-        st.offset_ab = offset_ab;
-        st.v_bus_last = input.v_bus;
+        }
+        st.last.record_bus(input.v_bus);
         if !self.identify.sensable {
             return Some(enter_fault(
                 st,
@@ -466,16 +472,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     /// renews the offsets the next enable takes (or marks them implausible).
     #[inline(always)]
     pub(super) fn watch_offset(&self, st: &mut StateOf<P, M>, input: &DriveInput) {
-        if let Some(r) = st
-            .idle_window
-            .step(input.i_abc, self.identify_offset_limit_a)
-        {
-            st.offset_implausible = r.is_none();
-            if let Some(ab) = r {
-                st.offset_ab = ab;
-            }
-            st.idle_window = offset::Calibrate::default();
-        }
+        (st.offsets).watch(input.i_abc, self.identify_offset_limit_a);
     }
 
     /// Mode `Identify`'s step: the measurement's request through its FOC (no observers run).
@@ -487,13 +484,11 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         input: &DriveInput,
     ) -> (Option<Duties>, Option<Reason>) {
         let i_raw = input.i_abc.to_alpha_beta();
-        let i_ab = AlphaBeta::new(
-            i_raw.alpha - st.offset_ab.alpha,
-            i_raw.beta - st.offset_ab.beta,
-        );
+        let offset_ab = st.offsets.ab();
+        let i_ab = AlphaBeta::new(i_raw.alpha - offset_ab.alpha, i_raw.beta - offset_ab.beta);
         st.i_ab_last = i_ab;
         let id = &mut st.identify;
-        let v_last = st.v_ab_last;
+        let v_last = st.last.v_ab();
         let request = match &mut id.phase {
             Phase::Resistance(r) => r.step(i_ab),
             Phase::Inductance(l) => l.step(i_ab),
@@ -504,8 +499,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             .gains
             .foc(&self.foc)
             .run(&mut st.current, &request, i_ab, input.v_bus);
-        st.v_ab_last = out.v_ab;
-        st.v_bus_last = input.v_bus;
+        st.last.record_voltage(out.v_ab, input.v_bus);
         (Some(out.duties), None)
     }
 
@@ -514,7 +508,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     #[inline(never)]
     #[cfg(feature = "identify")]
     pub(super) fn identify_tick(&self, st: &mut StateOf<P, M>) -> Option<Transition> {
-        let v_max = self.foc.v_max(st.v_bus_last);
+        let v_max = self.foc.v_max(st.last.v_bus());
         let id = &mut st.identify;
         let s = &self.identify;
         let result = &mut id.result;

@@ -44,3 +44,72 @@ impl Calibrate {
         Some(ok.then(|| mean.to_alpha_beta()))
     }
 }
+
+/// The offsets the drive measured with the PWM off, and the watch that renews them while idle:
+/// written here ([`Offsets::watch`], [`Offsets::calibrated`]), read by the enable
+/// ([`Offsets::implausible`]) and the identification ([`Offsets::ab`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(in crate::drive) struct Offsets {
+    /// In the stationary frame \[A].
+    ab: AlphaBeta,
+    /// The samples' window.
+    window: Calibrate,
+    /// The last idle window's offsets were implausible: an enable faults (`AdcOffset`).
+    implausible: bool,
+}
+
+impl Offsets {
+    /// The offsets in the stationary frame \[A].
+    pub(in crate::drive) fn ab(&self) -> AlphaBeta {
+        self.ab
+    }
+
+    /// The last idle window's offsets were implausible: the enable is refused.
+    pub(in crate::drive) fn implausible(&self) -> bool {
+        self.implausible
+    }
+
+    /// The offsets kept, a new window: a restart in another mode.
+    pub(in crate::drive) fn kept(&self) -> Self {
+        Self {
+            ab: self.ab,
+            window: Calibrate::default(),
+            implausible: self.implausible,
+        }
+    }
+
+    /// The offsets kept, a new window, nothing implausible: the identification's start (its
+    /// calibration measures them again).
+    pub(in crate::drive) fn for_identification(&self) -> Self {
+        Self {
+            ab: self.ab,
+            ..Self::default()
+        }
+    }
+
+    /// While idle (PWM off): the sample `i` \[A] summed into the window; each full window
+    /// renews the offsets the next enable takes (or marks them implausible, beyond `limit_a`).
+    #[inline(always)]
+    pub(in crate::drive) fn watch(&mut self, i: Abc, limit_a: f32) {
+        if let Some(r) = self.window.step(i, limit_a) {
+            self.implausible = r.is_none();
+            if let Some(ab) = r {
+                self.ab = ab;
+            }
+            self.window = Calibrate::default();
+        }
+    }
+
+    /// Mode `Calibrate`'s sample `i` \[A]: `None` until the window is full; then `Some(true)`
+    /// with the offsets kept, or `Some(false)` (implausible, beyond `limit_a`: the offset
+    /// fault).
+    #[inline(always)]
+    pub(in crate::drive) fn calibrated(&mut self, i: Abc, limit_a: f32) -> Option<bool> {
+        let offset = self.window.step(i, limit_a)?;
+        self.window = Calibrate::default();
+        if let Some(ab) = offset {
+            self.ab = ab;
+        }
+        Some(offset.is_some())
+    }
+}

@@ -29,7 +29,7 @@ mod firmware {
         Command, Drive, DriveConfig, DriveInput, DriveOutput, Identified, IdentifyPhase, Mode,
         StateOf,
     };
-    use pmsm_sensorless::foc::{CurrentLoopState, Foc, FocConfig, FocInput, FocOutput};
+    use pmsm_sensorless::foc::{CurrentLoopState, Foc, FocConfig, FocInput, FocOutput, Reference};
     use pmsm_sensorless::frames::{AlphaBeta, Dq};
     use pmsm_sensorless::motor::HORNG_SINANO;
     use pmsm_sensorless::observer::flux::{FluxConfig, FluxObserver, FluxState};
@@ -128,7 +128,8 @@ mod firmware {
 
     #[inline(never)]
     fn foc_step(foc: &Foc, st: &mut CurrentLoopState, input: &FocInput, i_dq_ref: Dq) -> FocOutput {
-        foc.current_step(st, input, i_dq_ref)
+        let req = input.request(foc, Reference::Current(i_dq_ref));
+        foc.run(st, &req, input.i_ab(), input.v_bus)
     }
 
     /// Plausible samples at 1000 rpm (θ_e advancing 0.1047 rad per step from `theta0`), small

@@ -1,8 +1,10 @@
 //! Where a step is in its millisecond: the drive's 1 kHz task ([`Drive::tick`]) runs once after
-//! every fourth step ([`DriveState::tick_due`]).
+//! every fourth step ([`DriveState::tick_due`]); the FOC's speed loop without the drive
+//! ([`FocState`]) runs in the first. The one decimator of the 4 kHz step.
 //!
-//! [`Drive::tick`]: super::Drive::tick
-//! [`DriveState::tick_due`]: super::DriveState::tick_due
+//! [`Drive::tick`]: crate::drive::Drive::tick
+//! [`DriveState::tick_due`]: crate::drive::DriveState::tick_due
+//! [`FocState`]: crate::foc::FocState
 
 /// Steps per millisecond: the 1 kHz task comes after every 4th step (1 kHz at 4 kHz).
 pub const SLOTS: u32 = 4;
@@ -25,7 +27,7 @@ pub enum Slot {
 
 impl Slot {
     /// The slot of the next step: the discriminant plus one, modulo four (an add and a mask).
-    pub(super) fn next(self) -> Self {
+    pub fn next(self) -> Self {
         match (self as u8 + 1) % SLOTS as u8 {
             0 => Slot::First,
             1 => Slot::Second,

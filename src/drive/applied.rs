@@ -1,0 +1,91 @@
+//! What the current loop applied: the last period's voltage and bus (the observers' input, the
+//! identification's), and whether the voltage was at its limit through the last millisecond
+//! (the field weakening's anti-windup). Written by the step's FOC call ([`LastPeriod::record`])
+//! and the 1 kHz task ([`LastPeriod::close_millisecond`]), read through [`LastPeriod::applied`].
+
+use crate::foc::{Foc, FocOutput};
+use crate::frames::AlphaBeta;
+use crate::schedule::SLOTS;
+
+/// What the current loop applied over the last millisecond, for the 1 kHz task.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Applied {
+    /// The voltage of the last period \[V].
+    pub(super) v_ab: AlphaBeta,
+    /// The current loop's voltage limit \[V].
+    pub(super) v_max: f32,
+    /// The voltage was at its limit through the last millisecond.
+    pub(super) limited: bool,
+}
+
+/// The current loop's last period and its voltage limit over the millisecond.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(super) struct LastPeriod {
+    /// Voltage applied over the period that just ended \[V].
+    v_ab: AlphaBeta,
+    /// The bus voltage of the last sample \[V].
+    v_bus: f32,
+    /// Steps of this millisecond in which the current loop cut its voltage to the limit.
+    cut_steps: u8,
+    /// ... in every step of the last millisecond ([`LastPeriod::close_millisecond`]): the
+    /// voltage at its limit, not a noise spike on one sample.
+    limited: bool,
+}
+
+impl LastPeriod {
+    /// A period of the running drive: the FOC's output `out` on the bus `v_bus` \[V].
+    #[inline(always)]
+    pub(super) fn record(&mut self, out: &FocOutput, v_bus: f32) {
+        self.cut_steps = self.cut_steps.saturating_add(u8::from(out.saturated));
+        self.v_ab = out.v_ab;
+        self.v_bus = v_bus;
+    }
+
+    /// A period of the identification (no voltage-limit count): `v_ab` applied \[V] on
+    /// `v_bus` \[V].
+    #[inline(always)]
+    #[cfg_attr(not(feature = "identify"), allow(dead_code))]
+    pub(super) fn record_voltage(&mut self, v_ab: AlphaBeta, v_bus: f32) {
+        self.v_ab = v_ab;
+        self.v_bus = v_bus;
+    }
+
+    /// The bus `v_bus` \[V] sampled with the PWM off.
+    #[cfg_attr(not(feature = "identify"), allow(dead_code))]
+    pub(super) fn record_bus(&mut self, v_bus: f32) {
+        self.v_bus = v_bus;
+    }
+
+    /// The 1 kHz task: the voltage was at its limit in every step of the millisecond.
+    #[inline(always)]
+    pub(super) fn close_millisecond(&mut self) {
+        self.limited = core::mem::take(&mut self.cut_steps) >= SLOTS as u8;
+    }
+
+    /// The voltage applied over the period that just ended \[V].
+    pub(super) fn v_ab(&self) -> AlphaBeta {
+        self.v_ab
+    }
+
+    /// The bus voltage of the last sample \[V].
+    #[cfg_attr(not(feature = "identify"), allow(dead_code))]
+    pub(super) fn v_bus(&self) -> f32 {
+        self.v_bus
+    }
+
+    /// The voltage was at its limit through the last millisecond.
+    pub(super) fn limited(&self) -> bool {
+        self.limited
+    }
+
+    /// What the 1 kHz task takes: the last voltage, `foc`'s limit on the last bus, the limit
+    /// flag.
+    #[inline(always)]
+    pub(super) fn applied(&self, foc: &Foc) -> Applied {
+        Applied {
+            v_ab: self.v_ab,
+            v_max: foc.v_max(self.v_bus),
+            limited: self.limited,
+        }
+    }
+}

@@ -1,0 +1,51 @@
+//! What a mode's 1 kHz work asks of the drive ([`Next`]) and what it is given of the driving
+//! observer ([`Driving`]): the modes return their requests and their mode changes with a
+//! reason, and the drive (`mod.rs`) builds the next mode's state, so no mode reaches into
+//! another.
+
+use super::io::{Fault, Reason};
+use crate::frames::{Dq, SinCos};
+
+/// The driving observer's estimate now (`Drive::driving_now`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Driving {
+    /// sin/cos of θ̂_e.
+    pub(super) frame: SinCos,
+    /// ω̂_m [rad/s, mechanical].
+    pub(super) omega_m: f32,
+    /// Its load-torque estimate \[N·m], if it has one.
+    pub(super) load_nm: Option<f32>,
+}
+
+/// Sensorless control entered at a known rotor (`sensorless::Settings::enter`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Entry {
+    /// The rotor's speed [rad/s, mechanical].
+    pub(super) omega_m: f32,
+    /// The current it carries in the driving observer's frame \[A].
+    pub(super) i_dq: Dq,
+    /// The driving observer's load estimate \[N·m], if it has one.
+    pub(super) load_nm: Option<f32>,
+}
+
+/// What a mode's 1 kHz work decided.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum Next {
+    /// Carry on.
+    Stay,
+    /// Carry on; within the mode, the driving observer changed.
+    Note(Reason),
+    /// Sensorless control from the next step on (a flying start caught, the hand-over).
+    Sensorless(Entry, Reason),
+    /// Back to the open loop at the driving observer's frame and speed (the hand-back).
+    OpenLoop {
+        /// sin/cos of θ̂_e.
+        frame: SinCos,
+        /// ω̂_m [rad/s, mechanical].
+        omega_m: f32,
+    },
+    /// Stop switching: a fault.
+    Fault(Fault),
+    /// Stopped at zero speed with a zero command (back to idle).
+    Stopped,
+}

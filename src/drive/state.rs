@@ -1,0 +1,231 @@
+//! The drive's running state ([`DriveState`]): the mode and the state it owns ([`ModeState`],
+//! one variant per mode), the observers', the current loop's, the last period's, the arming
+//! and the offsets; and what the outside reads of it.
+
+use super::align::Align;
+use super::applied::LastPeriod;
+use super::catch::Catch;
+use super::identify::offset::Offsets;
+#[cfg(feature = "identify")]
+use super::identify::Identify;
+use super::identify::{Identified, IdentifyPhase};
+use super::io::{Fault, Mode, Role};
+use super::observers::ObserverStates;
+use super::open_loop::OpenLoop;
+use super::protection::Arming;
+use super::sensorless::Sensorless;
+use super::Slot;
+use crate::foc::CurrentLoopState;
+use crate::frames::{AlphaBeta, SinCos};
+use crate::observer::Observer;
+
+/// The running state of a [`Drive<P, M>`](super::Drive): `DriveState<P::State, M::State>`.
+pub type StateOf<P, M> = DriveState<<P as Observer>::State, <M as Observer>::State>;
+
+/// Running state of the drive (`PS`, `MS`: the primary's and the monitor's observer state).
+/// `Default` is idle, armed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+// In declaration order (C layout): what the running step reads first, the identification's
+// state last, so that adding it does not move the hot fields' offsets.
+#[repr(C)]
+pub struct DriveState<PS, MS> {
+    pub(super) mode: ModeState,
+    pub(super) slot: Slot,
+    pub(super) obs: ObserverStates<PS, MS>,
+    pub(super) current: CurrentLoopState,
+    /// The currents of the last sample the observers took \[A].
+    pub(super) i_ab_last: AlphaBeta,
+    /// The current loop's last period and its voltage limit (`applied.rs`).
+    pub(super) last: LastPeriod,
+    /// No start after a cleared fault until the enable was low (`protection.rs`).
+    pub(super) arming: Arming,
+    /// The current sensors' offsets measured with the PWM off (`identify/offset.rs`), taken
+    /// off the identification's samples; an implausible one refuses the enable.
+    pub(super) offsets: Offsets,
+    /// Mode `Identify`'s state (`identify/`).
+    #[cfg(feature = "identify")]
+    pub(super) identify: Identify,
+}
+
+impl<PS: Default, MS: Default> Default for DriveState<PS, MS> {
+    fn default() -> Self {
+        Self {
+            mode: ModeState::Idle,
+            slot: Slot::First,
+            obs: ObserverStates::default(),
+            current: CurrentLoopState::default(),
+            i_ab_last: AlphaBeta::default(),
+            last: LastPeriod::default(),
+            arming: Arming::default(),
+            offsets: Offsets::default(),
+            #[cfg(feature = "identify")]
+            identify: Identify::new(),
+        }
+    }
+}
+
+impl<PS: Default, MS: Default> DriveState<PS, MS> {
+    /// Starts afresh in `mode`, the adapted motor model and the offsets measured kept.
+    // Out of line: a mode change (enable, disable, stop, clear), one copy for all of them.
+    #[inline(never)]
+    pub(super) fn restart(&mut self, mode: ModeState) {
+        let model = self.obs.model;
+        *self = DriveState {
+            mode,
+            offsets: self.offsets.kept(),
+            ..DriveState::default()
+        };
+        self.obs.model = model;
+    }
+}
+
+impl<PS, MS> DriveState<PS, MS> {
+    /// The mode.
+    pub fn mode(&self) -> Mode {
+        match self.mode {
+            ModeState::Idle => Mode::Idle,
+            ModeState::Catch(_) => Mode::Catch,
+            ModeState::Align(_) => Mode::Align,
+            ModeState::OpenLoop(_) => Mode::OpenLoop,
+            ModeState::Sensorless(_) => Mode::Sensorless,
+            ModeState::Fault(_) => Mode::Fault,
+            ModeState::Calibrate => Mode::Calibrate,
+            ModeState::Identify => Mode::Identify,
+            ModeState::Identified => Mode::Identified,
+        }
+    }
+
+    /// The identified motor, once the identification is done (mode `Identified`).
+    pub fn identified(&self) -> Option<Identified> {
+        match self.mode {
+            #[cfg(feature = "identify")]
+            ModeState::Identified => Some(self.identify.result),
+            #[cfg(not(feature = "identify"))]
+            ModeState::Identified => None,
+            ModeState::Idle
+            | ModeState::Catch(_)
+            | ModeState::Align(_)
+            | ModeState::OpenLoop(_)
+            | ModeState::Sensorless(_)
+            | ModeState::Fault(_)
+            | ModeState::Calibrate
+            | ModeState::Identify => None,
+        }
+    }
+
+    /// The identification's running measurement, in mode `Identify`.
+    pub fn identify_phase(&self) -> Option<IdentifyPhase> {
+        match &self.mode {
+            #[cfg(feature = "identify")]
+            ModeState::Identify => Some(self.identify.which()),
+            #[cfg(not(feature = "identify"))]
+            ModeState::Identify => None,
+            ModeState::Idle
+            | ModeState::Catch(_)
+            | ModeState::Align(_)
+            | ModeState::OpenLoop(_)
+            | ModeState::Sensorless(_)
+            | ModeState::Fault(_)
+            | ModeState::Calibrate
+            | ModeState::Identified => None,
+        }
+    }
+
+    /// The current sensors' offsets the drive measured with the PWM off (while idle, or
+    /// before an identification), in the stationary frame \[A]: taken off the
+    /// identification's samples; a board that does not take its own offsets off its samples
+    /// can take these.
+    pub fn offset_ab(&self) -> AlphaBeta {
+        self.offsets.ab()
+    }
+
+    /// The latched fault, if any.
+    pub fn fault(&self) -> Option<Fault> {
+        match self.mode {
+            ModeState::Fault(f) => Some(f),
+            ModeState::Idle
+            | ModeState::Catch(_)
+            | ModeState::Align(_)
+            | ModeState::OpenLoop(_)
+            | ModeState::Sensorless(_)
+            | ModeState::Calibrate
+            | ModeState::Identify
+            | ModeState::Identified => None,
+        }
+    }
+
+    /// The slot of the coming step.
+    pub fn slot(&self) -> Slot {
+        self.slot
+    }
+
+    /// The last step was the [`SLOTS`](super::SLOTS)th of its millisecond: [`Drive::tick`](super::Drive::tick) is due now.
+    pub fn tick_due(&self) -> bool {
+        self.slot == Slot::First
+    }
+
+    /// The voltage the last step's duties apply over the period \[V] (what the observers take
+    /// next step), the inverter's dead time included ([`crate::foc::FocOutput::v_ab`]); zero
+    /// before the first switching step.
+    pub fn v_ab_applied(&self) -> AlphaBeta {
+        self.last.v_ab()
+    }
+
+    /// The primary observer's state.
+    pub fn primary(&self) -> &PS {
+        &self.obs.primary
+    }
+
+    /// The monitor observer's state.
+    pub fn monitor(&self) -> &MS {
+        &self.obs.monitor
+    }
+
+    /// Which observer drives the controller.
+    pub fn driving(&self) -> Role {
+        self.obs.health.driving
+    }
+
+    /// sin/cos of the open-loop angle θ_ol, in open loop.
+    pub fn open_loop_frame(&self) -> Option<SinCos> {
+        match &self.mode {
+            ModeState::OpenLoop(ol) => Some(ol.frame()),
+            ModeState::Idle
+            | ModeState::Catch(_)
+            | ModeState::Align(_)
+            | ModeState::Sensorless(_)
+            | ModeState::Fault(_)
+            | ModeState::Calibrate
+            | ModeState::Identify
+            | ModeState::Identified => None,
+        }
+    }
+}
+
+/// The mode and the state it owns. Every match on it lists every mode (no `_` arm): a new mode
+/// does not compile until each place has decided what it does in it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+// Without the feature `identify`, Calibrate, Identify and Identified are never entered.
+#[cfg_attr(not(feature = "identify"), allow(dead_code))]
+pub(super) enum ModeState {
+    /// PWM off, waiting for enable.
+    Idle,
+    /// PWM off, the observers on the terminal voltage.
+    Catch(Catch),
+    /// Rotor alignment.
+    Align(Align),
+    /// Open-loop start.
+    OpenLoop(OpenLoop),
+    /// Sensorless control.
+    Sensorless(Sensorless),
+    /// PWM off, latched until cleared.
+    Fault(Fault),
+    /// PWM off, the current sensors' offsets measured (the samples' window:
+    /// `DriveState::offsets`). Entered only with the feature `identify`.
+    Calibrate,
+    /// The identification's measurements (their state: `DriveState::identify`, kept out of
+    /// this enum so that its size, which every mode change moves, stays the running modes').
+    Identify,
+    /// The identification's results (`DriveState::identify`), PWM off.
+    Identified,
+}
