@@ -44,7 +44,7 @@ mod supervision;
 pub use config::{DriveConfig, HealthConfig, Limits, PowerStageConfig, StartConfig};
 pub use identify::{Identified, IdentifyConfig, IdentifyError, IdentifyPhase};
 pub use io::{Command, DriveInput, DriveOutput, Fault, Mode, Reason, Role, Telemetry, Transition};
-pub use report::{Derived, Warning};
+pub use report::{Derived, DerivedRow, Warning};
 pub use schedule::{Slot, SLOTS};
 
 use crate::foc::{CurrentLoopState, Foc, Request};
