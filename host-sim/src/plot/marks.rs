@@ -250,35 +250,35 @@ where
     Ok(())
 }
 
-/// Shades the bands over the plotting area `y` (backend pixels, top to bottom).
-pub(super) fn shade_bands<DB: DrawingBackend>(
-    root: &DrawingArea<DB, Shift>,
-    marks: &Marks,
-    map: XMap,
-    (y0, y1): (i32, i32),
-) -> anyhow::Result<()>
-where
-    DB::ErrorType: 'static,
-{
-    for b in &marks.bands {
-        root.draw(&Rectangle::new(
-            [(map.px(b.x0), y0), (map.px(b.x1), y1)],
-            shade(b.shade).mix(PANEL_SHADE).filled(),
-        ))?;
-    }
-    Ok(())
+/// What [`mark_panel`] draws: the bands behind the lines, or the events over them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum Layer {
+    /// The bands, shaded.
+    Behind,
+    /// The events' vertical lines: dashed grey, faults solid red.
+    Over,
 }
 
-/// The events' vertical lines over the plotting area `y`: dashed grey, faults solid red.
-pub(super) fn draw_events<DB: DrawingBackend>(
+/// Draws `layer` of the marks over the plotting area `y` (backend pixels, top to bottom).
+pub(super) fn mark_panel<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     marks: &Marks,
     map: XMap,
     (y0, y1): (i32, i32),
+    layer: Layer,
 ) -> anyhow::Result<()>
 where
     DB::ErrorType: 'static,
 {
+    if layer == Layer::Behind {
+        for b in &marks.bands {
+            root.draw(&Rectangle::new(
+                [(map.px(b.x0), y0), (map.px(b.x1), y1)],
+                shade(b.shade).mix(PANEL_SHADE).filled(),
+            ))?;
+        }
+        return Ok(());
+    }
     let mut unused = Vec::new();
     for e in &marks.events {
         let x = map.px(e.x);

@@ -27,12 +27,13 @@ mod style;
 mod tests;
 mod xy;
 
-use anyhow::Context;
 use std::path::Path;
 
 pub use heatmap::heat_map;
 pub use lines::decimate_min_max;
 pub use marks::{Band, Event, Marks};
+pub use panels::plot_panels_marked;
+pub use xy::plot_xy;
 
 /// One named data series (`x[i]`, `y[i]` pairs).
 #[derive(Debug, Clone, Copy)]
@@ -78,39 +79,4 @@ pub fn plot_panels(
     panels: &[Panel],
 ) -> anyhow::Result<()> {
     plot_panels_marked(path, title, x_label, panels, &Marks::default())
-}
-
-/// As [`plot_panels`], with `marks`: its bands shaded behind every panel and named in a
-/// strip under the title, its events as vertical lines through every panel labelled in the
-/// strip (faults in red). No strip without marks.
-pub fn plot_panels_marked(
-    path: &Path,
-    title: &str,
-    x_label: &str,
-    panels: &[Panel],
-    marks: &Marks,
-) -> anyhow::Result<()> {
-    panels::draw_panels(path, title, x_label, panels, marks)
-        .with_context(|| format!("failed to write plot {}", path.display()))
-}
-
-/// Writes a PNG with an x–y plot (e.g. a root locus).
-///
-/// With `points_only` every series is drawn as small filled markers, otherwise
-/// as lines (non-finite points split the line). `circles` are
-/// `(centre_x, centre_y, radius, label)` drawn as dashed outlines in data
-/// coordinates (so they appear as ellipses unless the axes happen to have
-/// equal scale); a non-empty label adds a legend entry. A legend is drawn
-/// when there is more than one labelled item.
-pub fn plot_xy(
-    path: &Path,
-    title: &str,
-    x_label: &str,
-    y_label: &str,
-    series: &[Series],
-    circles: &[(f64, f64, f64, &str)],
-    points_only: bool,
-) -> anyhow::Result<()> {
-    xy::draw_xy(path, title, x_label, y_label, series, circles, points_only)
-        .with_context(|| format!("failed to write plot {}", path.display()))
 }
