@@ -236,7 +236,8 @@ fn mode_mark(mode: Mode) -> (&'static str, usize) {
 }
 
 /// The run's marks: a band per stretch of one mode, an event per transition (named by its
-/// reason; a fault by its name), and the run's own stop (a plant gone non-finite) as a fault.
+/// reason; a fault by its name), the loss of lock and the run's own stop (a plant gone
+/// non-finite), the last two in red as faults.
 pub fn marks(run: &Run) -> Marks<'static> {
     let rows = &run.rows;
     let dt = 1.0 / run.config.rate_hz;
@@ -270,6 +271,13 @@ pub fn marks(run: &Run) -> Marks<'static> {
             },
         })
         .collect();
+    if let Some(t) = crate::summary::Summary::of(run).lost_lock_at_s {
+        events.push(Event {
+            x: t,
+            label: "lost lock".into(),
+            fault: true,
+        });
+    }
     if let (Some(why), None, Some(last)) = (&run.fault, run.drive_fault, rows.last()) {
         events.push(Event {
             x: last.t,

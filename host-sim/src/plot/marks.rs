@@ -164,11 +164,20 @@ pub(super) fn strip_rows(marks: &Marks, map: XMap) -> Option<usize> {
     Some(placed.iter().map(|p| p.row + 1).max().unwrap_or(0))
 }
 
+/// Heights of the band row and of the legend row: none without bands (a bare run's strip
+/// holds its events only).
+fn band_rows(marks: &Marks) -> (i32, i32) {
+    if marks.bands.is_empty() {
+        (4, 0)
+    } else {
+        (BAND_ROW, LEGEND_ROW)
+    }
+}
+
 /// Height of the strip with `rows` rows of event labels (0: no strip).
-pub(super) fn strip_height(rows: Option<usize>) -> u32 {
-    rows.map_or(0, |r| {
-        (BAND_ROW + LABEL_ROW * r as i32 + LEGEND_ROW + 6) as u32
-    })
+pub(super) fn strip_height(marks: &Marks, rows: Option<usize>) -> u32 {
+    let (band, legend) = band_rows(marks);
+    rows.map_or(0, |r| (band + LABEL_ROW * r as i32 + legend + 6) as u32)
 }
 
 /// Draws the strip whose top is at backend pixel `top`: the bands with their names where
@@ -184,7 +193,10 @@ where
     DB::ErrorType: 'static,
 {
     let left_of_axis = tick_style().pos(Pos::new(HPos::Right, VPos::Center));
-    root.draw_text("mode", &left_of_axis, (map.px_lo - 6, top + BAND_ROW / 2))?;
+    let (band_row, legend_row) = band_rows(marks);
+    if !marks.bands.is_empty() {
+        root.draw_text("mode", &left_of_axis, (map.px_lo - 6, top + BAND_ROW / 2))?;
+    }
     let centred = tick_style().pos(Pos::new(HPos::Center, VPos::Center));
     for b in &marks.bands {
         let (x0, x1) = (map.px(b.x0), map.px(b.x1));
@@ -196,7 +208,7 @@ where
             root.draw_text(b.label, &centred, ((x0 + x1) / 2, top + BAND_ROW / 2 - 1))?;
         }
     }
-    let labels_top = top + BAND_ROW;
+    let labels_top = top + band_row;
     let placed = place(marks, map, rows);
     if !placed.is_empty() {
         root.draw_text(
@@ -231,7 +243,7 @@ where
         root.draw_text(&p.text, &style, (p.left, y + 1))?;
     }
     // The legend: every band's name once, in order of appearance.
-    let legend_y = labels_top + LABEL_ROW * rows as i32 + LEGEND_ROW / 2;
+    let legend_y = labels_top + LABEL_ROW * rows as i32 + legend_row / 2;
     let mut x = map.px_lo;
     let mut seen: Vec<&str> = Vec::new();
     let name = tick_style().pos(Pos::new(HPos::Left, VPos::Center));
@@ -338,6 +350,6 @@ mod tests {
         );
         assert_eq!(strip_rows(&marks, map()), Some(3));
         assert_eq!(strip_rows(&Marks::default(), map()), None);
-        assert_eq!(strip_height(None), 0);
+        assert_eq!(strip_height(&marks, None), 0);
     }
 }

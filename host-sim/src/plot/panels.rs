@@ -61,7 +61,7 @@ pub fn plot_panels_marked(
             px_hi: (WIDTH - MARGIN_RIGHT) as i32,
         };
         let rows = strip_rows(marks, map);
-        let strip = strip_height(rows);
+        let strip = strip_height(marks, rows);
         let height = n * PANEL_HEIGHT + TITLE_HEIGHT + X_DESC_HEIGHT + strip;
 
         let root = BitMapBackend::new(path, (WIDTH, height)).into_drawing_area();
