@@ -1,8 +1,11 @@
-//! Files written by `pmsm-sim run`: the CSV time series and the PNG plot.
+//! Files written by `pmsm-sim run`: the CSV time series and the PNG plot (its panels, and the
+//! drive's modes, transitions and faults marked on them).
 
-use crate::plot::{plot_panels, Panel, Series};
+use crate::plot::{plot_panels_marked, Band, Event, Marks, Panel, Series};
+use crate::sim::fault_name;
 use crate::sim::Run;
 use anyhow::Context;
+use pmsm_sensorless::drive::{Mode, Reason};
 use std::path::{Path, PathBuf};
 
 /// Column names of the CSV, with units.
@@ -80,7 +83,8 @@ pub fn write_csv(run: &Run, path: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Writes the overview plot: speeds, angle error, dq currents, load torque.
+/// Writes the overview plot: speeds, angle error, dq currents, load torque; the drive's modes
+/// shaded, its transitions and faults marked ([`marks`]).
 pub fn write_plot(run: &Run, path: &Path) -> anyhow::Result<()> {
     let rows = &run.rows;
     let col = |f: &dyn Fn(&crate::sim::Row) -> f64| rows.iter().map(f).collect::<Vec<f64>>();
@@ -202,14 +206,86 @@ pub fn write_plot(run: &Run, path: &Path) -> anyhow::Result<()> {
         });
     }
     let sc = &run.config.scenario;
+    let figures = if sc.figures.is_empty() {
+        String::new()
+    } else {
+        format!(" ({})", sc.figures)
+    };
     let title = format!(
-        "{} ({}) — motor {} — observer {}",
+        "{}{figures} — motor {} — observer {}",
         sc.name,
-        sc.figures,
         sc.motor_name,
         run.config.observer.name()
     );
-    plot_panels(path, &title, "t [s]", &panels)
+    plot_panels_marked(path, &title, "t [s]", &panels, &marks(run))
+}
+
+/// The mode's name and its colour in the plot (the same in every plot).
+fn mode_mark(mode: Mode) -> (&'static str, usize) {
+    match mode {
+        Mode::Idle => ("Idle", 0),
+        Mode::Catch => ("Catch", 1),
+        Mode::Align => ("Align", 2),
+        Mode::OpenLoop => ("OpenLoop", 3),
+        Mode::Sensorless => ("Sensorless", 4),
+        Mode::Fault => ("Fault", 5),
+        Mode::Calibrate => ("Calibrate", 6),
+        Mode::Identify => ("Identify", 7),
+        Mode::Identified => ("Identified", 8),
+    }
+}
+
+/// The run's marks: a band per stretch of one mode, an event per transition (named by its
+/// reason; a fault by its name), the loss of lock and the run's own stop (a plant gone
+/// non-finite), the last two in red as faults.
+pub fn marks(run: &Run) -> Marks<'static> {
+    let rows = &run.rows;
+    let dt = 1.0 / run.config.rate_hz;
+    let mut bands: Vec<Band<'static>> = Vec::new();
+    for r in rows {
+        let Some(mode) = r.mode else { continue };
+        let (label, shade) = mode_mark(mode);
+        match bands.last_mut() {
+            Some(b) if b.label == label => b.x1 = r.t + dt,
+            _ => bands.push(Band {
+                x0: r.t,
+                x1: r.t + dt,
+                label,
+                shade,
+            }),
+        }
+    }
+    let mut events: Vec<Event> = run
+        .transitions
+        .iter()
+        .map(|(t, tr)| match tr.reason {
+            Reason::Fault(f) => Event {
+                x: *t,
+                label: format!("fault: {}", fault_name(f)),
+                fault: true,
+            },
+            reason => Event {
+                x: *t,
+                label: format!("{reason:?}"),
+                fault: false,
+            },
+        })
+        .collect();
+    if let Some(t) = crate::summary::Summary::of(run).lost_lock_at_s {
+        events.push(Event {
+            x: t,
+            label: "lost lock".into(),
+            fault: true,
+        });
+    }
+    if let (Some(why), None, Some(last)) = (&run.fault, run.drive_fault, rows.last()) {
+        events.push(Event {
+            x: last.t,
+            label: why.clone(),
+            fault: true,
+        });
+    }
+    Marks { bands, events }
 }
 
 /// Writes `run.csv` and `run.png` into `dir` (created if needed); returns their paths.

@@ -244,6 +244,7 @@ pub struct ScenarioFile {
     expect_fault: Option<String>,
     speed_tolerance: Option<f64>,
     locked_rotor: Option<bool>,
+    ideal: Option<bool>,
 }
 
 /// `[inject]` of a scenario file.
@@ -412,6 +413,12 @@ impl Spec {
     /// One line for `pmsm-sim list`.
     pub fn description(&self) -> &str {
         self.file.description.as_deref().unwrap_or("")
+    }
+
+    /// Whether the scenario asks for the ideal plant (`ideal = true`: the papers'
+    /// experiments): `run` then simulates no noise, offsets, dead time or idle unless told.
+    pub fn is_ideal(&self) -> bool {
+        self.file.ideal.unwrap_or(false)
     }
 
     /// Whether the scenario runs the complete drive.

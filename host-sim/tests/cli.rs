@@ -51,6 +51,7 @@ fn run_json_contract_and_files() {
     let dir = tmp_dir("json");
     let out = sim(&[
         "run",
+        "--ideal",
         "horng-ramp-brake",
         "--observer",
         "encoder",
@@ -112,6 +113,7 @@ fn run_json_contract_and_files() {
     // Same seed, same result.
     let again = sim(&[
         "run",
+        "--ideal",
         "horng-ramp-brake",
         "--noise-a",
         "0.01",
@@ -140,6 +142,7 @@ fn motor_file_and_overrides() {
     std::fs::write(&good, "name = \"mine\"\npole_pairs = 4\nr_ohm = 2.5\nl_h = 5.97e-3\nflux_wb = 5.795e-2\nj_kgm2 = 6.45e-5\nb_nms = 0.0\n[ratings]\nbus_v = 48.0\ncurrent_a = 3.0\ntorque_nm = 0.695\nspeed_rpm = 1000.0\npower_w = 73.0\n").unwrap();
     let out = sim(&[
         "run",
+        "--ideal",
         "horng-ramp-brake",
         "--motor-file",
         good.to_str().unwrap(),

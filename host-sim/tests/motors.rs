@@ -209,6 +209,7 @@ fn the_datasheet_example_runs_start_stop_reverse_and_gains_lists_it() {
     for observer in ["flux", "sliding-torque"] {
         let out = sim(&[
             "run",
+            "--ideal",
             "start-stop-reverse",
             "--observer",
             observer,

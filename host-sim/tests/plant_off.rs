@@ -116,6 +116,7 @@ fn load_kind_flag_brake_holds_active_turns_the_rotor_until_the_diodes_hold_it() 
         let out = std::process::Command::new(env!("CARGO_BIN_EXE_pmsm-sim"))
             .args([
                 "run",
+                "--ideal",
                 "--scenario-file",
                 file.to_str().unwrap(),
                 "--observer",

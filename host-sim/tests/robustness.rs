@@ -56,6 +56,7 @@ fn every_cell_of_the_ci_subset_passes_and_the_adapted_model_converges() {
 fn adapted(mismatch: &str) -> (f64, f64) {
     let args = [
         "run",
+        "--ideal",
         "start-stop-reverse",
         "--observer",
         "flux",
@@ -91,6 +92,7 @@ fn a_winding_warming_by_30_percent_while_running_keeps_the_motor() {
     for observer in ["sliding-torque", "flux"] {
         let args = [
             "run",
+            "--ideal",
             "warm-winding",
             "--observer",
             observer,

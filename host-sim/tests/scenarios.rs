@@ -55,6 +55,7 @@ fn a_run_that_loses_lock_between_windows_fails() {
     let file = write(&dir, "no-post-brake.toml", &text);
     let (v, code) = run_json(&[
         "run",
+        "--ideal",
         "--scenario-file",
         &file,
         "--observer",
@@ -73,6 +74,7 @@ fn a_run_that_loses_lock_between_windows_fails() {
     // The same observer up to the brake's release passes (exit 0).
     let (v, code) = run_json(&[
         "run",
+        "--ideal",
         "--scenario-file",
         &write(
             &dir,
@@ -109,6 +111,7 @@ enable = [[0.0, false], [0.25, true]]
     for (motor, rated_rpm) in [("sinano", 1000.0), ("ortega-test-0.3kw", 1000.0)] {
         let (v, code) = run_json(&[
             "run",
+            "--ideal",
             "--scenario-file",
             &file,
             "--observer",
@@ -143,7 +146,14 @@ enable = [[0.0, false], [0.25, true]]
         "coast.toml",
         "duration_s = 0.5\ninitial_speed = 0.3\nenable = [[0.0, false]]\nwindows = []\n",
     );
-    let (v, code) = run_json(&["run", "--scenario-file", &coast, "--observer", "flux"]);
+    let (v, code) = run_json(&[
+        "run",
+        "--ideal",
+        "--scenario-file",
+        &coast,
+        "--observer",
+        "flux",
+    ]);
     assert_eq!(code, Some(0), "{}", v["reasons"]);
     assert!(v.get("transitions").is_none(), "{}", v["transitions"]);
     let _ = std::fs::remove_dir_all(&dir);
@@ -153,7 +163,7 @@ enable = [[0.0, false], [0.25, true]]
 /// fails when it does not.
 #[test]
 fn an_expected_fault_passes_and_a_missing_one_fails() {
-    let (v, code) = run_json(&["run", "fault-overcurrent", "--observer", "flux"]);
+    let (v, code) = run_json(&["run", "--ideal", "fault-overcurrent", "--observer", "flux"]);
     assert_eq!(
         (code, &v["fault"]),
         (Some(0), &serde_json::json!("overcurrent"))
@@ -164,7 +174,14 @@ fn an_expected_fault_passes_and_a_missing_one_fails() {
         "quiet.toml",
         "duration_s = 1.0\nspeed = [[0.0, 0.5]]\nwindows = []\nexpect_fault = \"stall\"\n",
     );
-    let (v, code) = run_json(&["run", "--scenario-file", &file, "--observer", "flux"]);
+    let (v, code) = run_json(&[
+        "run",
+        "--ideal",
+        "--scenario-file",
+        &file,
+        "--observer",
+        "flux",
+    ]);
     assert_eq!(code, Some(3));
     assert!(v["reasons"][0]
         .as_str()
@@ -232,7 +249,7 @@ fn bad_scenario_files_name_the_key() {
 fn a_run_writes_files_only_when_asked() {
     let dir = tmp_dir("files");
     let out = Command::new(env!("CARGO_BIN_EXE_pmsm-sim"))
-        .args(["run", "ortega-ramp", "--observer", "flux"])
+        .args(["run", "--ideal", "ortega-ramp", "--observer", "flux"])
         .current_dir(&dir)
         .output()
         .unwrap();

@@ -54,7 +54,7 @@ pub use crate::schedule::{Slot, SLOTS};
 pub use config::{DriveConfig, HealthConfig, Limits, PowerStageConfig, StartConfig};
 pub use identify::{Identified, IdentifyConfig, IdentifyError, IdentifyPhase};
 pub use io::{Command, DriveOutput, Fault, Mode, Reason, Role, Telemetry, Transition};
-pub use report::{Derived, Warning};
+pub use report::{Derived, DerivedRow, Warning};
 pub use state::{DriveState, StateOf};
 
 use crate::foc::{Foc, Request};

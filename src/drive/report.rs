@@ -1,6 +1,7 @@
 //! What the drive derives from its configuration, for `pmsm-sim gains` and a board's start-up
-//! log: every gain and limit, from the same functions the drive is built with, and the
-//! warnings of a configuration that builds but will struggle.
+//! log: every gain and limit, from the same functions the drive is built with, as a struct
+//! and as named rows with units and formulas, and the warnings of a configuration that builds
+//! but will struggle.
 
 use super::DriveConfig;
 use crate::bounds::{ks_max_e2, ks_max_t};
@@ -186,6 +187,196 @@ impl DriveConfig {
             rated_torque_speed_rpm,
             warnings,
         })
+    }
+}
+
+/// One line of [`Derived::rows`]: what it is, its value and unit, and how it follows from the
+/// configuration.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DerivedRow {
+    /// What it is.
+    pub name: &'static str,
+    /// Its value, in `unit`.
+    pub value: f32,
+    /// Its unit.
+    pub unit: &'static str,
+    /// The papers' formula, or the setting it is (its symbols are the motor's parameters and
+    /// the configuration's inputs).
+    pub formula: &'static str,
+    /// For a setting: the quantity it is chosen against, and that quantity's value.
+    pub of: Option<(&'static str, f32)>,
+}
+
+impl Derived {
+    /// Every gain and limit as a named row, in the order of a report; `config` is the one
+    /// these were derived from (its ratings and power stage name the settings' references).
+    pub fn rows(&self, config: &DriveConfig) -> [DerivedRow; 29] {
+        let row = |name, value, unit, formula| DerivedRow {
+            name,
+            value,
+            unit,
+            formula,
+            of: None,
+        };
+        let setting = |name, value, unit, formula, of: (&'static str, f32)| DerivedRow {
+            of: Some(of),
+            ..row(name, value, unit, formula)
+        };
+        let rated_speed = ("rated speed", config.ratings.speed_rpm);
+        let rated_current = ("rated-torque current", self.rated_torque_current_a);
+        let gamma_limit = self
+            .gamma_max_discrete
+            .min(self.gamma_max_single_equilibrium);
+        [
+            row("current PI kp", self.foc.current_kp, "V/A", "L ω_c"),
+            row("current PI ki", self.foc.current_ki, "V/(A·s)", "R ω_c"),
+            row("speed PI kp", self.foc.speed_kp, "A·s/rad", "J ω_s/(N ψ_f)"),
+            row("speed PI ki", self.foc.speed_ki, "A/rad", "kp ω_s/4"),
+            row(
+                "K_s",
+                self.ks_a_per_s,
+                "A/s",
+                "the paper's setting, Horng & Chin Sec 5",
+            ),
+            row(
+                "ε",
+                self.epsilon_a,
+                "A",
+                "boundary layer, Horng & Chin Sec 5",
+            ),
+            row("(K_s,max)_T", self.ks_max_t_a_per_s, "A/s", "ε(2/T − R/L)"),
+            row(
+                "(K_s,max)_E2 at rated speed",
+                self.ks_max_e2_rated_a_per_s,
+                "A/s",
+                "(√2 K N ω − R ε)/L at the rated speed",
+            ),
+            row(
+                "(K_s,max)_E2 at hand-over",
+                self.ks_max_e2_handover_a_per_s,
+                "A/s",
+                "(√2 K N ω − R ε)/L at the hand-over speed",
+            ),
+            row(
+                "K_s = (K_s,max)_E2 at",
+                self.ks_e2_speed_rpm,
+                "rpm",
+                "(K_s L + R ε)/(√2 K N)",
+            ),
+            setting(
+                "γ",
+                self.gamma,
+                "1/(Wb²·s)",
+                "Ortega eq (9)",
+                ("the smaller γ_max", gamma_limit),
+            ),
+            row(
+                "γ_max, discrete step",
+                self.gamma_max_discrete,
+                "1/(Wb²·s)",
+                "2/(Φ² T)",
+            ),
+            row(
+                "γ_max, one equilibrium",
+                self.gamma_max_single_equilibrium,
+                "1/(Wb²·s)",
+                "4 n_P |ω|/Φ² at the hand-back speed (Proposition 4)",
+            ),
+            row("PLL Kp", self.pll_kp, "1/s", "2ζω_n"),
+            row("PLL Ki", self.pll_ki, "1/s²", "ω_n²"),
+            setting(
+                "hand-over speed",
+                self.handover_rpm,
+                "rpm",
+                "start.handover_rpm",
+                rated_speed,
+            ),
+            setting(
+                "hand-back speed",
+                self.handback_rpm,
+                "rpm",
+                "start.handback_rpm",
+                rated_speed,
+            ),
+            row(
+                "speed the lowest bus drives",
+                self.bus_limited_rpm,
+                "rpm",
+                "(bus_min_v/√3)/(N ψ_f)",
+            ),
+            row(
+                "rated-torque current",
+                self.rated_torque_current_a,
+                "A",
+                "τ/(N ψ_f)",
+            ),
+            setting(
+                "current command limit i_max",
+                self.i_max_a,
+                "A",
+                "limits.i_max_a",
+                rated_current,
+            ),
+            setting(
+                "current trip",
+                self.i_trip_a,
+                "A",
+                "limits.i_trip_a",
+                ("i_max", self.i_max_a),
+            ),
+            setting(
+                "sensing range",
+                self.i_sense_max_a,
+                "A",
+                "limits.i_sense_max_a",
+                ("trip", self.i_trip_a),
+            ),
+            setting(
+                "align current",
+                self.align_current_a,
+                "A",
+                "start.align_current_a",
+                rated_current,
+            ),
+            setting(
+                "open-loop current",
+                self.open_loop_current_a,
+                "A",
+                "start.open_loop_current_a",
+                rated_current,
+            ),
+            row(
+                "dead-time voltage",
+                self.dead_time_voltage_v,
+                "V",
+                "t_d f_pwm bus_v per phase, compensated by the current's sign",
+            ),
+            setting(
+                "dead-time sign band",
+                config.power_stage.dead_time_band_a,
+                "A",
+                "power_stage.dead_time_band_a",
+                rated_current,
+            ),
+            row(
+                "largest phase voltage",
+                self.v_max_v,
+                "V",
+                "(1 − 2 t_d f_pwm) bus_v/√3",
+            ),
+            row(
+                "voltage of rated torque at rated speed",
+                self.v_rated_point_v,
+                "V",
+                "|(R i, −ω_e L i) + (0, ω_e ψ_f)|, dq",
+            ),
+            row(
+                "rated torque up to",
+                self.rated_torque_speed_rpm,
+                "rpm",
+                "where that voltage reaches the largest phase voltage",
+            ),
+        ]
     }
 }
 

@@ -1,0 +1,102 @@
+//! `pmsm-sim cycles`: the core's cycle counts on the emulated Cortex-M4F and the firmware's
+//! size, as a table or JSON.
+
+use pmsm_host_sim::table;
+use std::fmt::Write as _;
+
+#[derive(clap::Args)]
+pub struct CyclesArgs {
+    /// Print JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+/// The measured calls, in the table's order, with their labels.
+fn rows(r: &pmsm_host_sim::cycles::CyclesReport) -> [(&'static str, u64); 17] {
+    [
+        (
+            "step, both observers, sliding primary (worst over a turn)",
+            r.step_cycles_est,
+        ),
+        ("  worst of four runs across ±π", r.step_seam_cycles_est),
+        (
+            "step, flux observer primary",
+            r.step_flux_primary_cycles_est,
+        ),
+        ("step, open loop (start-up)", r.step_open_loop_cycles_est),
+        ("step, voltage at its limit", r.step_saturated_cycles_est),
+        (
+            "1 kHz task (Drive::tick), sliding primary",
+            r.tick_cycles_est,
+        ),
+        ("1 kHz task, flux primary", r.tick_flux_primary_cycles_est),
+        ("1 kHz task, open loop", r.tick_open_loop_cycles_est),
+        (
+            "step, offset calibration (PWM off)",
+            r.step_calibrate_cycles_est,
+        ),
+        (
+            "step, identification: resistance",
+            r.step_identify_resistance_cycles_est,
+        ),
+        (
+            "step, identification: inductance",
+            r.step_identify_inductance_cycles_est,
+        ),
+        (
+            "step, identification: flux (I/f spin)",
+            r.step_identify_flux_cycles_est,
+        ),
+        (
+            "step, identification: J and B (torque steps)",
+            r.step_identify_mechanics_cycles_est,
+        ),
+        (
+            "1 kHz task, calibration and identification",
+            r.tick_identify_cycles_est,
+        ),
+        ("sliding torque observer update", r.sliding_cycles_est),
+        ("flux observer + PLL update", r.flux_cycles_est),
+        ("FOC current loop + SVPWM", r.foc_svpwm_cycles_est),
+    ]
+}
+
+/// `cycles`: the table (or JSON).
+pub fn cycles(args: CyclesArgs) -> anyhow::Result<String> {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .ok_or_else(|| anyhow::anyhow!("no workspace root"))?;
+    let r = pmsm_host_sim::cycles::measure(root)?;
+    let mut out = String::new();
+    if args.json {
+        outln!(out, "{}", serde_json::to_string(&r)?);
+        return Ok(out);
+    }
+    outln!(
+        out,
+        "Cortex-M4F (QEMU mps2-an386, one trace line per instruction), cycles at zero wait states:"
+    );
+    let mut t = table(&["measured call", "cycles est"], &[1]);
+    for (what, c) in rows(&r) {
+        t.add_row([what.to_string(), c.to_string()]);
+    }
+    outln!(out, "{t}");
+    outln!(
+        out,
+        "sliding-primary step: {} instructions",
+        r.step_instructions
+    );
+    outln!(
+        out,
+        "board firmware: flash {} bytes, static RAM {} bytes, control path in CCM SRAM {} bytes",
+        r.flash_bytes,
+        r.ram_bytes,
+        r.ramfunc_bytes
+    );
+    outln!(
+        out,
+        "f64 soft-float routines linked: {:?}",
+        r.f64_soft_float_symbols
+    );
+    Ok(out)
+}
