@@ -2,10 +2,11 @@
 
 use clap::{Parser, Subcommand};
 use pmsm_host_sim::observer::ObserverKind;
+use pmsm_host_sim::report::output;
+use pmsm_host_sim::report::summary::Summary;
 use pmsm_host_sim::scenario::LoadKind;
 use pmsm_host_sim::sim::{self, Mismatch, SimConfig};
-use pmsm_host_sim::summary::Summary;
-use pmsm_host_sim::{motor_file, number, output, scenario, table};
+use pmsm_host_sim::{motor_file, names, number, scenario, table};
 use pmsm_sensorless::motor;
 use std::fmt::Write as _;
 use std::io::Write as _;
@@ -108,19 +109,19 @@ fn identify(args: IdentifyArgs) -> anyhow::Result<(String, bool)> {
             "--bus-v = {}: bus voltage allowed (0, {max}] V (2 x the motor's rated bus)",
             number(v)
         );
-        cfg.bus_v = v;
+        cfg.board.bus_v = v;
     }
     anyhow::ensure!(
         args.noise_pct.is_finite() && args.noise_pct >= 0.0,
         "--noise-pct = {}: must be a finite percentage >= 0",
         number(args.noise_pct)
     );
-    cfg.noise_sigma_a = 0.01 * args.noise_pct * rated_a;
-    cfg.offset_a = args.offset_pct.map(|p| 0.01 * p * rated_a);
-    cfg.adc_lsb_a = args.adc_lsb_a;
-    cfg.sense_range_a = args.sense_range_a;
-    (cfg.pwm_hz, cfg.dead_time_s) = power_stage(args.pwm_hz, args.dead_time_us)?;
-    cfg.seed = args.seed;
+    cfg.board.noise_sigma_a = 0.01 * args.noise_pct * rated_a;
+    cfg.board.offset_a = args.offset_pct.map(|p| 0.01 * p * rated_a);
+    cfg.board.adc_lsb_a = args.adc_lsb_a;
+    cfg.board.sense_range_a = args.sense_range_a;
+    (cfg.board.pwm_hz, cfg.board.dead_time_s) = power_stage(args.pwm_hz, args.dead_time_us)?;
+    cfg.board.seed = args.seed;
     cfg.fault = args
         .motor_fault
         .as_deref()
@@ -150,7 +151,7 @@ fn identify(args: IdentifyArgs) -> anyhow::Result<(String, bool)> {
         o.duration_s
     );
     if let Some(f) = o.fault {
-        outln!(out, "ERROR: {}", sim::fault_name(f));
+        outln!(out, "ERROR: {}", names::fault_name(f));
     }
     let mut t = table(&["parameter", "identified", "truth", "error %"], &[1, 2, 3]);
     for key in [
@@ -187,7 +188,7 @@ struct SweepArgs {
 
 /// `sweep`: the table (or JSON) and whether every cell passed.
 fn sweep(args: SweepArgs) -> anyhow::Result<(String, bool)> {
-    use pmsm_host_sim::sweep::{self, Matrix};
+    use pmsm_host_sim::report::sweep::{self, Matrix};
     let matrix = Matrix::load(&args.matrix)?;
     if let Some(j) = args.jobs {
         anyhow::ensure!(j > 0, "--jobs must be at least 1");
@@ -239,7 +240,7 @@ fn cycles(args: CyclesArgs) -> anyhow::Result<String> {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .parent()
         .ok_or_else(|| anyhow::anyhow!("no workspace root"))?;
-    let r = pmsm_host_sim::cycles::measure(root)?;
+    let r = pmsm_host_sim::analysis::cycles::measure(root)?;
     let mut out = String::new();
     if args.json {
         outln!(out, "{}", serde_json::to_string(&r)?);
@@ -682,7 +683,7 @@ fn gamma(args: GammaArgs) -> anyhow::Result<String> {
         "--min-speed-rpm must be a finite number >= 0"
     );
     let p = motor.params;
-    let omega = (args.min_speed_rpm * sim::RAD_S_PER_RPM) as f32;
+    let omega = (args.min_speed_rpm * pmsm_host_sim::RAD_S_PER_RPM) as f32;
     let rate = args.rate_hz as f32;
     let report = GammaReport {
         gamma_max_discrete: flux::gamma_max_discrete(p.flux_wb, rate) as f64,
@@ -991,7 +992,7 @@ fn prepare(args: &RunArgs) -> anyhow::Result<SimConfig> {
             "--bus-v = {}: bus voltage allowed (0, {max}] V (2 x the motor's rated bus)",
             number(v)
         );
-        cfg.bus_v = v;
+        cfg.board.bus_v = v;
     }
     if let Some(p) = args.bus_pct {
         anyhow::ensure!(
@@ -999,24 +1000,25 @@ fn prepare(args: &RunArgs) -> anyhow::Result<SimConfig> {
             "--bus-pct = {}: bus voltage allowed (0, 200] % of the motor's rated bus",
             number(p)
         );
-        cfg.bus_v = 0.01 * p * rated_bus;
+        cfg.board.bus_v = 0.01 * p * rated_bus;
     }
     anyhow::ensure!(
         args.noise_pct.is_finite() && args.noise_pct >= 0.0,
         "--noise-pct = {}: must be a finite percentage >= 0",
         args.noise_pct
     );
-    cfg.noise_sigma_a = args.noise_a + 0.01 * args.noise_pct * rated_a;
-    cfg.offset_a = std::array::from_fn(|k| args.offset_a[k] + 0.01 * args.offset_pct[k] * rated_a);
-    cfg.adc_lsb_a = args.adc_lsb_a;
-    cfg.seed = args.seed;
+    cfg.board.noise_sigma_a = args.noise_a + 0.01 * args.noise_pct * rated_a;
+    cfg.board.offset_a =
+        std::array::from_fn(|k| args.offset_a[k] + 0.01 * args.offset_pct[k] * rated_a);
+    cfg.board.adc_lsb_a = args.adc_lsb_a;
+    cfg.board.seed = args.seed;
     cfg.mismatch = args.mismatch;
     anyhow::ensure!(
         args.idle_ms.is_finite() && (0.0..=10_000.0).contains(&args.idle_ms),
         "--idle-ms = {}: allowed [0, 10000] ms",
         number(args.idle_ms)
     );
-    cfg.idle_steps_before = (args.idle_ms * 1e-3 * args.rate_hz).round() as usize;
+    cfg.board.idle_s = args.idle_ms * 1e-3;
     if let Some(path) = &args.drive_motor_file {
         let (_, d) = motor_file::load(path)?;
         anyhow::ensure!(
@@ -1046,7 +1048,7 @@ fn prepare(args: &RunArgs) -> anyhow::Result<SimConfig> {
         );
         cfg.sensorless_from_rpm = Some(x);
     }
-    (cfg.pwm_hz, cfg.dead_time_s) = power_stage(args.pwm_hz, args.dead_time_us)?;
+    (cfg.board.pwm_hz, cfg.board.dead_time_s) = power_stage(args.pwm_hz, args.dead_time_us)?;
     Ok(cfg)
 }
 
@@ -1187,10 +1189,14 @@ fn bounds(args: BoundsArgs) -> anyhow::Result<String> {
         args.load_nm.is_finite(),
         "--load-nm must be a finite number"
     );
-    let omega = args.speed_rpm * sim::RAD_S_PER_RPM;
-    let op =
-        pmsm_host_sim::bounds::OperatingPoint::paper(&motor.params, omega, args.load_nm, torque);
-    let report = pmsm_host_sim::bounds::report(&motor.params, &op, args.rate_hz);
+    let omega = args.speed_rpm * pmsm_host_sim::RAD_S_PER_RPM;
+    let op = pmsm_host_sim::analysis::bounds::OperatingPoint::paper(
+        &motor.params,
+        omega,
+        args.load_nm,
+        torque,
+    );
+    let report = pmsm_host_sim::analysis::bounds::report(&motor.params, &op, args.rate_hz);
     let mut out = String::new();
     if args.json {
         outln!(out, "{}", serde_json::to_string(&report)?);
@@ -1212,7 +1218,12 @@ fn bounds(args: BoundsArgs) -> anyhow::Result<String> {
         t.add_row([
             "(K_s,max)_T".to_string(),
             report.ks_max_t.map_or_else(
-                || format!("none stable up to {}", pmsm_host_sim::bounds::KS_SCAN_MAX),
+                || {
+                    format!(
+                        "none stable up to {}",
+                        pmsm_host_sim::analysis::bounds::KS_SCAN_MAX
+                    )
+                },
                 |k| format!("{k:.2}"),
             ),
         ]);
@@ -1231,7 +1242,7 @@ fn bounds(args: BoundsArgs) -> anyhow::Result<String> {
         outln!(out, "{e}");
     }
     if let Some(dir) = &args.out {
-        use pmsm_host_sim::bounds::{write_root_locus, Equilibrium};
+        use pmsm_host_sim::analysis::bounds::{write_root_locus, Equilibrium};
         // The paper's Figs 2 and 3 run K_s from 0 to 8000 A/s.
         let ks_end = report.ks_max_t.unwrap_or(8000.0).max(8000.0);
         let mut which = vec![Equilibrium::First];

@@ -6,7 +6,8 @@
 //! on a window whose mean speed error is beyond the scenario's tolerance of
 //! max(|command|, 5 % of rated speed).
 
-use crate::sim::{fault_name, Row, Run};
+use crate::names::fault_name;
+use crate::sim::{Row, Run};
 use indexmap::IndexMap;
 use pmsm_sensorless::drive::{Fault, Mode, Reason};
 use serde::Serialize;
