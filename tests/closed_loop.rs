@@ -2,9 +2,9 @@
 //! current-loop bandwidth.
 
 use pmsm_host_sim::observer::ObserverKind;
+use pmsm_host_sim::report::summary::Summary;
 use pmsm_host_sim::scenario;
 use pmsm_host_sim::sim::{run, SimConfig};
-use pmsm_host_sim::summary::Summary;
 
 #[test]
 fn sensored_horng_ramp_brake_holds_speed() {
@@ -36,8 +36,7 @@ fn sensored_horng_ramp_brake_holds_speed() {
 /// reach 63.2 % at `1/ω_c` (0.53 ms for 300 Hz) within one control period.
 #[test]
 fn current_loop_has_the_requested_bandwidth() {
-    use pmsm_host_sim::inverter::Inverter;
-    use pmsm_host_sim::plant::{Plant, PlantParams};
+    use pmsm_host_sim::plant::{Inverter, Plant, PlantParams, StiffBus};
     use pmsm_sensorless::foc::{CurrentLoopState, FocConfig, FocInput, Reference};
     use pmsm_sensorless::frames::Dq;
     use pmsm_sensorless::motor::HORNG_SINANO;
@@ -47,9 +46,8 @@ fn current_loop_has_the_requested_bandwidth() {
     let foc = cfg.build().unwrap();
     let mut params = PlantParams::from(&m.params);
     params.j = 1e9; // locked rotor
-    let mut plant = Plant::new(params, 0.3, 0.0);
+    let mut plant = Plant::new(params, StiffBus { v_bus: 48.0 }, 0.3, 0.0);
     let inverter = Inverter {
-        v_bus: 48.0,
         dead_time_s: 0.0,
         pwm_hz: 16e3,
     };

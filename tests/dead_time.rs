@@ -1,11 +1,12 @@
 //! Dead-time compensation (`pmsm_sensorless::dead_time`, applied in `Foc`): against the plant's
-//! averaged inverter model (`host-sim/src/inverter.rs`, pole voltage `d·V − sign(i)·t_d·f·V`).
+//! averaged inverter model (`host-sim/plant/src/converter/inverter.rs`, pole voltage
+//! `d·V − sign(i)·t_d·f·V`).
 
-use pmsm_host_sim::inverter::{clarke, Inverter};
 use pmsm_host_sim::observer::ObserverKind;
+use pmsm_host_sim::plant::{clarke, Inverter};
+use pmsm_host_sim::report::summary::Summary;
 use pmsm_host_sim::scenario;
 use pmsm_host_sim::sim::{run, SimConfig};
-use pmsm_host_sim::summary::Summary;
 use pmsm_sensorless::dead_time::DeadTimeConfig;
 use pmsm_sensorless::drive::DriveConfig;
 use pmsm_sensorless::foc::{
@@ -50,20 +51,21 @@ fn foc(dead_time: DeadTimeConfig) -> Foc {
     .unwrap()
 }
 
-/// The plant's averaged inverter on `v_bus` with `dead`'s dead time and PWM frequency.
-fn plant_inverter(dead: &DeadTimeConfig, v_bus: f32) -> Inverter {
-    Inverter {
-        v_bus: f64::from(v_bus),
+/// The plant's averaged inverter with `dead`'s dead time and PWM frequency, and its bus
+/// `v_bus` \[V].
+fn plant_inverter(dead: &DeadTimeConfig, v_bus: f32) -> (Inverter, f64) {
+    let inverter = Inverter {
         dead_time_s: f64::from(dead.dead_time_s),
         pwm_hz: f64::from(dead.pwm_hz),
-    }
+    };
+    (inverter, f64::from(v_bus))
 }
 
 /// The αβ voltage \[V] the plant's inverter applies with `out`'s duties and phase currents
 /// `i` \[A] (the Clarke transform of its phase voltages, as the plant integrates them).
-fn plant_applied(inv: &Inverter, out: &FocOutput, i: Abc) -> (f64, f64) {
+fn plant_applied((inv, v_bus): &(Inverter, f64), out: &FocOutput, i: Abc) -> (f64, f64) {
     let i = [f64::from(i.a), f64::from(i.b), f64::from(i.c)];
-    clarke(inv.hold(out.duties).phase_voltages(i))
+    clarke(inv.hold(out.duties).phase_voltages(*v_bus, i))
 }
 
 /// Phase currents of amplitude `amp` \[A] at angle `phi` \[rad].
@@ -331,7 +333,7 @@ fn drive_defaults_are_the_boards() {
 fn start_stop_reverse_at_1us_dead_time() {
     for kind in [ObserverKind::Flux, ObserverKind::SlidingTorque] {
         let mut cfg = SimConfig::new(scenario::start_stop_reverse(), kind);
-        cfg.dead_time_s = 1e-6;
+        cfg.board.dead_time_s = 1e-6;
         let s = Summary::of(&run(cfg).unwrap());
         println!("{}: {:?}", kind.name(), s.reasons);
         assert!(s.fault.is_none() && !s.lost_lock, "{:?}", s.reasons);

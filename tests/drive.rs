@@ -1,10 +1,10 @@
 //! The drive: start from standstill, stop and reverse, faults, and a property test of `step`.
 
 use pmsm_host_sim::observer::ObserverKind;
-use pmsm_host_sim::profile::Pwl;
+use pmsm_host_sim::report::summary::Summary;
+use pmsm_host_sim::scenario::profile::Pwl;
 use pmsm_host_sim::scenario::{self, Scenario};
 use pmsm_host_sim::sim::{run, SimConfig};
-use pmsm_host_sim::summary::Summary;
 use pmsm_sensorless::drive::{Command, Drive, DriveConfig, DriveInput, DriveState, Mode, StateOf};
 use pmsm_sensorless::frames::{Abc, AlphaBeta};
 use pmsm_sensorless::motor::HORNG_SINANO;
@@ -16,7 +16,7 @@ use proptest::test_runner::{Config, RngSeed, TestCaseError};
 
 fn summary(sc: Scenario, kind: ObserverKind, noise_a: f64) -> Summary {
     let mut cfg = SimConfig::new(sc, kind);
-    cfg.noise_sigma_a = noise_a;
+    cfg.board.noise_sigma_a = noise_a;
     Summary::of(&run(cfg).unwrap())
 }
 
@@ -588,7 +588,7 @@ fn open_loop_frame_turns_at_the_ramp_speed_and_stays_unit_length() {
         if was_open_loop {
             // The open-loop speed ω_ol [rpm], which telemetry reports as the reference.
             let speed_ol_rpm = drive.telemetry(&st).speed_ref_rpm;
-            theta_ref += n * f64::from(speed_ol_rpm) * pmsm_host_sim::sim::RAD_S_PER_RPM * ts;
+            theta_ref += n * f64::from(speed_ol_rpm) * pmsm_host_sim::RAD_S_PER_RPM * ts;
         }
         let theta = f64::from(drive.telemetry(&st).theta_e_control);
         let err = (theta - theta_ref + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)

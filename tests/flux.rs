@@ -1,10 +1,11 @@
 //! Ortega et al. gradient flux observer, PLL and I&I observer against the plant.
 
 use pmsm_host_sim::observer::ObserverKind;
-use pmsm_host_sim::profile::Pwl;
+use pmsm_host_sim::report::summary::Summary;
+use pmsm_host_sim::scenario::profile::Pwl;
 use pmsm_host_sim::scenario::{self, Scenario, Window};
-use pmsm_host_sim::sim::{run, wrap_rad, Sim, SimConfig, RAD_S_PER_RPM};
-use pmsm_host_sim::summary::Summary;
+use pmsm_host_sim::sim::{run, wrap_rad, Sim, SimConfig};
+use pmsm_host_sim::RAD_S_PER_RPM;
 use pmsm_sensorless::frames::{Abc, AlphaBeta};
 use pmsm_sensorless::motor::{Motor, ORTEGA_SIM_40KW, ORTEGA_TEST_0P3KW};
 use pmsm_sensorless::observer::flux::{FluxConfig, FluxObserver, FluxState};

@@ -1,9 +1,10 @@
 //! Plant simulator checks: energy balance and the steady state of Horng & Chin step 6.
 
 use pmsm_host_sim::observer::ObserverKind;
-use pmsm_host_sim::profile::Pwl;
+use pmsm_host_sim::scenario::profile::Pwl;
 use pmsm_host_sim::scenario::{self, Scenario, Window};
-use pmsm_host_sim::sim::{run, Sim, SimConfig, RAD_S_PER_RPM};
+use pmsm_host_sim::sim::{run, Sim, SimConfig};
+use pmsm_host_sim::RAD_S_PER_RPM;
 
 /// Electrical input = copper loss + friction + load work + Δ(stored magnetic + kinetic energy).
 /// Returns (input J, relative residual).
@@ -31,9 +32,9 @@ fn power_balance_within_0p1_percent() {
     assert!(rel < 1e-3, "residual {rel:.3e}");
     // Discontinuous inputs: dead time, current noise and ADC quantisation.
     let mut harsh = cfg;
-    harsh.dead_time_s = 1e-6;
-    harsh.noise_sigma_a = 0.02;
-    harsh.adc_lsb_a = 0.005;
+    harsh.board.dead_time_s = 1e-6;
+    harsh.board.noise_sigma_a = 0.02;
+    harsh.board.adc_lsb_a = 0.005;
     let (e_in, rel) = energy_residual(harsh);
     println!("dead time + noise: E_in = {e_in:.4} J, residual {rel:.3e}");
     assert!(rel < 1e-3, "residual {rel:.3e}");

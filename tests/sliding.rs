@@ -1,11 +1,12 @@
 //! Horng & Chin sliding observers: gain placement, the discrete-time bound (K_s,max)_T in
 //! closed loop, and the paper's experiment.
 
-use pmsm_host_sim::bounds::{self, OperatingPoint};
+use pmsm_host_sim::analysis::bounds::{self, OperatingPoint};
 use pmsm_host_sim::observer::ObserverKind;
+use pmsm_host_sim::report::summary::Summary;
 use pmsm_host_sim::scenario;
-use pmsm_host_sim::sim::{run, SimConfig, RAD_S_PER_RPM};
-use pmsm_host_sim::summary::Summary;
+use pmsm_host_sim::sim::{run, SimConfig};
+use pmsm_host_sim::RAD_S_PER_RPM;
 use pmsm_sensorless::frames::{AlphaBeta, SinCos};
 use pmsm_sensorless::motor::HORNG_SINANO;
 use pmsm_sensorless::observer::sliding::{SlidingConfig, SlidingGain};
@@ -325,7 +326,7 @@ fn horng(kind: ObserverKind, load_nm: f64, release_s: f64) -> Summary {
     let mut sc = scenario::horng_ramp_brake();
     sc.load_nm = load_nm;
     if release_s > 0.0 {
-        sc.load_shape = pmsm_host_sim::profile::Pwl::new(vec![
+        sc.load_shape = pmsm_host_sim::scenario::profile::Pwl::new(vec![
             (3.0, 0.0),
             (3.0, 1.0),
             (5.0, 1.0),

@@ -1,22 +1,33 @@
 //! `pmsm-host-sim`: the PMSM plant simulator that runs the `pmsm-sensorless` core on the host.
 //!
-//! f64 plant (Horng & Chin eqs (16)-(19)) integrated with RK4, averaged inverter, current
-//! sensor with seeded noise, scenarios of both papers, metrics, CSV/PNG/JSON output.
+//! The plant is the `pmsm-plant` crate (f64, Horng & Chin eqs (16)-(19), RK4), re-exported as
+//! [`plant`]; around it, by concern:
+//! - [`board`]: the simulated board ([`board::SimBoard`]): its converter, its sensors with
+//!   seeded noise, and the loop a firmware drives through the core's `PowerStage`;
+//! - [`sim`]: one closed-loop run of a scenario: its configuration, the controller (the
+//!   complete drive, or FOC on one observer), the trace's rows;
+//! - [`observer`]: the observers of the papers' experiments and their bare FOC loop;
+//! - [`scenario`]: what a run is asked to do, from TOML files (built in or the user's);
+//! - [`identify`]: the core's identification run against the plant;
+//! - [`analysis`]: the sliding gain's bounds and the firmware's cycle counts;
+//! - [`report`]: the verdict and summary of a run, its CSV and plot, the sweeps;
+//! - [`motor_file`], [`names`], [`plot`]: motor files, the names of faults, the plots.
 
-pub mod bounds;
-pub mod cycles;
+pub mod analysis;
+pub mod board;
 pub mod identify;
-pub mod inverter;
 pub mod motor_file;
+pub mod names;
 pub mod observer;
-pub mod output;
-pub mod plant;
 pub mod plot;
-pub mod profile;
+pub mod report;
 pub mod scenario;
 pub mod sim;
-pub mod summary;
-pub mod sweep;
+
+pub use pmsm_plant as plant;
+
+/// rad/s per rpm.
+pub const RAD_S_PER_RPM: f64 = std::f64::consts::PI / 30.0;
 
 /// A number in a message as an engineer writes it: plain from 0.001 to 10⁶, else in
 /// exponent form (`1e30`, not thirty zeros), the way the core's errors print theirs.

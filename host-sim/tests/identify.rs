@@ -10,9 +10,9 @@ use pmsm_host_sim::identify::{
 };
 use pmsm_host_sim::motor_file;
 use pmsm_host_sim::observer::ObserverKind;
+use pmsm_host_sim::report::summary::Summary;
 use pmsm_host_sim::scenario::Spec;
 use pmsm_host_sim::sim::{self, Mismatch, SimConfig};
-use pmsm_host_sim::summary::Summary;
 use pmsm_sensorless::drive::{Fault, IdentifyError, Mode, Reason};
 use pmsm_sensorless::motor::{preset, Motor};
 
@@ -42,7 +42,7 @@ fn motors() -> Vec<Motor> {
 
 fn identify(m: Motor, seed: u64, fault: Option<MotorFault>) -> IdentifyOutcome {
     let mut cfg = IdentifyRun::board_defaults(m);
-    cfg.seed = seed;
+    cfg.board.seed = seed;
     cfg.fault = fault;
     run(&cfg).unwrap()
 }
@@ -112,15 +112,15 @@ fn the_identified_file_drives_start_stop_reverse_with_both_primaries() {
                 .unwrap();
             let mut cfg = SimConfig::new(sc, observer);
             let rated = f64::from(m.ratings.current_a);
-            cfg.noise_sigma_a = 0.01 * rated;
-            cfg.offset_a = [0.02 * rated, 0.0, 0.0];
-            cfg.dead_time_s = 0.5e-6;
-            cfg.pwm_hz = 20_000.0;
+            cfg.board.noise_sigma_a = 0.01 * rated;
+            cfg.board.offset_a = [0.02 * rated, 0.0, 0.0];
+            cfg.board.dead_time_s = 0.5e-6;
+            cfg.board.pwm_hz = 20_000.0;
             cfg.mismatch = Mismatch::between(&m.params, &loaded.params);
             // The board idle for 20 ms before the enable: the drive measures the offsets, the
             // board takes them off its samples (as the B-G431B-ESC1 does with the ones it
             // measures at boot).
-            cfg.idle_steps_before = 80;
+            cfg.board.idle_s = 0.02;
             let r = sim::run(cfg).unwrap();
             let s = Summary::of(&r);
             assert!(s.pass, "{} {}: {:?}", m.name, observer.name(), s.reasons);
@@ -173,7 +173,7 @@ fn a_motor_whose_rated_current_the_board_cannot_sense_ends_in_current_not_sensab
     let m = preset("ortega-dynamo-1kw").unwrap();
     // A board that reads up to 20 A: the 21 A motor's trip (47 A) is beyond it.
     let mut cfg = IdentifyRun::board_defaults(m);
-    cfg.sense_range_a = Some(20.0);
+    cfg.board.sense_range_a = Some(20.0);
     let o = run(&cfg).unwrap();
     assert_eq!(
         o.fault,
@@ -182,7 +182,7 @@ fn a_motor_whose_rated_current_the_board_cannot_sense_ends_in_current_not_sensab
     // A board whose ADC step is a fiftieth of the motor's rated current.
     let m = preset("sinano").unwrap();
     let mut cfg = IdentifyRun::board_defaults(m);
-    cfg.adc_lsb_a = f64::from(m.ratings.current_a) / 50.0;
+    cfg.board.adc_lsb_a = f64::from(m.ratings.current_a) / 50.0;
     let o = run(&cfg).unwrap();
     assert_eq!(
         o.fault,
@@ -197,7 +197,7 @@ fn an_implausible_sensor_offset_ends_in_adc_offset() {
     for m in motors() {
         let mut cfg = IdentifyRun::board_defaults(m);
         // 30 % of rated current: beyond a twentieth of the sensing range (4.5 x rated).
-        cfg.offset_a = [0.0, 0.3 * f64::from(m.ratings.current_a), 0.0];
+        cfg.board.offset_a = [0.0, 0.3 * f64::from(m.ratings.current_a), 0.0];
         let o = run(&cfg).unwrap();
         assert_eq!(o.fault, Some(Fault::AdcOffset), "{}", m.name);
     }

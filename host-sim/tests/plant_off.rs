@@ -1,9 +1,9 @@
 //! With every switch off the plant's currents go through the inverter's freewheeling diodes
-//! into the bus (`plant::DiodeBridge`): below the speed whose line-to-line back-EMF peak
+//! into the bus (`pmsm_plant::DiodeBridge`): below the speed whose line-to-line back-EMF peak
 //! equals the bus the motor coasts without current; above it the bridge brakes it into the
 //! bus, so an assisting load cannot run it away.
 
-use pmsm_host_sim::plant::{DiodeBridge, Plant, PlantParams};
+use pmsm_host_sim::plant::{Plant, PlantParams, StiffBus};
 use pmsm_sensorless::motor::HORNG_SINANO;
 
 const BUS_V: f64 = 48.0;
@@ -21,11 +21,10 @@ fn conduction_speed(p: &PlantParams) -> f64 {
 /// Runs `seconds` with the switches off and load torque `load_nm`; the speed \[rad/s] and
 /// the current's magnitude \[A] every millisecond.
 fn coast(plant: &mut Plant, load_nm: f64, seconds: f64) -> (Vec<f64>, Vec<f64>) {
-    let bridge = DiodeBridge { v_bus: BUS_V };
     let mut speeds = Vec::new();
     let mut currents = Vec::new();
     for _ in 0..(seconds * 1000.0).round() as usize {
-        plant.advance_off(&bridge, |_, _| load_nm, H, 100);
+        plant.advance_off(|_, _| load_nm, H, 100);
         speeds.push(plant.state.omega_m);
         currents.push(plant.state.i_alpha.hypot(plant.state.i_beta));
     }
@@ -40,7 +39,7 @@ fn largest(x: &[f64]) -> f64 {
 fn below_the_bus_the_motor_coasts_without_current() {
     let p = sinano();
     let w0 = 0.9 * conduction_speed(&p);
-    let mut plant = Plant::new(p, 0.3, w0);
+    let mut plant = Plant::new(p, StiffBus { v_bus: BUS_V }, 0.3, w0);
     let (speeds, currents) = coast(&mut plant, 0.0, 1.0);
     assert_eq!(largest(&currents), 0.0, "a diode conducted below the bus");
     // Only friction: ω(t) = ω0 e^{−B t/J}.
@@ -53,7 +52,7 @@ fn below_the_bus_the_motor_coasts_without_current() {
 fn above_the_bus_the_diodes_brake_the_rotor_down_to_the_bus() {
     let p = sinano();
     let w_th = conduction_speed(&p);
-    let mut plant = Plant::new(p, 0.3, 2.0 * w_th);
+    let mut plant = Plant::new(p, StiffBus { v_bus: BUS_V }, 0.3, 2.0 * w_th);
     let (speeds, currents) = coast(&mut plant, 0.0, 1.0);
     assert!(largest(&currents) > 1.0, "no current through the diodes");
     // The energy went into the bus: the electrical energy into the motor is negative.
@@ -74,7 +73,7 @@ fn an_assisting_load_cannot_run_the_motor_away_with_pwm_off() {
     let p = sinano();
     let w_th = conduction_speed(&p);
     let load_nm = -0.1; // assisting: negative load torque in eq (19)
-    let mut plant = Plant::new(p, 0.3, 0.5 * w_th);
+    let mut plant = Plant::new(p, StiffBus { v_bus: BUS_V }, 0.3, 0.5 * w_th);
     let (speeds, currents) = coast(&mut plant, load_nm, 3.0);
     let i_max = largest(&currents);
     let w_end = *speeds.last().unwrap();

@@ -5,9 +5,9 @@
 //! and the property its case names.
 
 use pmsm_host_sim::observer::ObserverKind;
+use pmsm_host_sim::report::summary::Summary;
 use pmsm_host_sim::scenario::Spec;
 use pmsm_host_sim::sim::{run, Run, SimConfig};
-use pmsm_host_sim::summary::Summary;
 use pmsm_sensorless::drive::{DriveConfig, Mode, Reason};
 use pmsm_sensorless::motor::preset;
 
@@ -19,9 +19,9 @@ fn board_run(scenario: &str, motor: &str, observer: ObserverKind) -> Run {
     let m = preset(motor).unwrap();
     let sc = Spec::built_in(scenario).unwrap().build(motor, m).unwrap();
     let mut cfg = SimConfig::new(sc, observer);
-    cfg.noise_sigma_a = 0.01 * f64::from(m.rated_torque_current_a());
-    cfg.dead_time_s = 0.5e-6;
-    cfg.pwm_hz = 20_000.0;
+    cfg.board.noise_sigma_a = 0.01 * f64::from(m.rated_torque_current_a());
+    cfg.board.dead_time_s = 0.5e-6;
+    cfg.board.pwm_hz = 20_000.0;
     run(cfg).unwrap()
 }
 
@@ -176,7 +176,7 @@ fn a_command_beyond_the_ratings_is_limited() {
             .unwrap()
             .build("sinano", m)
             .unwrap();
-        spec.speed_cmd_rpm = pmsm_host_sim::profile::Pwl::constant(1e30);
+        spec.speed_cmd_rpm = pmsm_host_sim::scenario::profile::Pwl::constant(1e30);
         spec.initial_speed_rpm = 0.0;
         spec.windows.clear();
         spec.duration_s = 2.5;

@@ -2,10 +2,11 @@
 //! simulated board (`BoardArgs`: the board's conditions by default, `--ideal` for the ideal
 //! plant) and the value parsers and checks behind them.
 
+use pmsm_host_sim::board::SimBoard;
 use pmsm_host_sim::motor_file;
 use pmsm_host_sim::number;
 use pmsm_host_sim::sim::Mismatch;
-use pmsm_sensorless::motor;
+use pmsm_sensorless::motor::{self, Motor};
 use std::path::PathBuf;
 
 /// `--motor NAME | --motor-file F` (default: the Sinano motor).
@@ -43,50 +44,9 @@ fn preset(name: &str) -> anyhow::Result<motor::Motor> {
     })
 }
 
-/// The simulated board's conditions in the units of the flags, in one place: what
-/// `run`, `sweep` and `identify` simulate unless told otherwise.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Conditions {
-    /// Current-sensor noise, standard deviation per phase, in % of the motor's rated current.
-    pub noise_pct: f64,
-    /// Current-sensor offsets per phase in % of the motor's rated current.
-    pub offset_pct: [f64; 3],
-    /// Inverter dead time \[µs], compensated by the drive.
-    pub dead_time_us: f64,
-    /// PWM frequency \[Hz].
-    pub pwm_hz: f64,
-    /// The board idle before t = 0 \[ms] (drive runs: the drive measures the sensors'
-    /// offsets meanwhile and the board takes them off).
-    pub idle_ms: f64,
-}
-
-impl Conditions {
-    /// The B-G431B-ESC1's conditions: 20 kHz PWM, 0.5 µs dead time, 1 % of rated current
-    /// noise, a 2 % offset on phase a, measured during 20 ms idle.
-    pub fn board() -> Self {
-        Self {
-            noise_pct: 1.0,
-            offset_pct: [2.0, 0.0, 0.0],
-            dead_time_us: 0.5,
-            pwm_hz: 20_000.0,
-            idle_ms: 20.0,
-        }
-    }
-
-    /// The ideal plant (the papers' experiments): no noise, no offsets, no dead time, no idle.
-    pub fn ideal() -> Self {
-        Self {
-            noise_pct: 0.0,
-            offset_pct: [0.0; 3],
-            dead_time_us: 0.0,
-            pwm_hz: 20_000.0,
-            idle_ms: 0.0,
-        }
-    }
-}
-
-/// The simulated board's flags: the board's conditions ([`Conditions::board`]) unless `--ideal`
-/// (or a scenario with `ideal = true`); every flag given replaces its part of either.
+/// The simulated board's flags: the board's conditions ([`SimBoard::board_defaults`]) unless
+/// `--ideal` (or a scenario with `ideal = true`: [`SimBoard::ideal`]); every flag given
+/// replaces its part of either.
 #[derive(clap::Args, Clone, Debug)]
 pub struct BoardArgs {
     /// The ideal plant: no noise, no offsets, no dead time, no idle (default: the board's
@@ -129,73 +89,58 @@ pub struct BoardArgs {
     pub seed: u64,
 }
 
-/// The board's flags resolved for a motor of rated current `rated_a`, in SI units.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct BoardSettings {
-    /// Current-sensor noise \[A].
-    pub noise_sigma_a: f64,
-    /// Current-sensor offsets \[A].
-    pub offset_a: [f64; 3],
-    /// ADC step \[A].
-    pub adc_lsb_a: f64,
-    /// PWM frequency \[Hz].
-    pub pwm_hz: f64,
-    /// Dead time \[s].
-    pub dead_time_s: f64,
-    /// Idle before t = 0 \[ms].
-    pub idle_ms: f64,
-    /// Noise seed.
-    pub seed: u64,
-}
-
 impl BoardArgs {
-    /// The flags over [`Conditions::board`], or over [`Conditions::ideal`] with `--ideal` or when
-    /// `scenario_ideal` (and not `--board`), checked; errors name the flag.
-    pub fn resolve(&self, scenario_ideal: bool, rated_a: f64) -> anyhow::Result<BoardSettings> {
-        let base = if self.ideal || (scenario_ideal && !self.board) {
-            Conditions::ideal()
+    /// The board for `motor`: the flags over [`SimBoard::board_defaults`], or over
+    /// [`SimBoard::ideal`] with `--ideal` or when `scenario_ideal` (and not `--board`), checked;
+    /// errors name the flag.
+    pub fn resolve(&self, scenario_ideal: bool, motor: &Motor) -> anyhow::Result<SimBoard> {
+        let mut board = if self.ideal || (scenario_ideal && !self.board) {
+            SimBoard::ideal(motor)
         } else {
-            Conditions::board()
+            SimBoard::board_defaults(motor)
         };
+        let rated_a = f64::from(motor.ratings.current_a);
         // Noise and offsets: the flags given replace the base's, and add to each other.
-        let given = self.noise_a.is_some() || self.noise_pct.is_some();
-        let noise_pct = self
-            .noise_pct
-            .unwrap_or(if given { 0.0 } else { base.noise_pct });
-        anyhow::ensure!(
-            noise_pct.is_finite() && noise_pct >= 0.0,
-            "--noise-pct = {}: must be a finite percentage >= 0",
-            number(noise_pct)
-        );
-        let given = self.offset_a.is_some() || self.offset_pct.is_some();
-        let offset_pct = self
-            .offset_pct
-            .unwrap_or(if given { [0.0; 3] } else { base.offset_pct });
-        let offset_a = self.offset_a.unwrap_or([0.0; 3]);
-        let (pwm_hz, dead_time_s) = power_stage(
-            self.pwm_hz.unwrap_or(base.pwm_hz),
-            self.dead_time_us.unwrap_or(base.dead_time_us),
+        if self.noise_a.is_some() || self.noise_pct.is_some() {
+            let noise_pct = self.noise_pct.unwrap_or(0.0);
+            anyhow::ensure!(
+                noise_pct.is_finite() && noise_pct >= 0.0,
+                "--noise-pct = {}: must be a finite percentage >= 0",
+                number(noise_pct)
+            );
+            board.noise_sigma_a = self.noise_a.unwrap_or(0.0) + 0.01 * noise_pct * rated_a;
+        }
+        if self.offset_a.is_some() || self.offset_pct.is_some() {
+            let (offset_a, offset_pct) = (
+                self.offset_a.unwrap_or([0.0; 3]),
+                self.offset_pct.unwrap_or([0.0; 3]),
+            );
+            board.offset_a = std::array::from_fn(|k| offset_a[k] + 0.01 * offset_pct[k] * rated_a);
+        }
+        board.pwm_hz = self.pwm_hz.unwrap_or(board.pwm_hz);
+        check_power_stage(
+            board.pwm_hz,
+            self.dead_time_us.unwrap_or(board.dead_time_s * 1e6),
         )?;
-        let idle_ms = self.idle_ms.unwrap_or(base.idle_ms);
-        anyhow::ensure!(
-            idle_ms.is_finite() && (0.0..=10_000.0).contains(&idle_ms),
-            "--idle-ms = {}: allowed [0, 10000] ms",
-            number(idle_ms)
-        );
-        Ok(BoardSettings {
-            noise_sigma_a: self.noise_a.unwrap_or(0.0) + 0.01 * noise_pct * rated_a,
-            offset_a: std::array::from_fn(|k| offset_a[k] + 0.01 * offset_pct[k] * rated_a),
-            adc_lsb_a: self.adc_lsb_a,
-            pwm_hz,
-            dead_time_s,
-            idle_ms,
-            seed: self.seed,
-        })
+        if let Some(us) = self.dead_time_us {
+            board.dead_time_s = us * 1e-6;
+        }
+        if let Some(idle_ms) = self.idle_ms {
+            anyhow::ensure!(
+                idle_ms.is_finite() && (0.0..=10_000.0).contains(&idle_ms),
+                "--idle-ms = {}: allowed [0, 10000] ms",
+                number(idle_ms)
+            );
+            board.idle_s = idle_ms * 1e-3;
+        }
+        board.adc_lsb_a = self.adc_lsb_a;
+        board.seed = self.seed;
+        Ok(board)
     }
 }
 
-/// `--pwm-hz` and `--dead-time-us` checked: the PWM frequency \[Hz] and the dead time \[s].
-fn power_stage(pwm_hz: f64, dead_time_us: f64) -> anyhow::Result<(f64, f64)> {
+/// `--pwm-hz` \[Hz] and `--dead-time-us` \[µs] checked.
+fn check_power_stage(pwm_hz: f64, dead_time_us: f64) -> anyhow::Result<()> {
     anyhow::ensure!(
         pwm_hz.is_finite() && (1e3..=2e5).contains(&pwm_hz),
         "--pwm-hz = {}: allowed [1000, 200000] Hz",
@@ -209,7 +154,7 @@ fn power_stage(pwm_hz: f64, dead_time_us: f64) -> anyhow::Result<(f64, f64)> {
         number(dead_time_us),
         pwm_hz
     );
-    Ok((pwm_hz, dead_time_us * 1e-6))
+    Ok(())
 }
 
 /// `a,b,c`: three finite numbers.

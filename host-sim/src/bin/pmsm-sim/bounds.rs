@@ -2,9 +2,9 @@
 //! the eigenvalues at (K_s,max)_T, and the root locus over K_s.
 
 use crate::args::MotorArg;
-use pmsm_host_sim::bounds::{self, Equilibrium, OperatingPoint};
+use pmsm_host_sim::analysis::bounds::{self, Equilibrium, OperatingPoint};
 use pmsm_host_sim::observer::ObserverKind;
-use pmsm_host_sim::{sim, table};
+use pmsm_host_sim::table;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -52,7 +52,7 @@ pub fn bounds(args: BoundsArgs) -> anyhow::Result<String> {
         args.load_nm.is_finite(),
         "--load-nm must be a finite number"
     );
-    let omega = args.speed_rpm * sim::RAD_S_PER_RPM;
+    let omega = args.speed_rpm * pmsm_host_sim::RAD_S_PER_RPM;
     let op = OperatingPoint::paper(&motor.params, omega, args.load_nm, torque);
     let report = bounds::report(&motor.params, &op, args.rate_hz);
     let mut out = String::new();

@@ -12,7 +12,7 @@ pub struct CyclesArgs {
 }
 
 /// The measured calls, in the table's order, with their labels.
-fn rows(r: &pmsm_host_sim::cycles::CyclesReport) -> [(&'static str, u64); 17] {
+fn rows(r: &pmsm_host_sim::analysis::cycles::CyclesReport) -> [(&'static str, u64); 17] {
     [
         (
             "step, both observers, sliding primary (worst over a turn)",
@@ -66,7 +66,7 @@ pub fn cycles(args: CyclesArgs) -> anyhow::Result<String> {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .parent()
         .ok_or_else(|| anyhow::anyhow!("no workspace root"))?;
-    let r = pmsm_host_sim::cycles::measure(root)?;
+    let r = pmsm_host_sim::analysis::cycles::measure(root)?;
     let mut out = String::new();
     if args.json {
         outln!(out, "{}", serde_json::to_string(&r)?);

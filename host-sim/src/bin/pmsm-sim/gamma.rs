@@ -2,7 +2,7 @@
 //! Proposition 4) and the observer's default.
 
 use crate::args::MotorArg;
-use pmsm_host_sim::{sim, table};
+use pmsm_host_sim::table;
 use std::fmt::Write as _;
 
 #[derive(clap::Args)]
@@ -40,7 +40,7 @@ pub fn gamma(args: GammaArgs) -> anyhow::Result<String> {
         "--min-speed-rpm must be a finite number >= 0"
     );
     let p = motor.params;
-    let omega = (args.min_speed_rpm * sim::RAD_S_PER_RPM) as f32;
+    let omega = (args.min_speed_rpm * pmsm_host_sim::RAD_S_PER_RPM) as f32;
     let rate = args.rate_hz as f32;
     let report = GammaReport {
         gamma_max_discrete: flux::gamma_max_discrete(p.flux_wb, rate) as f64,

@@ -2,7 +2,7 @@
 //! flux linkage, J, B) from its pole pairs and ratings; the table or JSON, and the motor file.
 
 use crate::args::{BoardArgs, MotorArg};
-use pmsm_host_sim::{motor_file, number, sim, table};
+use pmsm_host_sim::{motor_file, number, table};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -37,7 +37,12 @@ pub struct IdentifyArgs {
 pub fn identify(args: IdentifyArgs) -> anyhow::Result<(String, bool)> {
     use pmsm_host_sim::identify as id;
     let (name, m) = args.motor.resolve()?;
+    anyhow::ensure!(
+        args.board.idle_ms.is_none(),
+        "--idle-ms is for run: the identification measures the offsets itself"
+    );
     let mut cfg = id::IdentifyRun::board_defaults(m);
+    cfg.board = args.board.resolve(false, &m)?;
     if let Some(v) = args.bus_v {
         let max = 2.0 * f64::from(m.ratings.bus_v);
         anyhow::ensure!(
@@ -45,19 +50,9 @@ pub fn identify(args: IdentifyArgs) -> anyhow::Result<(String, bool)> {
             "--bus-v = {}: bus voltage allowed (0, {max}] V (2 x the motor's rated bus)",
             number(v)
         );
-        cfg.bus_v = v;
+        cfg.board.bus_v = v;
     }
-    anyhow::ensure!(
-        args.board.idle_ms.is_none(),
-        "--idle-ms is for run: the identification measures the offsets itself"
-    );
-    let board = args.board.resolve(false, f64::from(m.ratings.current_a))?;
-    cfg.noise_sigma_a = board.noise_sigma_a;
-    cfg.offset_a = board.offset_a;
-    cfg.adc_lsb_a = board.adc_lsb_a;
-    (cfg.pwm_hz, cfg.dead_time_s) = (board.pwm_hz, board.dead_time_s);
-    cfg.seed = board.seed;
-    cfg.sense_range_a = args.sense_range_a;
+    cfg.board.sense_range_a = args.sense_range_a;
     cfg.fault = args
         .motor_fault
         .as_deref()
@@ -87,7 +82,7 @@ pub fn identify(args: IdentifyArgs) -> anyhow::Result<(String, bool)> {
         o.duration_s
     );
     if let Some(f) = o.fault {
-        outln!(out, "ERROR: {}", sim::fault_name(f));
+        outln!(out, "ERROR: {}", pmsm_host_sim::names::fault_name(f));
     }
     let mut t = table(&["parameter", "identified", "truth", "error %"], &[1, 2, 3]);
     for key in [

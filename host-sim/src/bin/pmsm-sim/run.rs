@@ -3,10 +3,11 @@
 
 use crate::args::{parse_mismatch, BoardArgs, MotorArg};
 use pmsm_host_sim::observer::ObserverKind;
+use pmsm_host_sim::report::output;
+use pmsm_host_sim::report::summary::Summary;
 use pmsm_host_sim::scenario::{self, LoadKind};
 use pmsm_host_sim::sim::{self, Mismatch, SimConfig};
-use pmsm_host_sim::summary::Summary;
-use pmsm_host_sim::{motor_file, number, output, table};
+use pmsm_host_sim::{motor_file, number, table};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -104,7 +105,7 @@ pub fn prepare(args: &RunArgs) -> anyhow::Result<SimConfig> {
         );
         sc.load_nm = x;
     }
-    let mut cfg = SimConfig::new(sc, observer);
+    let mut board = args.board.resolve(spec.is_ideal(), &m)?;
     if let Some(v) = args.bus_v {
         let max = 2.0 * m.ratings.bus_v;
         anyhow::ensure!(
@@ -112,7 +113,7 @@ pub fn prepare(args: &RunArgs) -> anyhow::Result<SimConfig> {
             "--bus-v = {}: bus voltage allowed (0, {max}] V (2 x the motor's rated bus)",
             number(v)
         );
-        cfg.bus_v = v;
+        board.bus_v = v;
     }
     if let Some(p) = args.bus_pct {
         anyhow::ensure!(
@@ -120,18 +121,10 @@ pub fn prepare(args: &RunArgs) -> anyhow::Result<SimConfig> {
             "--bus-pct = {}: bus voltage allowed (0, 200] % of the motor's rated bus",
             number(p)
         );
-        cfg.bus_v = 0.01 * p * rated_bus;
+        board.bus_v = 0.01 * p * rated_bus;
     }
-    let board = args
-        .board
-        .resolve(spec.is_ideal(), f64::from(m.ratings.current_a))?;
-    cfg.noise_sigma_a = board.noise_sigma_a;
-    cfg.offset_a = board.offset_a;
-    cfg.adc_lsb_a = board.adc_lsb_a;
-    cfg.seed = board.seed;
-    (cfg.pwm_hz, cfg.dead_time_s) = (board.pwm_hz, board.dead_time_s);
+    let mut cfg = SimConfig::on(board, sc, observer);
     cfg.mismatch = args.mismatch;
-    cfg.idle_steps_before = (board.idle_ms * 1e-3 * args.rate_hz).round() as usize;
     if let Some(path) = &args.drive_motor_file {
         let (_, d) = motor_file::load(path)?;
         anyhow::ensure!(
@@ -188,16 +181,16 @@ pub fn run(args: RunArgs) -> anyhow::Result<(String, bool)> {
             .map_or("no".to_string(), |t| format!("at {t:.4} s")),
         summary.fault.as_deref().unwrap_or("none")
     );
-    let c = &run.config;
+    let b = &run.config.board;
     outln!(
         out,
-        "board: noise {} A, offsets {} A, dead time {} µs at {} Hz, {} idle steps{}",
-        number(c.noise_sigma_a),
-        c.offset_a.map(number).join(", "),
-        number(c.dead_time_s * 1e6),
-        c.pwm_hz,
-        c.idle_steps_before,
-        if c.noise_sigma_a == 0.0 && c.dead_time_s == 0.0 && c.offset_a == [0.0; 3] {
+        "board: noise {} A, offsets {} A, dead time {} µs at {} Hz, {} ms idle{}",
+        number(b.noise_sigma_a),
+        b.offset_a.map(number).join(", "),
+        number(b.dead_time_s * 1e6),
+        b.pwm_hz,
+        number(b.idle_s * 1e3),
+        if b.noise_sigma_a == 0.0 && b.dead_time_s == 0.0 && b.offset_a == [0.0; 3] {
             " (the ideal plant)"
         } else {
             ""

@@ -2,8 +2,8 @@
 
 use crate::run::{prepare, RunArgs};
 use clap::Parser;
+use pmsm_host_sim::report::summary::Summary;
 use pmsm_host_sim::sim;
-use pmsm_host_sim::summary::Summary;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -33,7 +33,7 @@ struct Cell {
 
 /// `sweep`: the table (or JSON) and whether every cell passed.
 pub fn sweep(args: SweepArgs) -> anyhow::Result<(String, bool)> {
-    use pmsm_host_sim::sweep::{self, Matrix};
+    use pmsm_host_sim::report::sweep::{self, Matrix};
     let matrix = Matrix::load(&args.matrix)?;
     if let Some(j) = args.jobs {
         anyhow::ensure!(j > 0, "--jobs must be at least 1");

@@ -19,7 +19,7 @@
 //! value, every cell (CSV and JSON) and a heat map of the pass fraction over the first two
 //! axes.
 
-use crate::summary::{Adapted, Summary};
+use super::summary::{Adapted, Summary};
 use anyhow::{bail, ensure, Context};
 use indexmap::IndexMap;
 use indicatif::{ProgressBar, ProgressStyle};

@@ -1,8 +1,8 @@
 //! Files written by `pmsm-sim run`: the CSV time series and the PNG plot (its panels, and the
 //! drive's modes, transitions and faults marked on them).
 
+use crate::names::fault_name;
 use crate::plot::{plot_panels_marked, Band, Event, Marks, Panel, Series};
-use crate::sim::fault_name;
 use crate::sim::Run;
 use anyhow::Context;
 use pmsm_sensorless::drive::{Mode, Reason};
@@ -271,7 +271,7 @@ pub fn marks(run: &Run) -> Marks<'static> {
             },
         })
         .collect();
-    if let Some(t) = crate::summary::Summary::of(run).lost_lock_at_s {
+    if let Some(t) = crate::report::summary::Summary::of(run).lost_lock_at_s {
         events.push(Event {
             x: t,
             label: "lost lock".into(),

@@ -6,7 +6,8 @@
 //! on a window whose mean speed error is beyond the scenario's tolerance of
 //! max(|command|, 5 % of rated speed).
 
-use crate::sim::{fault_name, Row, Run};
+use crate::names::fault_name;
+use crate::sim::{Row, Run};
 use indexmap::IndexMap;
 use pmsm_sensorless::drive::{Fault, Mode, Reason};
 use serde::Serialize;
@@ -152,51 +153,8 @@ impl Summary {
     /// Summarises a finished run and gives its verdict.
     pub fn of(run: &Run) -> Self {
         let sc = &run.config.scenario;
-        let rated_rpm = f64::from(sc.motor.ratings.speed_rpm);
-        let mut reasons = Vec::new();
-        // Faults: the drive's, or the plant's state leaving the finite numbers.
-        let expected = sc.drive.as_ref().and_then(|d| d.expect_fault);
-        let fault_time = |f: Fault| {
-            run.transitions
-                .iter()
-                .find(|(_, tr)| tr.reason == Reason::Fault(f))
-                .map_or(f64::NAN, |(t, _)| *t)
-        };
-        match (run.drive_fault, expected) {
-            (Some(f), Some(e)) if f == e => {}
-            (Some(f), e) => reasons.push(format!(
-                "fault {} at t = {:.4} s{}",
-                fault_name(f),
-                fault_time(f),
-                e.map(|e| format!(" (expected {})", fault_name(e)))
-                    .unwrap_or_default()
-            )),
-            (None, Some(e)) => reasons.push(format!(
-                "the expected fault {} did not happen",
-                fault_name(e)
-            )),
-            (None, None) => {}
-        }
-        if run.drive_fault.is_none() {
-            if let Some(f) = &run.fault {
-                reasons.push(f.clone());
-            }
-        }
-        // Loss of lock while sensorless; in a run whose expected fault came, what follows its
-        // injected cause (a blocked shaft: from the start) is that fault's business.
-        let cause_from_start = if sc.locked_rotor { 0.0 } else { f64::INFINITY };
-        let lock_until = match (expected, run.drive_fault) {
-            (Some(e), Some(f)) if e == f => sc
-                .drive
-                .as_ref()
-                .and_then(|d| d.injection)
-                .map_or(cause_from_start, |i| i.t()),
-            _ => f64::INFINITY,
-        };
-        let lost = run.rows.iter().find(|r| {
-            let e = r.theta_err_deg().abs();
-            r.sensorless && r.t < lock_until && (e.is_nan() || e > LOST_LOCK_DEG_E)
-        });
+        let mut reasons = fault_reasons(run);
+        let lost = lost_lock(run);
         if let Some(r) = lost {
             reasons.push(format!(
                 "lost lock at t = {:.4} s: |θ̂_e − θ_e| = {:.1}° electrical while sensorless",
@@ -204,6 +162,123 @@ impl Summary {
                 r.theta_err_deg().abs()
             ));
         }
+        let windows = Windows::of(run, &mut reasons);
+        let sim_s = run.rows.len() as f64 / run.config.rate_hz;
+        let sensorless = run.rows.iter().filter(|r| r.mode == Some(Mode::Sensorless));
+        Summary {
+            scenario: sc.name.to_string(),
+            motor: sc.motor_name.clone(),
+            observer: run.config.observer.name().to_string(),
+            rate_hz: run.config.rate_hz,
+            pass: reasons.is_empty(),
+            reasons,
+            lost_lock: lost.is_some(),
+            lost_lock_at_s: lost.map(|r| r.t),
+            worst_speed_err_pct: windows.worst_pct,
+            theta_err_max_deg_e: windows.theta_max,
+            real_time_factor: sim_s / run.wall_s,
+            fault: run.fault.clone(),
+            windows: windows.metrics,
+            fault_step: run.fault_step,
+            transitions: run
+                .transitions
+                .iter()
+                .map(|(t, tr)| TransitionRecord {
+                    t: *t,
+                    from: format!("{:?}", tr.from),
+                    to: format!("{:?}", tr.to),
+                    reason: format!("{:?}", tr.reason),
+                })
+                .collect(),
+            handovers_s: run
+                .transitions
+                .iter()
+                .filter(|(_, tr)| tr.reason == Reason::HandOver)
+                .map(|(t, _)| *t)
+                .collect(),
+            lowest_sensorless_rpm: sensorless.map(|r| r.speed_rpm.abs()).reduce(f64::min),
+            adapted: adapted(run),
+        }
+    }
+
+    /// The metrics of window `name`, if the run reached it.
+    pub fn window(&self, name: &str) -> Option<&WindowMetrics> {
+        self.windows.get(name)?.as_ref()
+    }
+}
+
+/// The verdict on faults: the drive's unless the scenario expects it, the expected one that
+/// did not come, or the plant's state leaving the finite numbers.
+fn fault_reasons(run: &Run) -> Vec<String> {
+    let mut reasons = Vec::new();
+    let expected = run
+        .config
+        .scenario
+        .drive
+        .as_ref()
+        .and_then(|d| d.expect_fault);
+    let fault_time = |f: Fault| {
+        run.transitions
+            .iter()
+            .find(|(_, tr)| tr.reason == Reason::Fault(f))
+            .map_or(f64::NAN, |(t, _)| *t)
+    };
+    match (run.drive_fault, expected) {
+        (Some(f), Some(e)) if f == e => {}
+        (Some(f), e) => reasons.push(format!(
+            "fault {} at t = {:.4} s{}",
+            fault_name(f),
+            fault_time(f),
+            e.map(|e| format!(" (expected {})", fault_name(e)))
+                .unwrap_or_default()
+        )),
+        (None, Some(e)) => reasons.push(format!(
+            "the expected fault {} did not happen",
+            fault_name(e)
+        )),
+        (None, None) => {}
+    }
+    if run.drive_fault.is_none() {
+        if let Some(f) = &run.fault {
+            reasons.push(f.clone());
+        }
+    }
+    reasons
+}
+
+/// The first row that lost lock while sensorless; in a run whose expected fault came, what
+/// follows its injected cause (a blocked shaft: from the start) is that fault's business.
+fn lost_lock(run: &Run) -> Option<&Row> {
+    let sc = &run.config.scenario;
+    let expected = sc.drive.as_ref().and_then(|d| d.expect_fault);
+    let cause_from_start = if sc.locked_rotor { 0.0 } else { f64::INFINITY };
+    let lock_until = match (expected, run.drive_fault) {
+        (Some(e), Some(f)) if e == f => sc
+            .drive
+            .as_ref()
+            .and_then(|d| d.injection)
+            .map_or(cause_from_start, |i| i.t()),
+        _ => f64::INFINITY,
+    };
+    run.rows.iter().find(|r| {
+        let e = r.theta_err_deg().abs();
+        r.sensorless && r.t < lock_until && (e.is_nan() || e > LOST_LOCK_DEG_E)
+    })
+}
+
+/// The scenario's windows: each one's metrics, the worst speed error and angle error.
+struct Windows {
+    metrics: IndexMap<String, Option<WindowMetrics>>,
+    worst_pct: Option<f64>,
+    theta_max: Option<f64>,
+}
+
+impl Windows {
+    /// The windows of `run`; a window beyond the speed tolerance, or not reached, adds its
+    /// reason.
+    fn of(run: &Run, reasons: &mut Vec<String>) -> Self {
+        let sc = &run.config.scenario;
+        let rated_rpm = f64::from(sc.motor.ratings.speed_rpm);
         let mut windows = IndexMap::new();
         let (mut worst_pct, mut theta_max) = (None::<f64>, None::<f64>);
         for w in &sc.windows {
@@ -240,61 +315,29 @@ impl Summary {
             }
             windows.insert(w.name.to_string(), m);
         }
-        let sim_s = run.rows.len() as f64 / run.config.rate_hz;
-        let sensorless = run.rows.iter().filter(|r| r.mode == Some(Mode::Sensorless));
-        Summary {
-            scenario: sc.name.to_string(),
-            motor: sc.motor_name.clone(),
-            observer: run.config.observer.name().to_string(),
-            rate_hz: run.config.rate_hz,
-            pass: reasons.is_empty(),
-            reasons,
-            lost_lock: lost.is_some(),
-            lost_lock_at_s: lost.map(|r| r.t),
-            worst_speed_err_pct: worst_pct,
-            theta_err_max_deg_e: theta_max,
-            real_time_factor: sim_s / run.wall_s,
-            fault: run.fault.clone(),
-            windows,
-            fault_step: run.fault_step,
-            transitions: run
-                .transitions
-                .iter()
-                .map(|(t, tr)| TransitionRecord {
-                    t: *t,
-                    from: format!("{:?}", tr.from),
-                    to: format!("{:?}", tr.to),
-                    reason: format!("{:?}", tr.reason),
-                })
-                .collect(),
-            handovers_s: run
-                .transitions
-                .iter()
-                .filter(|(_, tr)| tr.reason == Reason::HandOver)
-                .map(|(t, _)| *t)
-                .collect(),
-            lowest_sensorless_rpm: sensorless.map(|r| r.speed_rpm.abs()).reduce(f64::min),
-            adapted: run
-                .rows
-                .iter()
-                .rev()
-                .filter_map(|r| r.health)
-                .find(|h| h.r_ohm > 0.0)
-                .map(|h| {
-                    let plant = &sc.motor.params;
-                    let err = |x: f64, truth: f32| 100.0 * (x / truth as f64 - 1.0);
-                    Adapted {
-                        r_ohm: h.r_ohm,
-                        flux_wb: h.flux_wb,
-                        r_err_pct: err(h.r_ohm, plant.r_ohm),
-                        flux_err_pct: err(h.flux_wb, plant.flux_wb),
-                    }
-                }),
+        Self {
+            metrics: windows,
+            worst_pct,
+            theta_max,
         }
     }
+}
 
-    /// The metrics of window `name`, if the run reached it.
-    pub fn window(&self, name: &str) -> Option<&WindowMetrics> {
-        self.windows.get(name)?.as_ref()
-    }
+/// Drive runs: the adapted motor model at the end (the last row with an adapted resistance),
+/// against the plant's.
+fn adapted(run: &Run) -> Option<Adapted> {
+    let plant = &run.config.scenario.motor.params;
+    let h = run
+        .rows
+        .iter()
+        .rev()
+        .filter_map(|r| r.health)
+        .find(|h| h.r_ohm > 0.0)?;
+    let err = |x: f64, truth: f32| 100.0 * (x / truth as f64 - 1.0);
+    Some(Adapted {
+        r_ohm: h.r_ohm,
+        flux_wb: h.flux_wb,
+        r_err_pct: err(h.r_ohm, plant.r_ohm),
+        flux_err_pct: err(h.flux_wb, plant.flux_wb),
+    })
 }

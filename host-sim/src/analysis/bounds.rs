@@ -8,8 +8,8 @@
 //! interval in which that holds. The velocity observer is the same system without `e_τ`
 //! (λτ = 0, K3 = 0).
 
-use crate::plant::PlantParams;
 use nalgebra::{Complex, DMatrix};
+use pmsm_plant::PlantParams;
 use pmsm_sensorless::motor::MotorParams;
 use std::f64::consts::TAU;
 

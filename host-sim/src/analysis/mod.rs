@@ -1,0 +1,6 @@
+//! Analyses beside the runs: the discrete-time bounds of the sliding gain (Horng & Chin
+//! Sec 4, [`bounds`]) and the core's cycle counts on the emulated Cortex-M4F with the
+//! firmware's flash and RAM ([`cycles`]).
+
+pub mod bounds;
+pub mod cycles;

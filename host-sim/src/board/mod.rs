@@ -1,0 +1,103 @@
+//! The simulated board: one description of it ([`SimBoard`]: PWM, dead time, current
+//! sensing, bus, idle time, terminal-voltage sensing) shared by `run`, `sweep` and
+//! `identify`; its sensors ([`sensors`]); the faults of the motor on it ([`motor_fault`]);
+//! and the board around the plant as the core's `PowerStage` ([`stage`]).
+
+pub mod motor_fault;
+pub mod sensors;
+pub mod stage;
+
+pub use motor_fault::MotorFault;
+pub use stage::BoardStage;
+
+use pmsm_sensorless::drive::DriveConfig;
+use pmsm_sensorless::motor::Motor;
+
+/// The board a simulation runs on: its power stage, its sensing, and what it does before
+/// t = 0.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SimBoard {
+    /// DC bus voltage \[V].
+    pub bus_v: f64,
+    /// PWM frequency \[Hz]: the averaged dead-time error per phase is
+    /// `sign(i)·t_dead·f_pwm·V_bus`.
+    pub pwm_hz: f64,
+    /// Inverter dead time \[s]; the drive is told the same figure and compensates it (an
+    /// ideal inverter, 0, gets no compensation).
+    pub dead_time_s: f64,
+    /// Current-sensor noise per phase, standard deviation \[A].
+    pub noise_sigma_a: f64,
+    /// Current-sensor offset per phase \[A].
+    pub offset_a: [f64; 3],
+    /// ADC quantisation step of the current measurement \[A] (0 = none).
+    pub adc_lsb_a: f64,
+    /// The current-sensing range \[A] the identification checks its currents against
+    /// (`None`: the drive's default, twice its trip level).
+    pub sense_range_a: Option<f64>,
+    /// Seed of the sensors' noise.
+    pub seed: u64,
+    /// Drive runs: the time the board is idle (drive disabled, PWM off) before t = 0 \[s], as
+    /// a board powered up before its enable: the idle drive measures the current sensors'
+    /// offsets, and the board takes those off every later sample, as the B-G431B-ESC1 takes
+    /// off the ones it measures at boot. The plant does not move meanwhile. An
+    /// identification does not use it: it measures the offsets itself, first, PWM off.
+    pub idle_s: f64,
+    /// The board senses the terminal voltage (the B-G431B-ESC1's back-EMF dividers): the
+    /// drive gets it while its PWM is off and can catch a turning rotor.
+    pub sense_terminal_voltage: bool,
+}
+
+impl SimBoard {
+    /// An ideal board for `motor`: its rated bus, 20 kHz PWM without dead time, exact
+    /// current sensing, no idle time, the terminal voltage sensed.
+    pub fn ideal(motor: &Motor) -> Self {
+        Self {
+            bus_v: f64::from(motor.ratings.bus_v),
+            pwm_hz: 20_000.0,
+            dead_time_s: 0.0,
+            noise_sigma_a: 0.0,
+            offset_a: [0.0; 3],
+            adc_lsb_a: 0.0,
+            sense_range_a: None,
+            seed: 1,
+            idle_s: 0.0,
+            sense_terminal_voltage: true,
+        }
+    }
+
+    /// The B-G431B-ESC1 with `motor`: its rated bus, 20 kHz PWM with 500 ns dead time
+    /// (compensated by the drive), current-sensor noise of 1 % of the rated current, an
+    /// offset of 2 % of it on phase a, 20 ms idle before t = 0 in which the offsets are
+    /// measured, the terminal voltage sensed; seed 1.
+    pub fn board_defaults(motor: &Motor) -> Self {
+        let rated = f64::from(motor.ratings.current_a);
+        Self {
+            dead_time_s: 500e-9,
+            noise_sigma_a: 0.01 * rated,
+            offset_a: [0.02 * rated, 0.0, 0.0],
+            idle_s: 0.02,
+            ..Self::ideal(motor)
+        }
+    }
+
+    /// Errors unless the bus voltage is a finite number > 0 V.
+    pub fn check_bus(&self) -> anyhow::Result<()> {
+        anyhow::ensure!(
+            self.bus_v.is_finite() && self.bus_v > 0.0,
+            "bus voltage must be a finite number > 0 V, got {}",
+            self.bus_v
+        );
+        Ok(())
+    }
+
+    /// The board's power stage as the drive is told it: its PWM frequency and dead time.
+    pub fn configure_drive(&self, cfg: &mut DriveConfig) {
+        cfg.power_stage.pwm_hz = self.pwm_hz as f32;
+        cfg.power_stage.dead_time_s = self.dead_time_s as f32;
+    }
+
+    /// Samples the board is idle before t = 0 at the control rate `rate_hz`.
+    pub fn idle_steps(&self, rate_hz: f64) -> usize {
+        (self.idle_s * rate_hz).round() as usize
+    }
+}

@@ -1,0 +1,153 @@
+//! The simulated board around the plant as the core's `PowerStage`: `sample()` reads its
+//! sensors, `apply()` loads the duties, and [`BoardStage::advance`] lets the plant run the
+//! control period with them, as a firmware's interrupt samples, steps the drive
+//! (`Drive::step_on`) and leaves the PWM running until the next.
+
+use super::motor_fault::{Faulty, MotorFault};
+use super::sensors::{CurrentSensor, VoltageSensors};
+use super::SimBoard;
+use pmsm_plant::{Inverter, Load, Plant, PlantParams, StiffBus};
+use pmsm_sensorless::drive::DriveInput;
+use pmsm_sensorless::frames::{Abc, AlphaBeta};
+use pmsm_sensorless::power_stage::PowerStage;
+use pmsm_sensorless::svpwm::Duties;
+
+/// The board around the plant: its inverter on a stiff bus, its sensors, the duties loaded.
+pub struct BoardStage {
+    plant: Plant,
+    inverter: Inverter,
+    current: CurrentSensor,
+    voltage: VoltageSensors,
+    /// The offsets the board takes off its current samples (the drive's, after the idle
+    /// pre-roll) [A, per phase].
+    offset_abc: Abc,
+    /// Phase b's current sample reads NaN (a broken channel).
+    nan_phase_b: bool,
+    motor_fault: Option<MotorFault>,
+    /// The duties loaded for the coming period (`None`: every switch off).
+    duties: Option<Duties>,
+    /// The terminal voltage of the period that just ended \[V].
+    v_terminal: AlphaBeta,
+    /// The last sample taken.
+    last: Option<DriveInput>,
+}
+
+impl BoardStage {
+    /// `board` around a plant of `params` on its bus, rotor at `theta_m0` [rad, mechanical]
+    /// turning at `omega_m0` \[rad/s], every switch off. Errors name a bad sensor setting.
+    pub fn new(
+        board: &SimBoard,
+        params: PlantParams,
+        theta_m0: f64,
+        omega_m0: f64,
+    ) -> anyhow::Result<Self> {
+        let current = CurrentSensor::new(
+            board.offset_a,
+            board.noise_sigma_a,
+            board.adc_lsb_a,
+            board.seed,
+        )?;
+        let bus = StiffBus { v_bus: board.bus_v };
+        Ok(Self {
+            plant: Plant::new(params, bus, theta_m0, omega_m0),
+            inverter: Inverter {
+                dead_time_s: board.dead_time_s,
+                pwm_hz: board.pwm_hz,
+            },
+            current,
+            voltage: VoltageSensors {
+                terminal: board.sense_terminal_voltage,
+            },
+            offset_abc: Abc::new(0.0, 0.0, 0.0),
+            nan_phase_b: false,
+            motor_fault: None,
+            duties: None,
+            v_terminal: AlphaBeta::default(),
+            last: None,
+        })
+    }
+
+    /// The plant (state, energy integrals, parameters).
+    pub fn plant(&self) -> &Plant {
+        &self.plant
+    }
+
+    /// The plant, to change it (a fault injected into the motor or the bus).
+    pub fn plant_mut(&mut self) -> &mut Plant {
+        &mut self.plant
+    }
+
+    /// The plant at the end of the run.
+    pub fn into_plant(self) -> Plant {
+        self.plant
+    }
+
+    /// The motor on the board has `fault` (a blocked rotor blocks the plant's shaft).
+    pub fn set_motor_fault(&mut self, fault: Option<MotorFault>) {
+        self.motor_fault = fault;
+        self.plant.blocked = fault == Some(MotorFault::BlockedRotor);
+    }
+
+    /// From now on the board takes `offset` [A, per phase] off every current sample.
+    pub fn take_offsets(&mut self, offset: Abc) {
+        self.offset_abc = offset;
+    }
+
+    /// From now on phase b's current sample reads NaN.
+    pub fn break_phase_b(&mut self) {
+        self.nan_phase_b = true;
+    }
+
+    /// The duties loaded for the coming period (`None`: every switch off).
+    pub fn duties(&self) -> Option<Duties> {
+        self.duties
+    }
+
+    /// The last sample taken, if any.
+    pub fn last_sample(&self) -> Option<&DriveInput> {
+        self.last.as_ref()
+    }
+
+    /// The control period: the plant integrated over `n_sub` sub-steps of `h` seconds with
+    /// the duties loaded (or every switch off: the currents flow through the freewheeling
+    /// diodes into the bus until they die out, and a back-EMF above the bus brakes the
+    /// rotor), under the load torque `tau_l(t_rel, ω)`. The terminal voltage sensed next is
+    /// this period's mean.
+    pub fn advance(&mut self, tau_l: impl Load, h: f64, n_sub: usize) {
+        let v = match self.duties {
+            Some(d) => {
+                let faulty = Faulty {
+                    inner: self.inverter.hold(d),
+                    fault: self.motor_fault,
+                    r: self.plant.params.r,
+                };
+                self.plant.advance(&faulty, tau_l, h, n_sub)
+            }
+            None => self.plant.advance_off(tau_l, h, n_sub),
+        };
+        self.v_terminal = AlphaBeta::new(v.0 as f32, v.1 as f32);
+    }
+}
+
+impl PowerStage for BoardStage {
+    fn sample(&mut self) -> DriveInput {
+        let i = self.current.measure(self.plant.i_abc());
+        let o = self.offset_abc;
+        let mut i_abc = Abc::new(i.a - o.a, i.b - o.b, i.c - o.c);
+        if self.nan_phase_b {
+            i_abc.b = f32::NAN;
+        }
+        let input = DriveInput {
+            i_abc,
+            v_bus: self.voltage.bus(self.plant.supply.v_bus),
+            v_ab_terminal: self.voltage.terminal(self.v_terminal),
+            overrun: false,
+        };
+        self.last = Some(input);
+        input
+    }
+
+    fn apply(&mut self, duties: Option<Duties>) {
+        self.duties = duties;
+    }
+}

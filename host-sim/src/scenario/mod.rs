@@ -1,0 +1,228 @@
+//! Scenarios: what the simulated drive is asked to do ([`Scenario`]), from TOML files
+//! ([`Spec`]: the format in [`mod@file`], the checks and the conversion for one motor in [`build`],
+//! the files compiled in in [`built_in`]; the time profiles in [`profile`]).
+//!
+//! A scenario file gives the speed command and the load over time, the metric windows, and
+//! optionally the enable schedule, an injected fault cause and the fault it expects. Speeds and
+//! loads are fractions of the motor's rated speed and torque (`speed`, `load`,
+//! `initial_speed`), so one scenario serves every motor, or absolute (`speed_rpm`, `load_nm`,
+//! `initial_speed_rpm`) for the papers' experiments on their own motors:
+//!
+//! ```toml
+//! description = "what it does, one line"
+//! motor = "sinano"                # the default motor (--motor / --motor-file replace it)
+//! drive = true                    # the complete drive (default); false: FOC on one observer
+//! duration_s = 6.0
+//! speed = [[0.0, 0.0], [1.0, 0.5], [4.0, 0.5], [4.0, -0.5]]  # [t s, fraction of rated speed]; linear between, a repeated t is a step
+//! load  = [[0.0, 0.0], [2.0, 0.5], [3.0, 0.5], [3.0, 0.0]]   # [t s, fraction of rated torque]
+//! load_kind = "brake"             # "brake" opposes the motion; "active" is a signed torque
+//! windows = [["loaded", 2.5, 3.0], ["released", 3.5, 4.0]]   # [name, t0, t1]
+//! initial_speed = 0.0             # the rotor coasts at this fraction of rated speed at t = 0
+//! enable = [[0.0, true], [3.0, false], [3.5, true]]          # enabled throughout by default
+//! expect_fault = "stall"          # the run passes only if the drive faults so
+//! [inject]                        # a fault cause: kind = "plant" (factors r, l, flux),
+//! t = 1.8                         # "bus" (bus, a fraction of the rated bus) or "nan_current"
+//! kind = "plant"
+//! r = 0.1
+//! ```
+//!
+//! Further keys: `figures` (the papers' figures, in the plot title), `brake_fade` (a brake
+//! fades linearly to zero below this fraction of rated speed, default 0.03) or
+//! `brake_fade_rpm`, `min_speed_rpm` or `min_speed` (bare-observer runs: the lowest operating
+//! speed the flux observer's γ is chosen for; default the smallest non-zero speed command),
+//! `i_max_a` (bare-observer runs: the speed loop's current limit), `speed_tolerance` (a window
+//! passes when its mean speed error is within this fraction of max(|command|, 5 % of rated
+//! speed); default 0.02), `locked_rotor = true` (the shaft is blocked throughout).
+//!
+//! The built-in scenarios are the files in `host-sim/scenarios/`, compiled in.
+
+pub mod build;
+pub mod built_in;
+pub mod file;
+pub mod profile;
+
+pub use built_in::{
+    all, by_name, fault_bus_undervoltage, fault_nan_current, fault_observer_loss,
+    fault_overcurrent, horng_ramp_brake, ortega_load_200, ortega_load_800, ortega_ramp,
+    ortega_steps, start_stop_reverse, start_test_motor,
+};
+pub use file::{ScenarioFile, Spec};
+
+use self::profile::Pwl;
+use pmsm_sensorless::drive::Fault;
+use pmsm_sensorless::motor::Motor;
+
+/// A named interval over which metrics are computed \[s].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Window {
+    /// Name used in the JSON summary.
+    pub name: String,
+    /// Start \[s].
+    pub t0: f64,
+    /// End \[s].
+    pub t1: f64,
+}
+
+impl Window {
+    /// A window named `name` from `t0` to `t1` \[s].
+    pub fn new(name: impl Into<String>, t0: f64, t1: f64) -> Self {
+        Self {
+            name: name.into(),
+            t0,
+            t1,
+        }
+    }
+}
+
+/// A simulated experiment, built for one motor.
+#[derive(Clone, Debug)]
+pub struct Scenario {
+    /// Identifier on the command line (the file's stem).
+    pub name: String,
+    /// One line for `pmsm-sim list`.
+    pub description: String,
+    /// Motor name as shown in summaries.
+    pub motor_name: String,
+    /// The plant's motor (the controller's copy may carry mismatch factors).
+    pub motor: Motor,
+    /// Simulated duration \[s].
+    pub duration_s: f64,
+    /// Speed command \[rpm, mechanical].
+    pub speed_cmd_rpm: Pwl,
+    /// Load torque shape, scaled by `load_nm` \[dimensionless], largest |value| 1.
+    pub load_shape: Pwl,
+    /// Load torque level \[N·m] (positive opposes positive rotation).
+    pub load_nm: f64,
+    /// Metric windows.
+    pub windows: Vec<Window>,
+    /// Rotor speed at t = 0 \[rpm].
+    pub initial_speed_rpm: f64,
+    /// Lowest operating speed \[rpm]: the bare flux observer's γ is chosen for it
+    /// (Proposition 4).
+    pub min_speed_rpm: f64,
+    /// Limit of the bare-observer runs' i_q \[A]; default 1.5× the current of rated torque.
+    pub i_max_a: Option<f64>,
+    /// The paper's figures this scenario reproduces (shown in the plot title).
+    pub figures: String,
+    /// How the load torque depends on speed.
+    pub load_kind: LoadKind,
+    /// Run the complete drive (start-up, modes, faults) instead of FOC on an observer.
+    pub drive: Option<DriveScript>,
+    /// A window passes when its mean speed error is within this fraction of
+    /// max(|command|, 5 % of rated speed).
+    pub speed_tolerance: f64,
+    /// The rotor is held throughout (a blocked shaft).
+    pub locked_rotor: bool,
+}
+
+/// A brake's torque fades to zero below this fraction of rated speed, unless the scenario
+/// says otherwise (`brake_fade`).
+pub const BRAKE_FADE: f64 = 0.03;
+
+/// How the load torque depends on speed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LoadKind {
+    /// A signed torque opposing positive rotation (the papers' τ_L, eq (33)): a hanging mass;
+    /// it drives a motor at rest backwards.
+    Active,
+    /// A brake: the level opposes the motion, fading linearly to zero below `sat_rpm`.
+    Brake {
+        /// Speed below which the brake torque fades \[rpm].
+        sat_rpm: f64,
+    },
+}
+
+/// What the drive is told, and what goes wrong, during a drive scenario.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DriveScript {
+    /// The enable command: `(t [s], enabled)`, each holding until the next; enabled before
+    /// the first.
+    pub enable: Vec<(f64, bool)>,
+    /// A fault cause injected during the run.
+    pub injection: Option<Injection>,
+    /// The fault the scenario expects (the run fails without it).
+    pub expect_fault: Option<Fault>,
+}
+
+impl DriveScript {
+    /// Enabled throughout, nothing injected, no fault expected.
+    pub fn enabled() -> Self {
+        Self {
+            enable: Vec::new(),
+            injection: None,
+            expect_fault: None,
+        }
+    }
+
+    /// The enable command at `t` \[s].
+    pub fn enable_at(&self, t: f64) -> bool {
+        self.enable
+            .iter()
+            .rev()
+            .find(|&&(tk, _)| tk <= t)
+            .is_none_or(|&(_, on)| on)
+    }
+}
+
+/// A fault cause.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Injection {
+    /// The plant's R, L and flux are multiplied by these factors at `t` (a winding short, a
+    /// demagnetisation).
+    Plant {
+        /// Time \[s].
+        t: f64,
+        /// Factor on R.
+        r: f64,
+        /// Factor on L.
+        l: f64,
+        /// Factor on the flux linkage.
+        flux: f64,
+    },
+    /// The DC bus steps to `v` at `t`.
+    Bus {
+        /// Time \[s].
+        t: f64,
+        /// New bus voltage \[V].
+        v: f64,
+    },
+    /// The current sample of phase b reads NaN from `t` on.
+    NanCurrent {
+        /// Time \[s].
+        t: f64,
+    },
+}
+
+impl Injection {
+    /// When it happens \[s].
+    pub fn t(&self) -> f64 {
+        match *self {
+            Injection::Plant { t, .. } | Injection::Bus { t, .. } | Injection::NanCurrent { t } => {
+                t
+            }
+        }
+    }
+}
+
+/// Default overload factor of the current limit over the current of rated torque.
+pub const OVERLOAD: f64 = 1.5;
+
+impl Scenario {
+    /// The bare-observer runs' current limit \[A].
+    pub fn i_max_a(&self) -> f64 {
+        self.i_max_a
+            .unwrap_or(OVERLOAD * self.motor.rated_torque_current_a() as f64)
+    }
+
+    /// Load torque at `t` and speed `omega_m` \[rad/s] \[N·m].
+    pub fn load_at(&self, t: f64, omega_m: f64) -> f64 {
+        let level = self.load_nm * self.load_shape.at(t);
+        match self.load_kind {
+            LoadKind::Active => level,
+            LoadKind::Brake { sat_rpm } => {
+                let x = omega_m / (sat_rpm * crate::RAD_S_PER_RPM);
+                level * x.clamp(-1.0, 1.0)
+            }
+        }
+    }
+}

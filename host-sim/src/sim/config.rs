@@ -1,0 +1,128 @@
+//! What one run is configured with ([`SimConfig`]): the scenario, the observer, the board,
+//! the controller's parameter mismatch ([`Mismatch`]), the control rate and the plant's
+//! sub-steps.
+
+use crate::board::SimBoard;
+use crate::observer::ObserverKind;
+use crate::scenario::Scenario;
+use pmsm_sensorless::motor::MotorParams;
+use pmsm_sensorless::observer::sliding::SlidingConfig;
+use pmsm_sensorless::param::ParamError;
+
+/// Controller parameters as multiples of the plant's (1.0 = exact knowledge).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Mismatch {
+    /// Resistance factor.
+    pub r: f64,
+    /// Inductance factor.
+    pub l: f64,
+    /// Flux-linkage factor.
+    pub flux: f64,
+    /// Inertia factor.
+    pub j: f64,
+    /// Friction factor.
+    pub b: f64,
+}
+
+impl Default for Mismatch {
+    fn default() -> Self {
+        Self {
+            r: 1.0,
+            l: 1.0,
+            flux: 1.0,
+            j: 1.0,
+            b: 1.0,
+        }
+    }
+}
+
+impl Mismatch {
+    /// The factors that make the controller's copy of `plant` the parameters `controller`
+    /// (e.g. an identified motor driving the real one).
+    pub fn between(plant: &MotorParams, controller: &MotorParams) -> Self {
+        let f = |c: f32, p: f32| {
+            if p == 0.0 {
+                1.0
+            } else {
+                f64::from(c) / f64::from(p)
+            }
+        };
+        Self {
+            r: f(controller.r_ohm, plant.r_ohm),
+            l: f(controller.l_h, plant.l_h),
+            flux: f(controller.flux_wb, plant.flux_wb),
+            j: f(controller.j_kgm2, plant.j_kgm2),
+            b: f(controller.b_nms, plant.b_nms),
+        }
+    }
+
+    /// The controller's copy of `m`.
+    pub fn apply(&self, m: &MotorParams) -> Result<MotorParams, ParamError> {
+        MotorParams {
+            r_ohm: m.r_ohm * self.r as f32,
+            l_h: m.l_h * self.l as f32,
+            flux_wb: m.flux_wb * self.flux as f32,
+            j_kgm2: m.j_kgm2 * self.j as f32,
+            b_nms: m.b_nms * self.b as f32,
+            ..*m
+        }
+        .validate()
+    }
+}
+
+/// Everything one run needs.
+#[derive(Clone, Debug)]
+pub struct SimConfig {
+    /// The experiment.
+    pub scenario: Scenario,
+    /// What fills the observer slot.
+    pub observer: ObserverKind,
+    /// The board the drive runs on.
+    pub board: SimBoard,
+    /// Controller-vs-plant parameter factors.
+    pub mismatch: Mismatch,
+    /// Control (current-loop) rate \[Hz].
+    pub rate_hz: f64,
+    /// RK4 sub-steps per control period.
+    pub substeps: usize,
+    /// Initial rotor angle [rad, mechanical].
+    pub theta_m0: f64,
+    /// Settings replacing the paper's defaults when the observer is a sliding one.
+    pub sliding: Option<SlidingConfig>,
+    /// Stand-in for a start-up sequence: below this |speed| \[rpm] the controller uses the
+    /// encoder and the observer is held at the encoder's state; from the sample after the
+    /// first one at or above it, the run is sensorless. `None`: the observer is set to the
+    /// encoder's state at t = 0 and the run is sensorless from the second sample on.
+    pub sensorless_from_rpm: Option<f64>,
+    /// Start the observer from its own zero state instead of the encoder's (a wrong initial
+    /// estimate), sensorless from t = 0.
+    pub cold_start: bool,
+    /// Flux-observer γ replacing the recommended one \[1/(Wb²·s)].
+    pub gamma: Option<f32>,
+}
+
+impl SimConfig {
+    /// Defaults: an ideal board ([`SimBoard::ideal`]: the scenario's motor's bus, no noise,
+    /// ideal inverter), exact parameters, 4 kHz control, 25 sub-steps (10 µs).
+    pub fn new(scenario: Scenario, observer: ObserverKind) -> Self {
+        let board = SimBoard::ideal(&scenario.motor);
+        Self::on(board, scenario, observer)
+    }
+
+    /// The defaults of [`SimConfig::new`] on `board`.
+    pub fn on(board: SimBoard, scenario: Scenario, observer: ObserverKind) -> Self {
+        Self {
+            scenario,
+            observer,
+            board,
+            mismatch: Mismatch::default(),
+            rate_hz: 4000.0,
+            substeps: 25,
+            theta_m0: 0.0,
+            sliding: None,
+            sensorless_from_rpm: None,
+            cold_start: false,
+            gamma: None,
+        }
+    }
+}

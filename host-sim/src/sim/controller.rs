@@ -1,0 +1,275 @@
+//! What computes the duties of a run: the complete drive of the core, stepped on the board
+//! as a firmware steps it (`Drive::step_on`, then its 1 kHz task when due), or the papers'
+//! FOC on one observer ([`crate::observer::Bare`]).
+
+use super::config::SimConfig;
+use super::row::RowHealth;
+use crate::board::BoardStage;
+use crate::observer::{Bare, BareInput, Estimate, ObserverKind, ObserverSetup};
+use crate::RAD_S_PER_RPM;
+use pmsm_sensorless::dead_time::DeadTimeConfig;
+use pmsm_sensorless::drive::{
+    Command, Drive, DriveConfig, DriveOutput, Limits, Mode, StateOf, Telemetry, Transition,
+};
+use pmsm_sensorless::foc::FocConfig;
+use pmsm_sensorless::frames::AlphaBeta;
+use pmsm_sensorless::motor::{Motor, MotorParams};
+use pmsm_sensorless::observer::{Observer, Rotor};
+use pmsm_sensorless::power_stage::PowerStage;
+
+/// What computes the duties.
+pub(super) enum Controller {
+    /// FOC on one observer (the papers' experiments).
+    Bare {
+        /// The loop.
+        bare: Box<Bare>,
+        /// The voltage it applied over the period that just ended \[V].
+        v_ab_last: AlphaBeta,
+    },
+    /// The complete drive of the core.
+    Drive {
+        /// The drive and its state.
+        drive: Box<dyn SimDrive>,
+        /// Its protection limits.
+        limits: Limits,
+    },
+}
+
+/// The core's drive and its state, whatever its observers.
+pub(super) trait SimDrive {
+    /// [`Drive::step_on`] the board.
+    fn step_on(&mut self, stage: &mut BoardStage, cmd: &Command) -> DriveOutput;
+    /// [`Drive::tick`] when it is due after the last step (once a millisecond).
+    fn tick(&mut self, cmd: &Command) -> Option<Transition>;
+    /// [`Drive::telemetry`].
+    fn telemetry(&self) -> Telemetry;
+    /// The voltage the last step's duties apply \[V].
+    fn v_ab_applied(&self) -> AlphaBeta;
+    /// The current sensors' offsets the drive measured [A, αβ].
+    fn offset_ab(&self) -> AlphaBeta;
+}
+
+struct Running<P: Observer, M: Observer> {
+    drive: Drive<P, M>,
+    state: StateOf<P, M>,
+}
+
+impl<P: Observer, M: Observer> SimDrive for Running<P, M> {
+    fn step_on(&mut self, stage: &mut BoardStage, cmd: &Command) -> DriveOutput {
+        self.drive.step_on(&mut self.state, stage, cmd)
+    }
+    fn tick(&mut self, cmd: &Command) -> Option<Transition> {
+        if self.state.tick_due() {
+            self.drive.tick(&mut self.state, cmd)
+        } else {
+            None
+        }
+    }
+    fn telemetry(&self) -> Telemetry {
+        self.drive.telemetry(&self.state)
+    }
+    fn v_ab_applied(&self) -> AlphaBeta {
+        self.state.v_ab_applied()
+    }
+    fn offset_ab(&self) -> AlphaBeta {
+        self.state.offset_ab()
+    }
+}
+
+/// The drive with `drive`'s observers, idle.
+fn running<P: Observer + 'static, M: Observer + 'static>(drive: Drive<P, M>) -> Box<dyn SimDrive> {
+    Box::new(Running {
+        drive,
+        state: StateOf::<P, M>::default(),
+    })
+}
+
+/// What one control period asks of the controller.
+pub(super) struct Period {
+    /// Speed command \[rpm].
+    pub speed_cmd_rpm: f64,
+    /// Drive runs: the enable command.
+    pub enable: bool,
+    /// The true rotor (the bare loop's encoder), load unknown (0).
+    pub truth: Rotor,
+    /// Bare runs: from this |true speed| on the observer runs on its own \[rad/s].
+    pub sensorless_from: f32,
+}
+
+/// What the controller did in one control period.
+pub(super) struct Control {
+    /// The estimate the controller ran on.
+    pub est: Estimate,
+    /// The voltage its duties apply \[V].
+    pub v_ab: AlphaBeta,
+    /// Drive runs: the mode, the monitor's angle \[deg], the health figures.
+    pub drive: Option<(Mode, f64, RowHealth)>,
+    /// Drive runs: the step's transition, then the 1 kHz task's.
+    pub transitions: [Option<Transition>; 2],
+}
+
+impl Controller {
+    /// The controller `config` asks for, on the controller's copy of the motor (with the
+    /// mismatch factors); errors name the bad setting.
+    pub(super) fn new(config: &SimConfig) -> anyhow::Result<Self> {
+        let sc = &config.scenario;
+        let controller_motor = config
+            .mismatch
+            .apply(&sc.motor.params)
+            .map_err(|e| anyhow::anyhow!("controller motor parameters: {e}"))?;
+        if sc.drive.is_some() {
+            Self::drive(config, controller_motor)
+        } else {
+            Self::bare(config, controller_motor)
+        }
+    }
+
+    /// The complete drive with `config.observer` primary.
+    fn drive(config: &SimConfig, params: MotorParams) -> anyhow::Result<Self> {
+        let motor = Motor {
+            params,
+            ..config.scenario.motor
+        };
+        let mut cfg = DriveConfig::new(&motor);
+        cfg.rate_hz = config.rate_hz as f32;
+        // The board's figures as the user configures them: the plant's own (an ideal
+        // plant, dead time 0, gets no compensation).
+        config.board.configure_drive(&mut cfg);
+        let err = |e| anyhow::anyhow!("drive configuration: {e}");
+        let drive = match config.observer {
+            ObserverKind::SlidingTorque => running(cfg.build_sliding_primary().map_err(err)?),
+            ObserverKind::Flux => running(cfg.build_flux_primary().map_err(err)?),
+            other => anyhow::bail!(
+                "drive scenarios run with --observer sliding-torque or flux, not '{}'",
+                other.name()
+            ),
+        };
+        Ok(Self::Drive {
+            drive,
+            limits: cfg.limits,
+        })
+    }
+
+    /// FOC on `config.observer`.
+    fn bare(config: &SimConfig, params: MotorParams) -> anyhow::Result<Self> {
+        let sc = &config.scenario;
+        let mut foc_cfg = FocConfig::new(params, sc.i_max_a() as f32);
+        foc_cfg.current_rate_hz = config.rate_hz as f32;
+        // The plant's dead time compensated, as the drive does (the drive's smooth-sign
+        // band: 5 % of the rated-torque current).
+        let band_a = DriveConfig::new(&sc.motor).power_stage.dead_time_band_a;
+        foc_cfg.dead_time = DeadTimeConfig {
+            dead_time_s: config.board.dead_time_s as f32,
+            pwm_hz: config.board.pwm_hz as f32,
+            band_a,
+        };
+        let foc = foc_cfg
+            .build()
+            .map_err(|e| anyhow::anyhow!("controller configuration: {e}"))?;
+        let mut bare = config.observer.bare(
+            &ObserverSetup {
+                motor: params,
+                rate_hz: config.rate_hz as f32,
+                sliding: config.sliding,
+                min_speed_rpm: sc.min_speed_rpm as f32,
+                gamma: config.gamma,
+            },
+            foc,
+        )?;
+        if config.cold_start {
+            bare.start_cold();
+        }
+        Ok(Self::Bare {
+            bare: Box::new(bare),
+            v_ab_last: AlphaBeta::default(),
+        })
+    }
+
+    /// Drive runs: the protection limits.
+    pub(super) fn limits(&self) -> Option<&Limits> {
+        match self {
+            Self::Drive { limits, .. } => Some(limits),
+            Self::Bare { .. } => None,
+        }
+    }
+
+    /// Drive runs: `steps` samples with the drive disabled before t = 0, the plant sampled
+    /// as it is; then the board takes the offsets the drive measured off its samples.
+    pub(super) fn idle(&mut self, stage: &mut BoardStage, steps: usize) {
+        let Self::Drive { drive, .. } = self else {
+            return;
+        };
+        let off = Command::default();
+        for _ in 0..steps {
+            drive.step_on(stage, &off);
+            drive.tick(&off);
+        }
+        if steps > 0 {
+            stage.take_offsets(drive.offset_ab().to_abc());
+        }
+    }
+
+    /// One control period on `stage`: sample, compute the duties, load them.
+    pub(super) fn step(&mut self, stage: &mut BoardStage, period: &Period) -> Control {
+        match self {
+            Self::Bare { bare, v_ab_last } => {
+                let input = stage.sample();
+                let (out, est) = bare.step(&BareInput {
+                    i_abc: input.i_abc,
+                    v_bus: input.v_bus,
+                    v_ab_last: *v_ab_last,
+                    truth: period.truth,
+                    omega_m_ref: (period.speed_cmd_rpm * RAD_S_PER_RPM) as f32,
+                    sensorless_from: period.sensorless_from,
+                });
+                stage.apply(Some(out.duties));
+                *v_ab_last = out.v_ab;
+                Control {
+                    est,
+                    v_ab: out.v_ab,
+                    drive: None,
+                    transitions: [None; 2],
+                }
+            }
+            Self::Drive { drive, .. } => {
+                let cmd = Command {
+                    enable: period.enable,
+                    speed_rpm: period.speed_cmd_rpm as f32,
+                    clear_fault: false,
+                };
+                let out = drive.step_on(stage, &cmd);
+                // Then the 1 kHz task when due (as a board runs it after the interrupt).
+                let tick = drive.tick(&cmd);
+                let tel = drive.telemetry();
+                let health = RowHealth {
+                    driving: tel.driving,
+                    residual_primary: tel.residual_primary as f64,
+                    residual_monitor: tel.residual_monitor as f64,
+                    r_ohm: tel.r_ohm as f64,
+                    flux_wb: tel.flux_wb as f64,
+                    voltage_limited: tel.voltage_limited,
+                };
+                // The angle the controller runs on: the driving observer's while sensorless.
+                let sensorless = tel.mode == Mode::Sensorless;
+                let est = Estimate {
+                    theta_e: if sensorless {
+                        tel.theta_e_control
+                    } else {
+                        tel.theta_e_primary
+                    },
+                    omega_m: tel.speed_rpm * pmsm_sensorless::units::RAD_S_PER_RPM,
+                    load_nm: tel.load_nm,
+                    sliding: None,
+                    sensorless,
+                };
+                let monitor_deg = (tel.theta_e_monitor as f64).to_degrees();
+                Control {
+                    est,
+                    v_ab: drive.v_ab_applied(),
+                    drive: Some((tel.mode, monitor_deg, health)),
+                    transitions: [out.transition, tick],
+                }
+            }
+        }
+    }
+}
