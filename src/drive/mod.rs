@@ -60,7 +60,6 @@ pub use state::{DriveState, StateOf};
 use crate::foc::{Foc, Request};
 use crate::frames::{AlphaBeta, Dq};
 use crate::observer::{Observer, ReadOut, Rotor};
-use crate::power_stage::PowerStage;
 use align::Align;
 use catch::{Catch, Seen};
 use core::hint::cold_path;
@@ -308,21 +307,6 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             to: st.mode(),
             reason,
         })
-    }
-
-    /// One period on a power stage: its sample, [`Drive::step`], the duties (or PWM off)
-    /// applied.
-    #[inline]
-    pub fn step_on<S: PowerStage>(
-        &self,
-        st: &mut StateOf<P, M>,
-        stage: &mut S,
-        cmd: &Command,
-    ) -> DriveOutput {
-        let input = stage.sample();
-        let out = self.step(st, &input, cmd);
-        stage.apply(out.duties);
-        out
     }
 
     /// A state already in sensorless control at a known rotor state `rotor`, `i_ab` the

@@ -1,7 +1,7 @@
 //! The simulated board around the plant as the core's `PowerStage`: `sample()` reads its
 //! sensors, `apply()` loads the duties, and [`BoardStage::advance`] lets the plant run the
-//! control period with them, as a firmware's interrupt samples, steps the drive
-//! (`Drive::step_on`) and leaves the PWM running until the next.
+//! control period with them, as a firmware's interrupt samples, steps the drive (the
+//! core's `control::Control`) and leaves the PWM running until the next.
 
 use super::motor_fault::{Faulty, MotorFault};
 use super::sensors::{CurrentSensor, VoltageSensors};

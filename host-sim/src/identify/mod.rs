@@ -13,11 +13,10 @@ pub use crate::board::MotorFault;
 
 use crate::board::{BoardStage, SimBoard};
 use pmsm_plant::PlantParams;
+use pmsm_sensorless::control::{Commands, Control};
 use pmsm_sensorless::drive::identify::placeholder;
-use pmsm_sensorless::drive::{Command, DriveConfig, Fault, Identified, Mode, Transition};
+use pmsm_sensorless::drive::{DriveConfig, Fault, Identified, Mode, Transition};
 use pmsm_sensorless::motor::Motor;
-use pmsm_sensorless::observer::flux_speed::FluxPll;
-use pmsm_sensorless::observer::sliding::SlidingObserver;
 
 /// Everything one identification run needs.
 #[derive(Clone, Debug)]
@@ -79,40 +78,45 @@ pub fn run(cfg: &IdentifyRun) -> anyhow::Result<IdentifyOutcome> {
     let drive = dc
         .build_flux_primary()
         .map_err(|e| anyhow::anyhow!("drive configuration: {e}"))?;
-    let mut st = pmsm_sensorless::drive::StateOf::<FluxPll, SlidingObserver>::default();
     let mut stage = BoardStage::new(board, PlantParams::from(&truth.params), 0.0, 0.0)?;
     stage.set_motor_fault(cfg.fault);
+    // The core's control loop, as the commissioning firmware runs it.
+    let mut control = Control::new(drive, stage);
     let rate = f64::from(dc.rate_hz);
     let ts = 1.0 / rate;
     let h = ts / SUBSTEPS as f64;
-    let cmd = Command {
+    let cmd = Commands {
         enable: true,
-        speed_rpm: 0.0,
-        clear_fault: false,
+        ..Commands::default()
     };
-    let mut transitions = Vec::new();
-    if let Some(tr) = drive.start_identification(&mut st) {
-        transitions.push((0.0, tr));
-    }
+    // The identification asked for before the first step (its calibration's task does
+    // nothing, so the start falls on step 0 and not on the first due task).
+    let mut transitions: Vec<(f64, Transition)> = control
+        .tick(&Commands {
+            identify: true,
+            ..cmd
+        })
+        .transitions()
+        .map(|tr| (0.0, tr))
+        .collect();
     let steps = (cfg.max_s * rate).round() as usize;
     let mut k = 0;
     while k < steps {
         let t = k as f64 * ts;
-        let out = drive.step_on(&mut st, &mut stage, &cmd);
-        let tick = if st.tick_due() {
-            drive.tick(&mut st, &cmd)
-        } else {
-            None
-        };
-        for tr in [out.transition, tick].into_iter().flatten() {
+        let (stepped, ticked) = control.run(&cmd);
+        for tr in [stepped.transition, ticked.transition]
+            .into_iter()
+            .flatten()
+        {
             transitions.push((t, tr));
         }
-        stage.advance(|_, _| 0.0, h, SUBSTEPS);
+        control.stage_mut().advance(|_, _| 0.0, h, SUBSTEPS);
         k += 1;
-        if matches!(st.mode(), Mode::Identified | Mode::Fault) {
+        if matches!(control.state().mode(), Mode::Identified | Mode::Fault) {
             break;
         }
     }
+    let st = control.state();
     Ok(IdentifyOutcome {
         truth,
         identified: st.identified(),

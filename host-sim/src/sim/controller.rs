@@ -1,21 +1,22 @@
-//! What computes the duties of a run: the complete drive of the core, stepped on the board
-//! as a firmware steps it (`Drive::step_on`, then its 1 kHz task when due), or the papers'
-//! FOC on one observer ([`crate::observer::Bare`]).
+//! What computes the duties of a run: the complete drive of the core, run by the core's
+//! control loop as every firmware image runs it (`pmsm_sensorless::control::Control`: the
+//! step, then the 1 kHz task when due), or the papers' FOC on one observer
+//! ([`crate::observer::Bare`]).
 
 use super::config::SimConfig;
 use super::row::RowHealth;
 use crate::board::BoardStage;
 use crate::observer::{Bare, BareInput, Estimate, ObserverKind, ObserverSetup};
 use crate::RAD_S_PER_RPM;
+use pmsm_sensorless::control::{Commands, Control};
 use pmsm_sensorless::dead_time::DeadTimeConfig;
-use pmsm_sensorless::drive::{
-    Command, Drive, DriveConfig, DriveOutput, Limits, Mode, StateOf, Telemetry, Transition,
-};
+use pmsm_sensorless::drive::{Drive, DriveConfig, DriveInput, Limits, Mode, Telemetry, Transition};
 use pmsm_sensorless::foc::FocConfig;
-use pmsm_sensorless::frames::AlphaBeta;
+use pmsm_sensorless::frames::{Abc, AlphaBeta};
 use pmsm_sensorless::motor::{Motor, MotorParams};
 use pmsm_sensorless::observer::{Observer, Rotor};
 use pmsm_sensorless::power_stage::PowerStage;
+use pmsm_sensorless::svpwm::Duties;
 
 /// What computes the duties.
 pub(super) enum Controller {
@@ -35,13 +36,12 @@ pub(super) enum Controller {
     },
 }
 
-/// The core's drive and its state, whatever its observers.
+/// The core's control loop on the board, whatever its observers.
 pub(super) trait SimDrive {
-    /// [`Drive::step_on`] the board.
-    fn step_on(&mut self, stage: &mut BoardStage, cmd: &Command) -> DriveOutput;
-    /// [`Drive::tick`] when it is due after the last step (once a millisecond).
-    fn tick(&mut self, cmd: &Command) -> Option<Transition>;
-    /// [`Drive::telemetry`].
+    /// One period on `stage` ([`Control::run`]: its sample, the step, its duties applied,
+    /// then the 1 kHz task when due): the step's transition and the task's.
+    fn run(&mut self, stage: &mut BoardStage, cmd: &Commands) -> [Option<Transition>; 2];
+    /// [`Drive::telemetry`](pmsm_sensorless::drive::Drive::telemetry).
     fn telemetry(&self) -> Telemetry;
     /// The voltage the last step's duties apply \[V].
     fn v_ab_applied(&self) -> AlphaBeta;
@@ -49,39 +49,51 @@ pub(super) trait SimDrive {
     fn offset_ab(&self) -> AlphaBeta;
 }
 
-struct Running<P: Observer, M: Observer> {
-    drive: Drive<P, M>,
-    state: StateOf<P, M>,
+/// The board's sample of a period handed to the control loop, and the duties the loop
+/// applied: the loop owns its power stage, the simulator owns the board ([`BoardStage`], which
+/// the papers' bare loop uses too), so each period the one is handed to the other.
+#[derive(Default)]
+struct Latch {
+    input: Option<DriveInput>,
+    duties: Option<Duties>,
 }
 
-impl<P: Observer, M: Observer> SimDrive for Running<P, M> {
-    fn step_on(&mut self, stage: &mut BoardStage, cmd: &Command) -> DriveOutput {
-        self.drive.step_on(&mut self.state, stage, cmd)
+impl PowerStage for Latch {
+    fn sample(&mut self) -> DriveInput {
+        // Set before every step (`Running::run`).
+        self.input.take().unwrap_or(DriveInput {
+            i_abc: Abc::new(f32::NAN, f32::NAN, f32::NAN),
+            v_bus: f32::NAN,
+            v_ab_terminal: None,
+            overrun: false,
+        })
     }
-    fn tick(&mut self, cmd: &Command) -> Option<Transition> {
-        if self.state.tick_due() {
-            self.drive.tick(&mut self.state, cmd)
-        } else {
-            None
-        }
+    fn apply(&mut self, duties: Option<Duties>) {
+        self.duties = duties;
+    }
+}
+
+impl<P: Observer, M: Observer> SimDrive for Control<P, M, Latch> {
+    fn run(&mut self, stage: &mut BoardStage, cmd: &Commands) -> [Option<Transition>; 2] {
+        self.stage_mut().input = Some(stage.sample());
+        let (stepped, ticked) = Control::run(self, cmd);
+        stage.apply(self.stage().duties);
+        [stepped.transition, ticked.transition]
     }
     fn telemetry(&self) -> Telemetry {
-        self.drive.telemetry(&self.state)
+        Control::telemetry(self)
     }
     fn v_ab_applied(&self) -> AlphaBeta {
-        self.state.v_ab_applied()
+        self.state().v_ab_applied()
     }
     fn offset_ab(&self) -> AlphaBeta {
-        self.state.offset_ab()
+        self.state().offset_ab()
     }
 }
 
 /// The drive with `drive`'s observers, idle.
 fn running<P: Observer + 'static, M: Observer + 'static>(drive: Drive<P, M>) -> Box<dyn SimDrive> {
-    Box::new(Running {
-        drive,
-        state: StateOf::<P, M>::default(),
-    })
+    Box::new(Control::new(drive, Latch::default()))
 }
 
 /// What one control period asks of the controller.
@@ -97,7 +109,7 @@ pub(super) struct Period {
 }
 
 /// What the controller did in one control period.
-pub(super) struct Control {
+pub(super) struct PeriodOut {
     /// The estimate the controller ran on.
     pub est: Estimate,
     /// The voltage its duties apply \[V].
@@ -199,10 +211,9 @@ impl Controller {
         let Self::Drive { drive, .. } = self else {
             return;
         };
-        let off = Command::default();
+        let off = Commands::default();
         for _ in 0..steps {
-            drive.step_on(stage, &off);
-            drive.tick(&off);
+            drive.run(stage, &off);
         }
         if steps > 0 {
             stage.take_offsets(drive.offset_ab().to_abc());
@@ -210,7 +221,7 @@ impl Controller {
     }
 
     /// One control period on `stage`: sample, compute the duties, load them.
-    pub(super) fn step(&mut self, stage: &mut BoardStage, period: &Period) -> Control {
+    pub(super) fn step(&mut self, stage: &mut BoardStage, period: &Period) -> PeriodOut {
         match self {
             Self::Bare { bare, v_ab_last } => {
                 let input = stage.sample();
@@ -224,7 +235,7 @@ impl Controller {
                 });
                 stage.apply(Some(out.duties));
                 *v_ab_last = out.v_ab;
-                Control {
+                PeriodOut {
                     est,
                     v_ab: out.v_ab,
                     drive: None,
@@ -232,14 +243,12 @@ impl Controller {
                 }
             }
             Self::Drive { drive, .. } => {
-                let cmd = Command {
+                let cmd = Commands {
                     enable: period.enable,
                     speed_rpm: period.speed_cmd_rpm as f32,
-                    clear_fault: false,
+                    ..Commands::default()
                 };
-                let out = drive.step_on(stage, &cmd);
-                // Then the 1 kHz task when due (as a board runs it after the interrupt).
-                let tick = drive.tick(&cmd);
+                let transitions = drive.run(stage, &cmd);
                 let tel = drive.telemetry();
                 let health = RowHealth {
                     driving: tel.driving,
@@ -263,11 +272,11 @@ impl Controller {
                     sensorless,
                 };
                 let monitor_deg = (tel.theta_e_monitor as f64).to_degrees();
-                Control {
+                PeriodOut {
                     est,
                     v_ab: drive.v_ab_applied(),
                     drive: Some((tel.mode, monitor_deg, health)),
-                    transitions: [out.transition, tick],
+                    transitions,
                 }
             }
         }

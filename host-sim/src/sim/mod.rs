@@ -17,7 +17,7 @@ use crate::board::BoardStage;
 use crate::names::fault_name;
 use crate::scenario::Injection;
 use crate::RAD_S_PER_RPM;
-use controller::{Control, Controller, Period};
+use controller::{Controller, Period, PeriodOut};
 use pmsm_plant::{Plant, PlantParams};
 use pmsm_sensorless::bounds::ks_min;
 use pmsm_sensorless::drive::{Fault, Reason, Transition};
@@ -196,7 +196,7 @@ impl Sim {
     /// Drive runs: the step's transitions with their time, and the first step of each
     /// possible cause of a fault (a sample beyond the trip level, a bus outside the limits,
     /// the fault itself).
-    fn record(&mut self, t: f64, control: &Control) {
+    fn record(&mut self, t: f64, control: &PeriodOut) {
         let (Some(limits), Some(input)) = (self.controller.limits(), self.stage.last_sample())
         else {
             return;
@@ -217,7 +217,7 @@ impl Sim {
     }
 
     /// The trace's row of the sample at `t`.
-    fn row(&self, t: f64, speed_cmd_rpm: f64, truth: &Truth, control: &Control) -> Row {
+    fn row(&self, t: f64, speed_cmd_rpm: f64, truth: &Truth, control: &PeriodOut) -> Row {
         let (p, est) = (&truth.params, &control.est);
         let (i_d, i_q) = self.stage.plant().state.i_dq(p);
         let v_ab = if self.stage.duties().is_some() {
