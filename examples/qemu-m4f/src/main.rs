@@ -1,6 +1,7 @@
 //! The drive on an emulated Cortex-M4F (QEMU `mps2-an386`), run by the shared control loop
-//! (`pmsm_sensorless::control`: the step, then the 1 kHz task when due), against an f32 plant
-//! model (its power stage) running in the same emulator: start from standstill to 1000 rpm, a
+//! (`pmsm_sensorless::control`: the step, then the 1 kHz task when due), against the host
+//! simulator's plant (`pmsm-plant`, no_std, f64) as its power stage, running in the same
+//! emulator: start from standstill to 1000 rpm, a
 //! 0.1 N·m brake at 1.5 s, 2.5 s in all, once with each observer feeding the controller. Logs
 //! with defmt over semihosting and exits 0 only if both runs meet their checks.
 //!
@@ -19,40 +20,43 @@ mod firmware {
     use cortex_m_semihosting::debug::{self, EXIT_FAILURE, EXIT_SUCCESS};
     use defmt_semihosting as _;
     use panic_probe as _;
+    use pmsm_plant::{Inverter, Plant, PlantParams, StiffBus};
     use pmsm_sensorless::control::{Commands, Control};
     use pmsm_sensorless::drive::{Drive, DriveConfig, DriveInput, Mode};
-    use pmsm_sensorless::frames::{Abc, AlphaBeta};
-    use pmsm_sensorless::math::{sin_cos, wrap_pi};
+    use pmsm_sensorless::frames::Abc;
+    use pmsm_sensorless::math::wrap_pi;
     use pmsm_sensorless::motor::HORNG_SINANO;
     use pmsm_sensorless::observer::Observer;
     use pmsm_sensorless::power_stage::PowerStage;
     use pmsm_sensorless::svpwm::Duties;
 
     const RATE_HZ: f32 = 4000.0;
+    /// RK4 sub-steps of the plant per control period (25 µs at 4 kHz).
     const SUBSTEPS: usize = 10;
-    const BUS_V: f32 = 48.0;
+    const BUS_V: f64 = 48.0;
     const DURATION_S: f32 = 2.5;
     const SPEED_CMD_RPM: f32 = 1000.0;
-    const BRAKE_NM: f32 = 0.1;
+    const BRAKE_NM: f64 = 0.1;
     const BRAKE_AT_S: f32 = 1.5;
     const WINDOW_S: (f32, f32) = (2.0, 2.5);
     use pmsm_sensorless::units::{DEG_PER_RAD, RAD_S_PER_RPM};
 
-    /// The Sinano motor of Horng & Chin's Table 1 (eqs (16)-(19)), f32, θ electrical, behind
-    /// an ideal inverter on a 48 V bus.
-    struct Plant {
-        i_ab: AlphaBeta,
-        theta_e: f32,
-        omega_m: f32,
+    /// The simulator's plant (`pmsm-plant`, host-sim's: the papers' motor in f64, RK4) with
+    /// the Sinano motor of Horng & Chin's Table 1 behind an ideal inverter on a stiff 48 V
+    /// bus; with every switch off, the inverter's diode bridge.
+    struct Bench {
+        plant: Plant,
+        inverter: Inverter,
         /// The duties held over the coming period (`None`: all switches off).
         duties: Option<Duties>,
     }
 
-    impl PowerStage for Plant {
+    impl PowerStage for Bench {
         fn sample(&mut self) -> DriveInput {
+            let i = self.plant.i_abc();
             DriveInput {
-                i_abc: self.i_ab.to_abc(),
-                v_bus: BUS_V,
+                i_abc: Abc::new(i[0] as f32, i[1] as f32, i[2] as f32),
+                v_bus: BUS_V as f32,
                 v_ab_terminal: None,
                 overrun: false,
             }
@@ -63,78 +67,44 @@ mod firmware {
         }
     }
 
-    impl Plant {
-        /// Brake torque: opposes the motion, fading below 30 rpm.
-        fn load(&self, t: f32) -> f32 {
-            if t < BRAKE_AT_S {
-                return 0.0;
-            }
-            let x = self.omega_m / (30.0 * RAD_S_PER_RPM);
-            BRAKE_NM * x.clamp(-1.0, 1.0)
-        }
-
-        /// d/dt of (i_α, i_β, θ_e, ω_m) for the stator voltage `v` (None: open circuit).
-        fn derivative(
-            &self,
-            i: AlphaBeta,
-            theta_e: f32,
-            omega: f32,
-            v: Option<AlphaBeta>,
-            tau_l: f32,
-        ) -> [f32; 4] {
-            let p = HORNG_SINANO.params;
-            let kn = p.flux_wb * p.n();
-            let (s, c) = sin_cos(theta_e);
-            let e = AlphaBeta::new(kn * omega * s, -kn * omega * c);
-            let v = v.unwrap_or(AlphaBeta::new(-e.alpha, -e.beta));
-            [
-                (-p.r_ohm * i.alpha + e.alpha + v.alpha) / p.l_h,
-                (-p.r_ohm * i.beta + e.beta + v.beta) / p.l_h,
-                p.n() * omega,
-                (kn * (i.beta * c - i.alpha * s) - p.b_nms * omega - tau_l) / p.j_kgm2,
-            ]
-        }
-
-        /// One control period with the duties held (midpoint rule on `SUBSTEPS` sub-steps).
+    impl Bench {
+        /// One control period from `t` \[s] with the duties held, under a brake of
+        /// [`BRAKE_NM`] from [`BRAKE_AT_S`] on (opposing the motion, fading below 30 rpm).
         fn advance(&mut self, t: f32) {
-            let v = self
-                .duties
-                .map(|d| Abc::new(d.a * BUS_V, d.b * BUS_V, d.c * BUS_V).to_alpha_beta());
-            if v.is_none() {
-                self.i_ab = AlphaBeta::default();
-            }
-            let h = 1.0 / (RATE_HZ * SUBSTEPS as f32);
-            let tau = self.load(t);
-            for _ in 0..SUBSTEPS {
-                let k1 = self.derivative(self.i_ab, self.theta_e, self.omega_m, v, tau);
-                let mid = AlphaBeta::new(
-                    self.i_ab.alpha + 0.5 * h * k1[0],
-                    self.i_ab.beta + 0.5 * h * k1[1],
-                );
-                let k2 = self.derivative(
-                    mid,
-                    self.theta_e + 0.5 * h * k1[2],
-                    self.omega_m + 0.5 * h * k1[3],
-                    v,
-                    tau,
-                );
-                self.i_ab = AlphaBeta::new(self.i_ab.alpha + h * k2[0], self.i_ab.beta + h * k2[1]);
-                self.theta_e = wrap_pi(self.theta_e + h * k2[2]);
-                self.omega_m += h * k2[3];
-            }
+            let brake = if t >= BRAKE_AT_S { BRAKE_NM } else { 0.0 };
+            let fade_rad_s = f64::from(30.0 * RAD_S_PER_RPM);
+            let load = move |_: f64, omega_m: f64| brake * (omega_m / fade_rad_s).clamp(-1.0, 1.0);
+            let h = 1.0 / (f64::from(RATE_HZ) * SUBSTEPS as f64);
+            match self.duties {
+                Some(d) => self
+                    .plant
+                    .advance(&self.inverter.hold(d), load, h, SUBSTEPS),
+                None => self.plant.advance_off(load, h, SUBSTEPS),
+            };
+        }
+
+        /// The rotor's speed [rpm, mechanical] and electrical angle [rad, in (−π, π]].
+        fn rotor(&self) -> (f32, f32) {
+            let s = &self.plant.state;
+            let theta_e = libm::remainder(s.theta_e(&self.plant.params), core::f64::consts::TAU);
+            ((s.omega_m as f32) / RAD_S_PER_RPM, theta_e as f32)
         }
     }
 
     /// One run of `drive` (`name` in the log) on the shared control loop (the step, then the
     /// 1 kHz task when due); returns whether it met its checks.
     fn run<P: Observer, M: Observer>(name: &str, drive: Drive<P, M>) -> bool {
-        let plant = Plant {
-            i_ab: AlphaBeta::default(),
-            theta_e: 0.3,
-            omega_m: 0.0,
+        // The rotor at rest, 0.3 rad (electrical) from the align axis.
+        let params = PlantParams::from(&HORNG_SINANO.params);
+        let bench = Bench {
+            plant: Plant::new(params, StiffBus { v_bus: BUS_V }, 0.3 / params.n, 0.0),
+            inverter: Inverter {
+                dead_time_s: 0.0,
+                pwm_hz: 20_000.0,
+            },
             duties: None,
         };
-        let mut control = Control::new(drive, plant);
+        let mut control = Control::new(drive, bench);
         let cmd = Commands {
             enable: true,
             speed_rpm: SPEED_CMD_RPM,
@@ -155,13 +125,14 @@ mod firmware {
             if k % 2000 == 0 {
                 defmt::info!("{}", tel);
             }
-            let plant = control.stage_mut();
+            let bench = control.stage_mut();
             if t >= WINDOW_S.0 && t < WINDOW_S.1 {
+                let (speed_rpm, theta_e) = bench.rotor();
                 n += 1;
-                speed_err += plant.omega_m / RAD_S_PER_RPM - SPEED_CMD_RPM;
-                angle_err += wrap_pi(tel.theta_e_primary - plant.theta_e).abs();
+                speed_err += speed_rpm - SPEED_CMD_RPM;
+                angle_err += wrap_pi(tel.theta_e_primary - theta_e).abs();
             }
-            plant.advance(t);
+            bench.advance(t);
         }
         let st = control.state();
         let speed_err = speed_err / n.max(1) as f32;
