@@ -4,9 +4,9 @@
 //! as an invalid input where the drive reads it, while catching.
 
 use pmsm_host_sim::board::{BoardStage, SimBoard};
+use pmsm_host_sim::identify::drive_config;
 use pmsm_plant::PlantParams;
 use pmsm_sensorless::control::{Commands, Control};
-use pmsm_sensorless::drive::identify::placeholder;
 use pmsm_sensorless::drive::{Command, Drive, DriveConfig, DriveInput, Fault, Mode, Telemetry};
 use pmsm_sensorless::frames::{Abc, AlphaBeta};
 use pmsm_sensorless::motor::{preset, Motor};
@@ -72,17 +72,6 @@ fn identify_checking<P: Observer, M: Observer>(
         }
     }
     (control.state().mode(), modes)
-}
-
-fn drive_config(motor: &Motor, board: &SimBoard) -> DriveConfig {
-    let user = placeholder(motor.params.pole_pairs, motor.ratings);
-    let mut dc = DriveConfig::new(&user);
-    board.configure_drive(&mut dc);
-    if let Some(r) = board.sense_range_a {
-        dc.identify.sense_range_a = r as f32;
-    }
-    dc.identify.sense_lsb_a = board.adc_lsb_a as f32;
-    dc
 }
 
 #[test]

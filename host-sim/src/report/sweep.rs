@@ -434,7 +434,7 @@ impl Report {
     }
 
     /// The table of pass counts per axis value, then the failed cells with their reasons (the
-    /// first [`LISTED`]).
+    /// first 20).
     pub fn table(&self, matrix: &Matrix) -> String {
         let mut t = crate::table(&["axis", "value", "passed", "of", "%"], &[2, 3, 4]);
         for (axis, rows) in self.counts(matrix) {
