@@ -38,7 +38,8 @@ pub enum Fault {
     BusUndervoltage,
     /// Bus above `bus_max_v`.
     BusOvervoltage,
-    /// A non-finite sample, or a current beyond the sensing range.
+    /// A non-finite sample, a current beyond the sensing range, or, while catching, a
+    /// terminal voltage that is not finite or longer than `bus_max_v`.
     InvalidInput,
     /// No observer healthy for `loss_time_s` while sensorless above the hand-back speed, the
     /// two healthy observers contradicting each other for that long, or an observer that could

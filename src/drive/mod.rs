@@ -3,7 +3,8 @@
 //! It takes the sampled phase currents and bus voltage and returns the three duties, or `None`
 //! for PWM off. Inside it, in this order:
 //! 1. the input checks (`protection.rs`): a fault turns the PWM off in the
-//!    same step and is latched until cleared;
+//!    same step and is latched until cleared (the terminal voltage is checked where it is
+//!    read, while catching);
 //! 2. the commands: enable, disable, clear a fault;
 //! 3. both observers ([`Observer`]) every step while the inverter is on, the primary feeding
 //!    the controller and the monitor watching it (their read-outs are the 1 kHz task's);
@@ -361,7 +362,11 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     ) -> (Option<crate::svpwm::Duties>, Option<Reason>) {
         let outcome = match &mut st.mode {
             ModeState::Catch(c) => {
-                // PWM off; the observers ran on the terminal voltage.
+                // PWM off; the observers ran on the terminal voltage (their update refuses a
+                // non-finite one), checked before the catch reads it (`protection.rs`).
+                if !protection::terminal_valid(&self.limits, v_terminal) {
+                    return (None, Some(enter_fault(st, Fault::InvalidInput)));
+                }
                 let v_ab = v_terminal.unwrap_or_default();
                 match self.catch.step(c, v_ab) {
                     Seen::AtRest => {

@@ -1,9 +1,22 @@
 //! Faults that a sample (and the command) alone show: overrun, invalid samples, over-current,
 //! bus out of range. Checked first in every step; a fault turns the PWM off in the same step.
 //! And the arming: after a fault is cleared, no start until the enable has been seen low.
+//!
+//! The terminal voltage ([`DriveInput::v_ab_terminal`]) is read only while catching (the PWM
+//! off, the observers and the catch running on it), so it is checked there, in every catch
+//! step before the catch reads it ([`terminal_valid`]; the observers' update refuses a
+//! non-finite input and leaves their state as it was): a non-finite one, or one longer than
+//! the highest bus allows, is [`Fault::InvalidInput`] like any other such sample. Not
+//! ignored: a catch on a sensor that reads garbage would seed the observers from it (a
+//! back-EMF whose square overflows gives a NaN rotor), and a sensing path that fails is a
+//! board fault to report before the PWM starts. In the other modes nothing reads it (PWM on,
+//! the voltage is the inverter's; idle, the PWM off and no catch), so it is not checked there:
+//! no cycles on the running step, and no stop of a running motor for a reading the drive does
+//! not use.
 
 use super::config::Limits;
 use super::io::{Command, Fault, Mode};
+use crate::frames::AlphaBeta;
 use crate::math::{all_finite, max};
 use crate::power_stage::DriveInput;
 use core::hint::cold_path;
@@ -41,6 +54,18 @@ pub(super) fn check_input(
         return found(Fault::BusUndervoltage);
     }
     None
+}
+
+/// The terminal voltage `v_ab_terminal` is one a catch may read: absent (the board does not
+/// sense it), or finite with `|v_ab|` at most the highest bus `bus_max_v` (the phase voltages with
+/// the PWM off lie between the rails; an αβ vector longer than the bus is no terminal
+/// voltage). False for NaN and ±∞ (the comparison fails).
+#[inline(always)]
+pub(super) fn terminal_valid(l: &Limits, v_ab_terminal: Option<AlphaBeta>) -> bool {
+    match v_ab_terminal {
+        None => true,
+        Some(v) => v.alpha * v.alpha + v.beta * v.beta <= l.bus_max_v * l.bus_max_v,
+    }
 }
 
 /// A fault found by a check: the rare path, laid out off the straight-line step.

@@ -12,7 +12,8 @@ use crate::units::{DEG_PER_RAD, RAD_S_PER_RPM, RPM_PER_RAD_S};
 impl<P: Observer, M: Observer> Drive<P, M> {
     /// The log record of the state the last [`Drive::step`] left. Built on demand (at the log's
     /// rate, not the control rate); the observer values are those of the last step they ran,
-    /// everything else is zero while the PWM is off.
+    /// everything else is zero while the PWM is off, and the observers' fields are zero
+    /// during the identification (they do not run). Every number is finite.
     // Not inlined: it belongs to the log path, not the control path.
     #[inline(never)]
     pub fn telemetry(&self, st: &StateOf<P, M>) -> Telemetry {
@@ -24,8 +25,31 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             flux_wb: model.flux_wb,
             ..Telemetry::default()
         };
-        // The angles of this very sample (the 1 kHz task reads them out once a millisecond),
-        // the residuals of the last health check.
+        match &st.mode {
+            ModeState::Idle
+            | ModeState::Fault(_)
+            | ModeState::Calibrate
+            | ModeState::Identified => return off,
+            ModeState::Identify => {
+                // No observer runs and no motor model is set (`identify/`): the observers'
+                // fields read 0 and there is no load estimate (an unset model's torque would
+                // be 0/0, NaN); the measured currents in the stator's frame (θ = 0).
+                let i_dq = st.i_ab_last.to_dq(SinCos::of(0.0));
+                return Telemetry {
+                    i_d: i_dq.d,
+                    i_q: i_dq.q,
+                    voltage_limited: st.last.limited(),
+                    ..off
+                };
+            }
+            ModeState::Catch(_)
+            | ModeState::Align(_)
+            | ModeState::OpenLoop(_)
+            | ModeState::Sensorless(_) => {}
+        }
+        // The observers run in these modes (the motor model set at the enable). The angles of
+        // this very sample (the 1 kHz task reads them out once a millisecond), the residuals
+        // of the last health check.
         let (mut ps, mut ms) = (st.obs.primary, st.obs.monitor);
         self.primary.read_out(&mut ps, ReadOut::Angle);
         self.monitor.read_out(&mut ms, ReadOut::Angle);
@@ -44,11 +68,13 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         let driving = health.driving;
         let (theta_d, omega_d) = (v.theta(driving), v.omega(driving));
         let (theta, omega_m, speed_ref_rpm) = match &st.mode {
+            // Returned above.
             ModeState::Idle
             | ModeState::Fault(_)
             | ModeState::Calibrate
+            | ModeState::Identify
             | ModeState::Identified => return off,
-            ModeState::Align(_) | ModeState::Identify => (0.0, 0.0, 0.0),
+            ModeState::Align(_) => (0.0, 0.0, 0.0),
             ModeState::Catch(_) => (theta_d, omega_d, 0.0),
             ModeState::OpenLoop(ol) => {
                 let f = ol.frame();

@@ -64,17 +64,25 @@ pub struct IdentifyOutcome {
 /// RK4 sub-steps per control period (10 µs at 4 kHz).
 const SUBSTEPS: usize = 25;
 
-/// Runs the identification; errors name a bad setting.
-pub fn run(cfg: &IdentifyRun) -> anyhow::Result<IdentifyOutcome> {
-    let truth = cfg.motor;
-    let board = &cfg.board;
-    let user = placeholder(truth.params.pole_pairs, truth.ratings);
+/// The drive's configuration for identifying `motor` on `board`, as a board has it: built on
+/// the placeholder motor of its pole pairs and ratings (`identify::placeholder`), with the
+/// board's PWM, dead time and current sensing.
+pub fn drive_config(motor: &Motor, board: &SimBoard) -> DriveConfig {
+    let user = placeholder(motor.params.pole_pairs, motor.ratings);
     let mut dc = DriveConfig::new(&user);
     board.configure_drive(&mut dc);
     if let Some(r) = board.sense_range_a {
         dc.identify.sense_range_a = r as f32;
     }
     dc.identify.sense_lsb_a = board.adc_lsb_a as f32;
+    dc
+}
+
+/// Runs the identification; errors name a bad setting.
+pub fn run(cfg: &IdentifyRun) -> anyhow::Result<IdentifyOutcome> {
+    let truth = cfg.motor;
+    let board = &cfg.board;
+    let dc = drive_config(&truth, board);
     let drive = dc
         .build_flux_primary()
         .map_err(|e| anyhow::anyhow!("drive configuration: {e}"))?;

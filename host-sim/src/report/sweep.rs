@@ -18,6 +18,12 @@
 //! Each cell is a `run` without output files; the sweep reports the pass counts per axis
 //! value, every cell (CSV and JSON) and a heat map of the pass fraction over the first two
 //! axes.
+//!
+//! Nothing runs before the whole matrix is known good: the file's size is capped before it is
+//! read ([`MAX_MATRIX_BYTES`]), the product of the axes' lengths before the cells are expanded
+//! ([`MAX_CELLS`]), and every cell's flags are prepared into its run (the checks `run`
+//! applies) before the first cell is simulated; a matrix with an invalid cell is refused,
+//! naming the cell and its reason.
 
 use super::summary::{Adapted, Summary};
 use anyhow::{bail, ensure, Context};
@@ -103,6 +109,25 @@ pub struct Grid {
 /// Most cells a matrix may have.
 pub const MAX_CELLS: usize = 100_000;
 
+/// Largest matrix file \[bytes], checked before the file is read.
+pub const MAX_MATRIX_BYTES: u64 = 1 << 20;
+
+/// The number of cells of axes of `lengths` values, refused beyond [`MAX_CELLS`] (from the
+/// lengths alone: nothing is expanded).
+fn cell_count(lengths: &[usize]) -> anyhow::Result<usize> {
+    let n = lengths
+        .iter()
+        .try_fold(1usize, |n, &len| n.checked_mul(len))
+        .filter(|&n| n <= MAX_CELLS);
+    n.ok_or_else(|| {
+        let factors: Vec<_> = lengths.iter().map(|l| l.to_string()).collect();
+        anyhow::anyhow!(
+            "the matrix has more than {MAX_CELLS} cells (axes of {} values)",
+            factors.join(" x ")
+        )
+    })
+}
+
 /// A TOML value as a flag value.
 fn flag_value(key: &str, v: &toml::Value) -> anyhow::Result<Option<String>> {
     Ok(Some(match v {
@@ -139,6 +164,14 @@ impl Matrix {
     /// Parses a matrix file's text; `dir` is the directory scenario files are relative to.
     pub fn parse(text: &str, dir: &Path) -> anyhow::Result<Self> {
         let doc: toml::Table = crate::from_toml(text)?;
+        // The size first, from the lists' lengths (a value that is no list is refused below).
+        if let Some(toml::Value::Table(axes)) = doc.get("axes") {
+            let lengths: Vec<_> = axes
+                .values()
+                .map(|v| v.as_array().map_or(1, Vec::len))
+                .collect();
+            cell_count(&lengths)?;
+        }
         let mut fixed = Vec::new();
         let mut axes = Vec::new();
         for (key, v) in &doc {
@@ -207,26 +240,25 @@ impl Matrix {
             !axes.is_empty(),
             "a matrix needs at least one axis in [axes]"
         );
-        let cells = axes
-            .iter()
-            .try_fold(1usize, |n, (_, v)| n.checked_mul(v.len()))
-            .filter(|&n| n <= MAX_CELLS);
-        ensure!(
-            cells.is_some(),
-            "the matrix has more than {MAX_CELLS} cells"
-        );
         Ok(Self { fixed, axes })
     }
 
-    /// Reads a matrix file.
+    /// Reads a matrix file: refused by its size (over [`MAX_MATRIX_BYTES`]) before it is read.
     pub fn load(path: &Path) -> anyhow::Result<Self> {
-        let text = std::fs::read_to_string(path)
-            .with_context(|| format!("reading matrix {}", path.display()))?;
+        let text =
+            read_capped(path).with_context(|| format!("reading matrix {}", path.display()))?;
         let dir = path.parent().unwrap_or(Path::new("."));
         Self::parse(&text, dir).with_context(|| format!("matrix {}", path.display()))
     }
 
-    /// Every cell of the product, the last axis fastest.
+    /// The number of cells, refused beyond [`MAX_CELLS`].
+    pub fn cell_count(&self) -> anyhow::Result<usize> {
+        let lengths: Vec<_> = self.axes.iter().map(|(_, v)| v.len()).collect();
+        cell_count(&lengths)
+    }
+
+    /// Every cell of the product, the last axis fastest (check [`Matrix::cell_count`] first:
+    /// a parsed matrix has).
     pub fn cells(&self) -> Vec<Cell> {
         let mut cells = vec![Cell {
             params: IndexMap::new(),
@@ -270,28 +302,80 @@ fn args_of(flags: &[(String, Option<String>)]) -> Vec<String> {
     args
 }
 
+/// The text of `path`, refused when over [`MAX_MATRIX_BYTES`]: by its size before reading,
+/// and by what was read (a file that grew, a pipe) without reading more than one byte past
+/// the limit.
+fn read_capped(path: &Path) -> anyhow::Result<String> {
+    use std::io::Read as _;
+    let over = |n: u64| {
+        anyhow::anyhow!(
+            "{n} bytes: a matrix file may have at most {MAX_MATRIX_BYTES} bytes \
+             (and {MAX_CELLS} cells)"
+        )
+    };
+    let file = std::fs::File::open(path)?;
+    let len = file.metadata()?.len();
+    if len > MAX_MATRIX_BYTES {
+        return Err(over(len));
+    }
+    let mut text = String::new();
+    file.take(MAX_MATRIX_BYTES + 1).read_to_string(&mut text)?;
+    if text.len() as u64 > MAX_MATRIX_BYTES {
+        return Err(over(text.len() as u64));
+    }
+    Ok(text)
+}
+
+/// A cell for messages: its place in the product and its value per axis.
+fn describe(k: usize, total: usize, params: &IndexMap<String, String>) -> String {
+    let params: Vec<_> = params.iter().map(|(a, v)| format!("{a} = {v}")).collect();
+    format!("cell {} of {total} ({})", k + 1, params.join(", "))
+}
+
+/// Failed cells the table lists (every cell is in the JSON and the CSV).
+const LISTED: usize = 20;
+
 /// Runs every cell of `matrix` on `jobs` threads (all cores when `None`), with a progress bar
-/// on stderr; `run` turns a cell's arguments into its summary.
-pub fn run(
+/// on stderr. `prepare` turns a cell's arguments into its run (checking them), `run` the run
+/// into its summary. Every cell is prepared before any runs: a matrix with a cell that
+/// `prepare` refuses is refused whole, naming its first such cell and why, and how many there
+/// are.
+pub fn run<T>(
     matrix: &Matrix,
     jobs: Option<usize>,
-    run: impl Fn(&[String]) -> anyhow::Result<Summary> + Sync,
+    prepare: impl Fn(&[String]) -> anyhow::Result<T> + Sync,
+    run: impl Fn(T) -> anyhow::Result<Summary> + Sync,
 ) -> anyhow::Result<Report> {
+    let total = matrix.cell_count()?;
     let cells = matrix.cells();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(jobs.unwrap_or(0))
+        .build()
+        .context("thread pool")?;
+    let invalid: Vec<(usize, anyhow::Error)> = pool.install(|| {
+        cells
+            .par_iter()
+            .enumerate()
+            .filter_map(|(k, cell)| prepare(&cell.args).err().map(|e| (k, e)))
+            .collect()
+    });
+    if let Some((k, e)) = invalid.first() {
+        bail!(
+            "{} of {total} cells invalid, none run; the first, {}: {e:#}",
+            invalid.len(),
+            describe(*k, total, &cells[*k].params)
+        );
+    }
     let bar = ProgressBar::new(cells.len() as u64);
     bar.set_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} cells, {elapsed} elapsed, ETA {eta}")
             .context("progress bar template")?,
     );
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(jobs.unwrap_or(0))
-        .build()
-        .context("thread pool")?;
     let results: Vec<CellResult> = pool.install(|| {
         cells
             .par_iter()
             .map(|cell| {
-                let r = match run(&cell.args) {
+                let r = match prepare(&cell.args).and_then(&run) {
                     Ok(s) => CellResult {
                         params: cell.params.clone(),
                         pass: s.pass,
@@ -349,7 +433,8 @@ impl Report {
             .collect()
     }
 
-    /// The table of pass counts per axis value.
+    /// The table of pass counts per axis value, then the failed cells with their reasons (the
+    /// first 20).
     pub fn table(&self, matrix: &Matrix) -> String {
         let mut t = crate::table(&["axis", "value", "passed", "of", "%"], &[2, 3, 4]);
         for (axis, rows) in self.counts(matrix) {
@@ -368,7 +453,24 @@ impl Report {
                 c.set_cell_alignment(comfy_table::CellAlignment::Right);
             }
         }
-        format!("{t}\n{} of {} cells passed\n", self.passed, self.total)
+        let mut out = format!("{t}\n{} of {} cells passed\n", self.passed, self.total);
+        // Why cells failed (a run that could not start says so).
+        let failed = self.cells.iter().enumerate().filter(|(_, c)| !c.pass);
+        for (k, c) in failed.clone().take(LISTED) {
+            let why = match (c.reasons.is_empty(), &c.fault) {
+                (false, _) => c.reasons.join("; "),
+                (true, Some(f)) => format!("fault {f}"),
+                (true, None) => "failed".into(),
+            };
+            out += &format!("  {}: {why}\n", describe(k, self.total, &c.params));
+        }
+        let more = failed.count().saturating_sub(LISTED);
+        if more > 0 {
+            out += &format!(
+                "  and {more} more failed cells (every cell: --json, or --out's sweep.csv)\n"
+            );
+        }
+        out
     }
 
     /// Every cell as CSV: the axes, then the verdict's columns.
@@ -453,63 +555,5 @@ impl Report {
         let axis = |k: usize| matrix.axes.get(k).map_or("", |(a, _)| a.as_str());
         crate::plot::heat_map(&png, title, (axis(0), &g.x), (axis(1), &g.y), &g.cells)?;
         Ok([csv, json, png])
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_product_in_order_with_tables_and_empty_values() {
-        let m = Matrix::parse(
-            r#"
-scenario = "start-stop-reverse"
-[fixed]
-noise-pct = 1.0
-[axes]
-observer = ["sliding-torque", "flux"]
-mismatch = ["", "r=1.5"]
-case = [{ name = "dead", dead-time-us = 1.0, seed = 3 }, {}]
-"#,
-            Path::new("."),
-        )
-        .unwrap();
-        let cells = m.cells();
-        assert_eq!(cells.len(), 8);
-        assert_eq!(
-            cells[0].args,
-            [
-                "start-stop-reverse",
-                "--noise-pct",
-                "1",
-                "--observer",
-                "sliding-torque",
-                "--dead-time-us",
-                "1",
-                "--seed",
-                "3"
-            ]
-        );
-        assert_eq!(cells[1].params["case"], "-");
-        assert_eq!(cells[2].params["mismatch"], "r=1.5");
-        assert_eq!(
-            cells[7].args[3..],
-            ["--observer", "flux", "--mismatch", "r=1.5"]
-        );
-    }
-
-    #[test]
-    fn bad_matrices_are_refused_with_the_key() {
-        for (text, needle) in [
-            ("[axes]\n", "at least one axis"),
-            ("[axes]\nseed = 3\n", "axes.seed"),
-            ("[axes]\nseed = []\n", "empty"),
-            ("oops = 1\n[axes]\nseed = [1]\n", "'oops'"),
-            ("[axes]\nseed = [[1]]\n", "seed"),
-        ] {
-            let e = Matrix::parse(text, Path::new(".")).unwrap_err();
-            assert!(format!("{e:#}").contains(needle), "{text}: {e:#}");
-        }
     }
 }

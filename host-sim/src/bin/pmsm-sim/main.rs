@@ -41,7 +41,8 @@ enum Command {
     /// run.csv and run.png. The board's conditions unless --ideal.
     Run(Box<run::RunArgs>),
     /// A matrix of runs in parallel (every key of the matrix's `[axes]` is a run flag); exit 1
-    /// when a cell fails.
+    /// when a cell fails, or when the matrix is refused before any cell runs (an invalid
+    /// cell, named with its reason; too many cells; too large a file).
     Sweep(sweep::SweepArgs),
     /// Every gain and limit the drive derives for a motor, with warnings for what will
     /// struggle.

@@ -9,7 +9,7 @@ use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct SweepArgs {
-    /// Matrix TOML file (format: host-sim/src/sweep.rs; host-sim/matrices/).
+    /// Matrix TOML file (format: host-sim/src/report/sweep.rs; host-sim/matrices/).
     #[arg(long, value_name = "M.toml")]
     matrix: PathBuf,
     /// Print the cells as JSON on stdout instead of the table.
@@ -38,16 +38,25 @@ pub fn sweep(args: SweepArgs) -> anyhow::Result<(String, bool)> {
     if let Some(j) = args.jobs {
         anyhow::ensure!(j > 0, "--jobs must be at least 1");
     }
-    let report = sweep::run(&matrix, args.jobs, |cell| {
+    // A cell's flags into its run, with every check of `run`: every cell is prepared so
+    // before any runs.
+    let prepare_cell = |cell: &[String]| {
         let cli = Cell::try_parse_from(
             std::iter::once("pmsm-sim run".to_string()).chain(cell.iter().cloned()),
         )
-        .map_err(|e| anyhow::anyhow!("{}", e.to_string().lines().next().unwrap_or("")))?;
+        .map_err(|e| {
+            let e = e.to_string();
+            let first = e.lines().next().unwrap_or("");
+            anyhow::anyhow!("{}", first.strip_prefix("error: ").unwrap_or(first))
+        })?;
         anyhow::ensure!(
             cli.run.out.is_none(),
             "a sweep cell writes no files (--out)"
         );
-        Ok(Summary::of(&sim::run(prepare(&cli.run)?)?))
+        prepare(&cli.run)
+    };
+    let report = sweep::run(&matrix, args.jobs, prepare_cell, |cfg| {
+        Ok(Summary::of(&sim::run(cfg)?))
     })?;
     let mut out = if args.json {
         serde_json::to_string(&report)? + "\n"
