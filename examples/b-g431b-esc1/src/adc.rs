@@ -6,33 +6,17 @@ use stm32g4::stm32g431 as pac;
 
 use pmsm_sensorless::frames::Abc;
 
-use crate::clocks::SYSCLK_HZ;
+use pmsm_b_g431b_esc1::config::SETTINGS;
 
-/// ADC reference: VDDA = VREF+ = 3.3 V on this board. UNVERIFIED against the UM2516
-/// schematic (the whole scaling below is proportional to it).
-const VREF_V: f32 = 3.3;
-/// 12-bit conversions.
-const ADC_COUNTS: f32 = 4096.0;
-/// Shunt resistance [Ω] (NuttX board port and ST's motor-control SDK settings for this
-/// board: 3 mΩ).
-const R_SHUNT_OHM: f32 = 0.003;
-/// Shunt voltage → ADC input voltage: OPAMPx in PGA mode (internal gain 16, VINM0 used as
-/// the input/bias pin) together with the board's resistor network gives −9.14 overall; the
-/// sign is negative (the amplifier inverts the phase current). Value from the NuttX port /
-/// ST MC SDK board description, UNVERIFIED against UM2516's schematic; the sign convention
-/// (positive = into the motor) must be checked on the bench: in `Align` the telemetry's
-/// `i_d` must come out positive.
-const CURRENT_SENSE_GAIN: f32 = -9.14;
-/// Phase current per ADC count [A/LSB] (about −0.0294).
-pub const AMPS_PER_LSB: f32 = VREF_V / ADC_COUNTS / (R_SHUNT_OHM * CURRENT_SENSE_GAIN);
-/// Bus divider 169 kΩ over 18 kΩ (NuttX board port: "Vbus sense gain = 18k/(18k+169k)").
-/// UNVERIFIED against UM2516's schematic.
-const VBUS_DIVIDER: f32 = (169.0 + 18.0) / 18.0;
+/// Phase current per ADC count [A/LSB] (about −0.0294; `BoardConfig::ESC1` names the
+/// shunt, gain and reference, all UNVERIFIED against UM2516's schematic; the sign
+/// convention, positive = into the motor, must be checked on the bench: in `Align` the
+/// telemetry's `i_d` must come out positive).
+const AMPS_PER_LSB: f32 = SETTINGS.amps_per_lsb;
 /// Bus voltage per ADC count [V/LSB] (about 0.0084).
-const VOLTS_PER_LSB: f32 = VREF_V / ADC_COUNTS * VBUS_DIVIDER;
-/// Largest current the ADC can represent around a mid-scale offset, with 5 % margin [A];
-/// the drive's sensing range (`i_sense_max_a`) is capped to it.
-pub const I_ADC_RANGE_A: f32 = 0.95 * 2048.0 * AMPS_PER_LSB.abs();
+const VOLTS_PER_LSB: f32 = SETTINGS.volts_per_lsb;
+/// SYSCLK [Hz], for busy-wait delays.
+const SYSCLK_HZ: u32 = SETTINGS.sysclk_hz;
 /// Conversions averaged for the current offsets at start-up, PWM off.
 const OFFSET_SAMPLES: u32 = 1024;
 /// A measured offset outside this window means the amplifier path is not working
@@ -178,7 +162,7 @@ pub fn init(common: &pac::ADC12_COMMON, adc1: pac::ADC1, adc2: pac::ADC2) -> Adc
 
 /// ADC1 and ADC2 (RM0440 §21: "Deep-power-down mode and ADC voltage regulator",
 /// "Calibration", "Conversion on external trigger", injected channel management):
-/// synchronous clock HCLK/4 = 42.5 MHz (≤ 60 MHz), out of
+/// synchronous clock `SETTINGS.adc_hz` (HCLK/4 = 42.5 MHz, ≤ 60 MHz), out of
 /// deep power-down, regulator on, single-ended calibration, enable; then the injected
 /// sequences, hardware-triggered by TIM1_TRGO on its rising edge (JEXTSEL 0, RM0440
 /// "ADC1/2 external triggers for injected channels"):
@@ -192,9 +176,10 @@ pub fn init(common: &pac::ADC12_COMMON, adc1: pac::ADC1, adc2: pac::ADC2) -> Adc
 /// interrupt; ADC2 has no interrupt.
 fn init_adcs(common: &pac::ADC12_COMMON, adc1: &pac::ADC1, adc2: &pac::ADC2) {
     let both: [&pac::adc1::RegisterBlock; 2] = [adc1, adc2];
+    // SAFETY: CKMODE 1..3 are the synchronous clocks HCLK/1, /2, /4 (`Settings::adc_ckmode`).
     common
         .ccr()
-        .modify(|_, w| w.ckmode().sync_div4().dual().independent());
+        .modify(|_, w| unsafe { w.ckmode().bits(SETTINGS.adc_ckmode).dual().independent() });
     for adc in both {
         adc.cr().modify(|_, w| w.deeppwd().disabled());
         adc.cr().modify(|_, w| w.advregen().enabled());
@@ -216,10 +201,14 @@ fn init_adcs(common: &pac::ADC12_COMMON, adc1: &pac::ADC1, adc2: &pac::ADC2) {
         adc.cr().modify(|_, w| w.aden().enabled());
         while adc.isr().read().adrdy().bit_is_clear() {}
     }
-    adc1.smpr1()
-        .modify(|_, w| w.smp1().cycles247_5().smp3().cycles6_5());
-    adc1.smpr2().modify(|_, w| w.smp12().cycles6_5());
-    adc2.smpr1().modify(|_, w| w.smp3().cycles6_5());
+    let (current, bus) = (SETTINGS.current_smp, SETTINGS.bus_smp);
+    // SAFETY: SMP codes are 0..7 (checked by `BoardConfig::derive`).
+    unsafe {
+        adc1.smpr1()
+            .modify(|_, w| w.smp1().bits(bus).smp3().bits(current));
+        adc1.smpr2().modify(|_, w| w.smp12().bits(current));
+        adc2.smpr1().modify(|_, w| w.smp3().bits(current));
+    }
     // Both sequences start on TIM1_TRGO's rising edge.
     fn on_tim1_trgo(w: &mut pac::adc1::jsqr::W) -> &mut pac::adc1::jsqr::W {
         w.jextsel().tim1_trgo().jexten().rising_edge()

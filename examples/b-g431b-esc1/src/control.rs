@@ -32,8 +32,8 @@ use stm32g4::stm32g431::{interrupt, Interrupt};
 
 use crate::power_stage::Esc1;
 use crate::protection::Watchdog;
-use crate::settings::{BoardDrive, Monitor, Primary, SPEED_CMD_RPM};
 use crate::telemetry::{Event, Sender, TELEMETRY_EVERY};
+use pmsm_b_g431b_esc1::drive_settings::{BoardDrive, Monitor, Primary, SPEED_CMD_RPM};
 
 /// The step's interrupt: ADC1 end of injected sequence (ADC1 and ADC2 share the vector).
 pub const STEP_IRQ: Interrupt = Interrupt::ADC1_2;

@@ -11,8 +11,8 @@
 //!
 //! # Use
 //!
-//! The motor is the constant `settings::MOTOR` (edit it for yours), the speed command the
-//! constant `settings::SPEED_CMD_RPM`. The user button toggles `enable` (on its release);
+//! The motor is the constant `drive_settings::MOTOR` of the library (`src/lib.rs`; edit it
+//! for yours), the speed command the constant `drive_settings::SPEED_CMD_RPM`. The user button toggles `enable` (on its release);
 //! pressed while the drive is in `Fault` it clears the fault and leaves the drive disabled
 //! (press again to restart); held 2 s with the drive disabled, it starts the identification
 //! (issue #19), whose end prints the motor file in the log.
@@ -20,9 +20,13 @@
 //!
 //! # Modules
 //!
+//! The library (`src/lib.rs`, host-tested): `config` computes every clock, timer, ADC and
+//! watchdog value from one configuration and what the drive is told (PWM frequency, dead
+//! time, control rate, largest duty); `drive_settings` holds the motor, the observers and
+//! the speed command. The firmware's modules write those values:
 //! `clocks` (170 MHz, peripheral clocks), `pwm` (TIM1: timing, dead time, duties), `adc`
 //! (OPAMPs, ADCs, offsets, scaling), `power_stage` (the core's `PowerStage` on those two),
-//! `settings` (the motor, the observers, the speed command, the drive built from them),
+//! `settings` (the drive built from the library's configuration),
 //! `control` (the core's shared control loop on this board: the step's interrupt, the 1 kHz
 //! task's interrupt below it, the commands), `protection` (watchdog, HardFault, debug halt, the
 //! board's bus limit), `telemetry` (the interrupts → main-loop queues and the defmt log). This
@@ -106,7 +110,7 @@ mod firmware {
     /// bounce).
     const BUTTON_POLL_STEPS: u32 = 40;
     /// A press held this long (2 s) with the drive disabled starts the identification.
-    const IDENTIFY_HOLD_STEPS: u32 = 2 * crate::pwm::CONTROL_HZ;
+    const IDENTIFY_HOLD_STEPS: u32 = 2 * pmsm_b_g431b_esc1::config::SETTINGS.control_hz;
 
     /// Copies the control path (`.ramfunc`, placed by `ramfunc.x`) from its load image in
     /// flash to CCM SRAM. Must run before anything in it is called.

@@ -13,14 +13,7 @@ use cortex_m_rt::{exception, ExceptionFrame};
 use stm32g4::stm32g431 as pac;
 
 use crate::pwm;
-
-/// Bus over-voltage trip of this board [V]: a full 6S LiPo (UM2516: "up to 6S"; NuttX's
-/// board port gives 25 V as Vbus max). The drive's own default (1.25 × rated bus) is
-/// lowered to this if higher.
-pub const BOARD_BUS_MAX_V: f32 = 25.2;
-
-/// Watchdog reload: LSI (~32 kHz) / 4 → 8 kHz, 80 counts ≈ 10 ms = 40 control steps.
-const IWDG_RELOAD: u16 = 80;
+use pmsm_b_g431b_esc1::config::SETTINGS;
 
 /// The running independent watchdog, fed by the control step only.
 pub struct Watchdog {
@@ -28,13 +21,15 @@ pub struct Watchdog {
 }
 
 impl Watchdog {
-    /// Independent watchdog (RM0440 IWDG chapter): LSI/4, reload `IWDG_RELOAD` ≈ 10 ms; fed
-    /// only by the control step.
+    /// Independent watchdog (RM0440 IWDG chapter): prescaler and reload of
+    /// `SETTINGS.watchdog` (10 ms at the typical LSI); fed only by the control step.
     pub fn start(iwdg: pac::IWDG) -> Self {
+        let w = SETTINGS.watchdog;
         iwdg.kr().write(|w| w.key().start());
         iwdg.kr().write(|w| w.key().unlock());
-        iwdg.pr().write(|w| w.pr().divide_by4());
-        iwdg.rlr().write(|w| w.rl().set(IWDG_RELOAD));
+        // SAFETY: PR is 0..6 and RL 0..4095 by construction (`Watchdog::for_timeout`).
+        iwdg.pr().write(|r| unsafe { r.pr().bits(w.pr) });
+        iwdg.rlr().write(|r| r.rl().set(w.rl));
         while iwdg.sr().read().bits() != 0 {}
         let dog = Self { iwdg };
         dog.feed();

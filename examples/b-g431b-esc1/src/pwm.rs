@@ -5,37 +5,15 @@ use stm32g4::stm32g431 as pac;
 
 use pmsm_sensorless::svpwm::Duties;
 
-use crate::clocks::SYSCLK_HZ;
+use pmsm_b_g431b_esc1::config::SETTINGS;
 
-/// Switching frequency [Hz].
-pub const PWM_HZ: u32 = 20_000;
-/// Control (drive step) rate [Hz]; must equal the drive's `rate_hz`.
-pub const CONTROL_HZ: u32 = 4_000;
-/// Centre-aligned: one PWM period is 2·ARR timer clocks (RM0440 §28, "Center-aligned mode
-/// (up/down counting)").
-const PWM_ARR: u32 = SYSCLK_HZ / (2 * PWM_HZ);
-/// PWM periods per control step.
-const PWM_PER_STEP: u32 = PWM_HZ / CONTROL_HZ;
-/// In centre-aligned mode the repetition counter counts both overflows and underflows
-/// (RM0440 §28, "Repetition counter"): RCR + 1 = 2 × periods per update event.
-const TIM1_RCR: u16 = (2 * PWM_PER_STEP - 1) as u16;
-/// Dead time [ns]. The L6387 gate driver interlocks its two inputs but, to my knowledge,
-/// inserts no dead time of its own; 500 ns is the value NuttX uses for this board ("REVISIT" there): NOT
-/// derived from the STL180N6F7 switching times.
-const DEAD_TIME_NS: u32 = 500;
-/// DTG[7:0] with DTG[7] = 0: dead time = DTG × t_DTS, t_DTS = 1/170 MHz (CKD = 0),
-/// at most 127 steps = 747 ns (RM0440 TIMx_BDTR).
-const DTG: u8 = (DEAD_TIME_NS * (SYSCLK_HZ / 1_000_000) / 1000) as u8;
-/// Largest duty loaded into the timer. Currents are sampled in the middle of the low-side
-/// conduction interval, which lasts (1 − d)·50 µs at 20 kHz; the
-/// shunt amplifiers need about 1.3 µs to settle after a switching edge (measured by the
-/// FOC-Stim project, diglet48/FOC-Stim, on this board) plus dead time and the ~0.5 µs conversion of the first
-/// two ranks: 0.92 leaves 2 µs each side of the sample. An engineering estimate.
-const DUTY_MAX: f32 = 0.92;
-
-const _: () = assert!(
-    PWM_HZ.is_multiple_of(CONTROL_HZ) && DEAD_TIME_NS * (SYSCLK_HZ / 1_000_000) / 1000 <= 127
-);
+/// Half a PWM period in timer clocks (centre-aligned: one period is 2·ARR clocks).
+const PWM_ARR: u32 = SETTINGS.tim1_arr;
+/// Largest duty loaded into the timer, `SETTINGS.duty_max`: the low-side interval (where
+/// the currents are sampled) keeps room for the amplifiers to settle after the dead time
+/// and for both samples. The drive's voltage limit is computed from the same value
+/// (`PowerStageConfig::duty_max`), so this clamp only catches rounding.
+const DUTY_MAX: f32 = SETTINGS.duty_max;
 
 /// Where the update event (and so the current sample) falls in the PWM period; decides
 /// how duties map to compare values (see [`configure_pwm_edge`]).
@@ -96,13 +74,20 @@ pub fn outputs_off(tim1: &pac::tim1::RegisterBlock) {
 /// all six pins sit at their idle (inactive = low) level until the drive asks for PWM.
 /// Polarities: active high on both CHx and CHxN, as the L6387 inputs need (NuttX port).
 pub fn init_tim1(tim1: &pac::TIM1) {
-    tim1.cr1()
-        .write(|w| w.cms().center_aligned1().arpe().enabled());
+    // SAFETY: CKD 0..2 (`DeadTime::at_least`).
+    tim1.cr1().write(|w| unsafe {
+        w.cms()
+            .center_aligned1()
+            .arpe()
+            .enabled()
+            .ckd()
+            .bits(SETTINGS.dead_time.ckd)
+    });
     tim1.psc().write(|w| w.psc().set(0));
     tim1.arr().write(|w| w.arr().set(PWM_ARR));
     // Written before the counter starts: RM0440 ("Repetition counter") says the update
     // then falls on the overflow (counter peak). `configure_pwm_edge` checks it and copes either way.
-    tim1.rcr().write(|w| w.rep().set(TIM1_RCR));
+    tim1.rcr().write(|w| w.rep().set(SETTINGS.tim1_rcr));
     // Compare preload off (OCxPE = 0): a CCR written by the step acts at once instead of at
     // the next update one control period later, so the voltage over a period is the one
     // the drive computed last (its `v_ab_last`), less the step's own latency. Price: at
@@ -133,7 +118,7 @@ pub fn init_tim1(tim1: &pac::TIM1) {
     tim1.cr2().write(|w| unsafe { w.mms().bits(0b010) });
     tim1.bdtr().write(|w| {
         w.dtg()
-            .set(DTG)
+            .set(SETTINGS.dead_time.dtg)
             .ossi()
             .idle_level()
             .ossr()
@@ -155,11 +140,13 @@ pub fn start(tim1: pac::TIM1) -> Pwm {
     // RM0440 TIMx_BDTR). MOE stays writable.
     tim1.bdtr().modify(|_, w| w.lock().level1());
     defmt::info!(
-        "TIM1: {=u32} Hz centre-aligned, ARR {=u32}, dead time {=u8} x 5.9 ns, update every {=u32} periods at the counter {}",
-        PWM_HZ,
+        "TIM1: {=u32} Hz centre-aligned, ARR {=u32}, dead time {=f32} ns (DTG {=u8:#x}, CKD {=u8}), update every {=u32} periods at the counter {}",
+        SETTINGS.pwm_hz,
         PWM_ARR,
-        DTG,
-        PWM_PER_STEP,
+        SETTINGS.dead_time.ns,
+        SETTINGS.dead_time.dtg,
+        SETTINGS.dead_time.ckd,
+        SETTINGS.pwm_per_step,
         sample_at
     );
     Pwm { tim1, sample_at }

@@ -174,6 +174,7 @@ impl Controller {
             dead_time_s: config.board.dead_time_s as f32,
             pwm_hz: config.board.pwm_hz as f32,
             band_a,
+            duty_max: 1.0,
         };
         let foc = foc_cfg
             .build()
