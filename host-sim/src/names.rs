@@ -2,9 +2,10 @@
 //! summaries print them and scenario files (`expect_fault`) name them.
 
 use pmsm_sensorless::drive::{Fault, IdentifyError};
+use pmsm_sensorless::power_stage::StageFault;
 
 /// Every drive fault but the identification's, in the order `pmsm-sim` lists them.
-pub const FAULTS: [Fault; 8] = [
+pub const FAULTS: [Fault; 10] = [
     Fault::Overcurrent,
     Fault::BusUndervoltage,
     Fault::BusOvervoltage,
@@ -13,6 +14,8 @@ pub const FAULTS: [Fault; 8] = [
     Fault::Stall,
     Fault::Overrun,
     Fault::AdcOffset,
+    Fault::Stage(StageFault::HardwareOvercurrent),
+    Fault::Stage(StageFault::OverTemperature),
 ];
 
 /// Snake-case name of a drive fault, as in the JSON summary.
@@ -26,6 +29,8 @@ pub fn fault_name(f: Fault) -> &'static str {
         Fault::Stall => "stall",
         Fault::Overrun => "overrun",
         Fault::AdcOffset => "adc_offset",
+        Fault::Stage(StageFault::HardwareOvercurrent) => "hardware_overcurrent",
+        Fault::Stage(StageFault::OverTemperature) => "over_temperature",
         Fault::Identify(e) => error_name(e),
     }
 }

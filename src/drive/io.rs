@@ -52,6 +52,10 @@ pub enum Fault {
     /// A current sensor's offset, measured with the PWM off, is beyond a twentieth of the
     /// sensing range: a broken sensing path, or a current flowing.
     AdcOffset,
+    /// The power stage's own protection stopped it ([`DriveInput::stage_fault`]).
+    ///
+    /// [`DriveInput::stage_fault`]: crate::power_stage::DriveInput::stage_fault
+    Stage(crate::power_stage::StageFault),
     /// The identification stopped: why (with the feature `identify`).
     #[cfg(feature = "identify")]
     Identify(super::identify::IdentifyError),

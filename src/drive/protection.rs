@@ -18,6 +18,9 @@ pub(super) fn check_input(
     cmd: &Command,
 ) -> Option<Fault> {
     let i = input.i_abc;
+    if let Some(f) = input.stage_fault {
+        return found(Fault::Stage(f));
+    }
     if input.overrun {
         return found(Fault::Overrun);
     }

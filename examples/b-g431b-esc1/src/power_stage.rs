@@ -50,6 +50,7 @@ impl PowerStage for Esc1 {
             // The board's back-EMF dividers are not read yet: an enable always aligns.
             v_ab_terminal: None,
             overrun: self.overrun,
+            stage_fault: None,
         }
     }
 

@@ -66,6 +66,7 @@ impl PowerStage for Latch {
             v_bus: f32::NAN,
             v_ab_terminal: None,
             overrun: false,
+            stage_fault: None,
         })
     }
     fn apply(&mut self, duties: Option<Duties>) {
