@@ -134,9 +134,10 @@ pub fn init_opamps(opamp: &pac::OPAMP) {
 }
 
 /// Sets up and starts both converters ([`init_adcs`]), then measures the current offsets
-/// with the bridge off and refuses to go on if one is implausible.
-pub fn init(common: &pac::ADC12_COMMON, adc1: pac::ADC1, adc2: pac::ADC2) -> Adc {
-    init_adcs(common, &adc1, &adc2);
+/// with the bridge off and refuses to go on if one is implausible. Also returns the
+/// over-current comparators' inputs with no current (PA1, PA7, PB0 for U, V, W) \[V].
+pub fn init(common: &pac::ADC12_COMMON, adc1: pac::ADC1, adc2: pac::ADC2) -> (Adc, [f32; 3]) {
+    let comparator_inputs = init_adcs(common, &adc1, &adc2);
     let (offsets, v_bus) = measure_offsets(&adc1, &adc2);
     defmt::info!(
         "current offsets U V W = {=f32} {=f32} {=f32} LSB, bus {=f32} V",
@@ -153,11 +154,41 @@ pub fn init(common: &pac::ADC12_COMMON, adc1: pac::ADC1, adc2: pac::ADC2) -> Adc
             );
         }
     }
-    Adc {
-        adc1,
-        adc2,
-        offsets,
+    (
+        Adc {
+            adc1,
+            adc2,
+            offsets,
+        },
+        comparator_inputs,
+    )
+}
+
+/// Conversions averaged for each comparator input.
+const COMPARATOR_SAMPLES: u32 = 64;
+
+/// The average of [`COMPARATOR_SAMPLES`] software-started regular conversions of `channel`
+/// \[V] (RM0440 ADC: SQR1.L = 0, one conversion; ADSTART, EOC, DR). Before the injected
+/// conversions are started.
+fn convert_regular(adc: &pac::adc1::RegisterBlock, channel: u8) -> f32 {
+    // SAFETY: L = 0 (one conversion); `channel` is one of the ADC's inputs (the callers'
+    // pin table).
+    adc.sqr1()
+        .write(|w| unsafe { w.l().bits(0).sq1().bits(channel) });
+    let mut sum = 0u32;
+    for _ in 0..COMPARATOR_SAMPLES {
+        adc.cr().modify(|_, w| w.adstart().set_bit());
+        let mut waited = 0u32;
+        while adc.isr().read().eoc().bit_is_clear() {
+            waited += 1;
+            if waited > 1_000_000 {
+                defmt::panic!("no regular conversion");
+            }
+        }
+        // Reading DR clears EOC.
+        sum += u32::from(adc.dr().read().rdata().bits());
     }
+    sum as f32 / COMPARATOR_SAMPLES as f32 * SETTINGS.vref_v / 4096.0
 }
 
 /// ADC1 and ADC2 (RM0440 §21: "Deep-power-down mode and ADC voltage regulator",
@@ -174,7 +205,7 @@ pub fn init(common: &pac::ADC12_COMMON, adc1: pac::ADC1, adc2: pac::ADC2) -> Adc
 /// Sample times: 6.5 cycles for the amplifier outputs (low impedance; NuttX uses 2.5),
 /// 247.5 cycles for the ~16 kΩ divider. ADC1's end-of-injected-sequence is the control
 /// interrupt; ADC2 has no interrupt.
-fn init_adcs(common: &pac::ADC12_COMMON, adc1: &pac::ADC1, adc2: &pac::ADC2) {
+fn init_adcs(common: &pac::ADC12_COMMON, adc1: &pac::ADC1, adc2: &pac::ADC2) -> [f32; 3] {
     let both: [&pac::adc1::RegisterBlock; 2] = [adc1, adc2];
     // SAFETY: CKMODE 1..3 are the synchronous clocks HCLK/1, /2, /4 (`Settings::adc_ckmode`).
     common
@@ -209,6 +240,20 @@ fn init_adcs(common: &pac::ADC12_COMMON, adc1: &pac::ADC1, adc2: &pac::ADC2) {
         adc1.smpr2().modify(|_, w| w.smp12().bits(current));
         adc2.smpr1().modify(|_, w| w.smp3().bits(current));
     }
+    // The comparator inputs (the op-amps' non-inverting inputs), regular conversions of
+    // 247.5 cycles (the board's resistor network): PA1 = ADC1_IN2, PA7 = ADC2_IN4,
+    // PB0 = ADC1_IN15 (DS12589 pin table, as in ST's stm32duino variant for this board).
+    // SAFETY: SMP code 6 = 247.5 cycles.
+    unsafe {
+        adc1.smpr1().modify(|_, w| w.smp2().bits(6));
+        adc1.smpr2().modify(|_, w| w.smp15().bits(6));
+        adc2.smpr1().modify(|_, w| w.smp4().bits(6));
+    }
+    let comparator_inputs = [
+        convert_regular(adc1, 2),
+        convert_regular(adc2, 4),
+        convert_regular(adc1, 15),
+    ];
     // Both sequences start on TIM1_TRGO's rising edge.
     fn on_tim1_trgo(w: &mut pac::adc1::jsqr::W) -> &mut pac::adc1::jsqr::W {
         w.jextsel().tim1_trgo().jexten().rising_edge()
@@ -234,6 +279,7 @@ fn init_adcs(common: &pac::ADC12_COMMON, adc1: &pac::ADC1, adc2: &pac::ADC2) {
         acknowledge(adc);
         adc.cr().modify(|_, w| w.jadstart().set_bit());
     }
+    comparator_inputs
 }
 
 /// Averages `OFFSET_SAMPLES` triggered conversions with the bridge off (MOE = 0): the

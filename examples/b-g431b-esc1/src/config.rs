@@ -57,6 +57,15 @@ pub struct BoardConfig {
     pub bus_r_bottom_ohm: f32,
     /// Independent watchdog timeout at the typical LSI \[ms].
     pub watchdog_ms: u32,
+    /// TIM1's break inputs ignore pulses shorter than this \[ns] (the comparators' view of
+    /// the switching edges' ringing).
+    pub break_filter_ns: u32,
+    /// The over-current comparators' input per ampere of phase current \[V/A] ([`crate::ocp`]).
+    pub comp_v_per_a: f32,
+    /// The hardware trip over the drive's software trip (`i_trip_a`).
+    pub hw_trip_factor: f32,
+    /// Bootstrap pre-charge before the first enable: all low sides on this long \[µs].
+    pub precharge_us: u32,
 }
 
 impl BoardConfig {
@@ -73,6 +82,14 @@ impl BoardConfig {
     ///   description), bus divider 169 kΩ / 18 kΩ (NuttX port): UNVERIFIED against UM2516's
     ///   schematic.
     /// - Watchdog 10 ms: 40 control periods.
+    /// - Break filter 500 ns (TIM1 makes 565 ns: BK2F = 1011).
+    /// - Comparator input 1.71 mV/A: the shunt's 3 mΩ × 9.14/16, the share of the overall
+    ///   gain before the op-amp's internal gain of 16 (PGA mode), assuming the whole shunt
+    ///   signal reaches the non-inverting input: UNVERIFIED against UM2516's schematic.
+    /// - Hardware trip at 1.5 × the drive's software trip.
+    /// - Bootstrap pre-charge 1 ms (20 periods): the L6387's bootstrap capacitor charges
+    ///   through its internal diode while the low side conducts (time constant not
+    ///   checked against UM2516's component values: UNVERIFIED).
     pub const ESC1: Self = Self {
         hse_hz: 8_000_000,
         sysclk_hz: 170_000_000,
@@ -89,6 +106,10 @@ impl BoardConfig {
         bus_r_top_ohm: 169_000.0,
         bus_r_bottom_ohm: 18_000.0,
         watchdog_ms: 10,
+        break_filter_ns: 500,
+        comp_v_per_a: 0.003 * 9.14 / 16.0,
+        hw_trip_factor: 1.5,
+        precharge_us: 1000,
     };
 
     /// Everything derived from this configuration, or the first thing that is out of range.
@@ -161,6 +182,11 @@ impl BoardConfig {
         if watchdog.timeout_ms(LSI_HZ.2) * control_hz < 4.0 * 1000.0 {
             return Err("watchdog shorter than 4 control periods at the fastest LSI");
         }
+        let comparators_ok = self.comp_v_per_a > 0.0 && self.hw_trip_factor >= 1.0;
+        if !comparators_ok {
+            return Err("comp_v_per_a not positive or hw_trip_factor below 1");
+        }
+        let break_filter = crate::tim1::break_filter(self.break_filter_ns, self.sysclk_hz);
         Ok(Settings {
             sysclk_hz: self.sysclk_hz,
             pll_hse,
@@ -170,7 +196,8 @@ impl BoardConfig {
             control_hz: self.pwm_hz / self.pwm_per_step,
             pwm_per_step: self.pwm_per_step,
             tim1_arr,
-            tim1_rcr: (2 * self.pwm_per_step - 1) as u16,
+            // One update event every PWM period (`crate::tim1`).
+            tim1_rcr: 1,
             dead_time,
             adc_hz,
             adc_ckmode: match self.adc_clock_div {
@@ -186,6 +213,13 @@ impl BoardConfig {
             i_adc_range_a: 0.95 * 2048.0 * abs_amps_per_lsb,
             volts_per_lsb,
             watchdog,
+            break_filter: break_filter.0,
+            break_filter_ns: break_filter.1,
+            vref_v: self.vref_v,
+            comp_v_per_a: self.comp_v_per_a,
+            hw_trip_factor: self.hw_trip_factor,
+            precharge_periods: (self.precharge_us as u64 * self.pwm_hz as u64).div_ceil(1_000_000)
+                as u32,
         })
     }
 }
@@ -246,7 +280,8 @@ pub struct Settings {
     pub tim1_arr: u32,
     /// TIM1_RCR: in centre-aligned mode the repetition counter counts overflows and
     /// underflows (RM0440 TIM1, "Repetition counter"): RCR + 1 = 2 × PWM periods per update
-    /// event.
+    /// event. 1: an update (the compare preload's transfer and the ADC trigger) every PWM
+    /// period, at the counter peak; the step runs on every `pwm_per_step`-th sample.
     pub tim1_rcr: u16,
     /// The dead time TIM1 makes.
     pub dead_time: DeadTime,
@@ -271,6 +306,18 @@ pub struct Settings {
     pub volts_per_lsb: f32,
     /// The independent watchdog.
     pub watchdog: Watchdog,
+    /// TIMx_BDTR.BKF/BK2F code.
+    pub break_filter: u32,
+    /// The break filter's time \[ns].
+    pub break_filter_ns: f32,
+    /// ADC and DAC reference \[V].
+    pub vref_v: f32,
+    /// See [`BoardConfig::comp_v_per_a`].
+    pub comp_v_per_a: f32,
+    /// See [`BoardConfig::hw_trip_factor`].
+    pub hw_trip_factor: f32,
+    /// PWM periods of the bootstrap pre-charge.
+    pub precharge_periods: u32,
 }
 
 impl Settings {

@@ -33,6 +33,7 @@ use stm32g4::stm32g431::{interrupt, Interrupt};
 use crate::power_stage::Esc1;
 use crate::protection::Watchdog;
 use crate::telemetry::{Event, Sender, TELEMETRY_EVERY};
+use pmsm_b_g431b_esc1::config::SETTINGS;
 use pmsm_b_g431b_esc1::drive_settings::{BoardDrive, Monitor, Primary, SPEED_CMD_RPM};
 
 /// The step's interrupt: ADC1 end of injected sequence (ADC1 and ADC2 share the vector).
@@ -112,6 +113,10 @@ impl Control {
             clear_fault: CLEAR_FAULT.swap(false, Ordering::Relaxed),
             identify: false,
         };
+        if cmd.clear_fault {
+            // The board's latched faults with the drive's.
+            self.control.stage_mut().clear_faults();
+        }
         let out = self.control.step(&cmd);
         if let Some(tr) = out.transition {
             self.events.send(Event::Transition { step: out.step, tr });
@@ -218,15 +223,28 @@ pub fn start(nvic: &mut NVIC, control: Control, tick: Tick) {
     }
 }
 
-/// The step's interrupt ([`STEP_IRQ`]): [`Control::step`].
+/// The step's interrupt ([`STEP_IRQ`], every PWM period: the ADCs convert at every update
+/// event): [`Control::step`] on every `pwm_per_step`-th sample, the others' flags cleared.
 #[interrupt]
 fn ADC1_2() {
+    // Samples to skip before the next step.
+    static mut SKIP: u32 = 0;
+    let step = *SKIP == 0;
+    *SKIP = if step {
+        SETTINGS.pwm_per_step - 1
+    } else {
+        *SKIP - 1
+    };
     cortex_m::interrupt::free(|cs| {
         // Never borrowed twice (the task borrows it with interrupts off); no panic path
         // either way.
         if let Ok(mut ctl) = CONTROL.borrow(cs).try_borrow_mut() {
             if let Some(ctl) = ctl.as_mut() {
-                ctl.step();
+                if step {
+                    ctl.step();
+                } else {
+                    ctl.control.stage().skip_sample();
+                }
             }
         }
     });

@@ -84,6 +84,8 @@ mod clocks;
 #[cfg(target_os = "none")]
 mod control;
 #[cfg(target_os = "none")]
+mod overcurrent;
+#[cfg(target_os = "none")]
 mod power_stage;
 #[cfg(target_os = "none")]
 mod protection;
@@ -104,7 +106,9 @@ mod firmware {
 
     use crate::control::{self, Control, Tick, CLEAR_FAULT, ENABLE, IDENTIFY, STEPS, TICK_RETRIES};
     use crate::power_stage::Esc1;
-    use crate::{adc, clocks, protection, pwm, settings, telemetry};
+    use crate::{adc, clocks, overcurrent, protection, pwm, settings, telemetry};
+    use pmsm_b_g431b_esc1::config::SETTINGS;
+    use pmsm_b_g431b_esc1::drive_settings::drive_config;
 
     /// The button is sampled every this many steps (40 steps = 10 ms, longer than contact
     /// bounce).
@@ -151,22 +155,42 @@ mod firmware {
 
         protection::freeze_on_debug_halt(&dp.DBGMCU);
         clocks::enable_peripherals(&dp.RCC);
+        overcurrent::system_break(
+            &dp.SYSCFG,
+            &dp.RCC,
+            matches!(clock, clocks::ClockSource::Hse),
+        );
         pwm::release_dead_battery_pins(&dp.PWR);
 
         pwm::init_tim1(&dp.TIM1);
-        pwm::init_pins(&dp.GPIOA, &dp.GPIOB, &dp.GPIOC);
         adc::init_pins(&dp.GPIOA, &dp.GPIOB);
         init_button(&dp.GPIOC);
         adc::init_opamps(&dp.OPAMP);
 
-        // Start the timer (outputs still off: MOE = 0) and find where its update lands.
+        // Start the timer (outputs off: MOE = 0), find where its update lands, write BDTR
+        // once (dead time, breaks, off-states, LOCK); only then the pins to the timer.
         let pwm = pwm::start(dp.TIM1);
-        let adc = adc::init(&dp.ADC12_COMMON, dp.ADC1, dp.ADC2);
+        pwm::init_pins(&dp.GPIOA, &dp.GPIOB, &dp.GPIOC);
+        let (adc, comparator_inputs) = adc::init(&dp.ADC12_COMMON, dp.ADC1, dp.ADC2);
+        let i_trip_a = drive_config().limits.i_trip_a;
+        let hw_trip = overcurrent::init(&dp.RCC, &dp.DAC3, &dp.COMP, comparator_inputs, i_trip_a);
+        defmt::info!(
+            "hardware over-current trip (COMP1/2/4 -> TIM1 BRK2) at U {=f32} V {=f32} W {=f32} A (software trip {=f32} A); comparator inputs {=f32} {=f32} {=f32} V",
+            hw_trip[0],
+            hw_trip[1],
+            hw_trip[2],
+            i_trip_a,
+            comparator_inputs[0],
+            comparator_inputs[1],
+            comparator_inputs[2]
+        );
         let drive = settings::build_drive();
         let (step_events, tick_events, mut receiver) = telemetry::queues();
 
+        let mut stage = Esc1::new(pwm, adc);
+        // Before the first enable: the bootstrap capacitors charged through the low sides.
+        stage.precharge_bootstrap(SETTINGS.precharge_periods);
         let watchdog = protection::Watchdog::start(dp.IWDG);
-        let stage = Esc1::new(pwm, adc);
         // Drop any sequence that completed since the calibration, so the first step starts on
         // a fresh sample (a stale one could make the first step look like an overrun).
         stage.discard_samples();

@@ -1,9 +1,10 @@
 //! The board's power stage as the core sees it ([`PowerStage`]): the sample is the injected
-//! conversions ADC1/ADC2 made at TIM1's update, scaled; applying duties loads TIM1's compare
-//! registers and sets MOE, applying `None` clears MOE.
+//! conversions ADC1/ADC2 made at TIM1's update, scaled, with a latched break reported by
+//! name; applying duties loads TIM1's compare registers and sets MOE (unless a break is
+//! latched), applying `None` clears MOE.
 
 use pmsm_sensorless::drive::DriveInput;
-use pmsm_sensorless::power_stage::PowerStage;
+use pmsm_sensorless::power_stage::{PowerStage, StageFault};
 use pmsm_sensorless::svpwm::Duties;
 
 use crate::adc::Adc;
@@ -31,6 +32,24 @@ impl Esc1 {
         self.adc.discard();
     }
 
+    /// A sample the step does not use (the ADC converts every PWM period, the step runs on
+    /// every `pwm_per_step`-th): its flags cleared.
+    #[inline(always)]
+    pub fn skip_sample(&self) {
+        self.adc.discard();
+    }
+
+    /// The user cleared the fault: the latched break too (reported again at once if the
+    /// break is still active).
+    pub fn clear_faults(&mut self) {
+        self.pwm.clear_break();
+    }
+
+    /// Bootstrap pre-charge before the first enable (see [`Pwm::precharge_bootstrap`]).
+    pub fn precharge_bootstrap(&mut self, periods: u32) {
+        self.pwm.precharge_bootstrap(periods);
+    }
+
     /// Called last in each step: another injected sequence completed while this step ran,
     /// so it overran its period; the next sample reports it to the drive (it faults with
     /// `Overrun`).
@@ -50,12 +69,17 @@ impl PowerStage for Esc1 {
             // The board's back-EMF dividers are not read yet: an enable always aligns.
             v_ab_terminal: None,
             overrun: self.overrun,
-            stage_fault: None,
+            stage_fault: if self.pwm.break_latched() {
+                Some(StageFault::HardwareOvercurrent)
+            } else {
+                None
+            },
         }
     }
 
     /// PWM outputs stay off (MOE = 0) until the drive returns duties, and MOE is cleared in
-    /// the same step in which it returns `None`.
+    /// the same step in which it returns `None`; a latched break keeps them off (the drive
+    /// faulted on it in this step's sample, so it returns `None` anyway).
     #[inline(always)]
     fn apply(&mut self, duties: Option<Duties>) {
         match duties {

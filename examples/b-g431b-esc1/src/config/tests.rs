@@ -27,9 +27,11 @@ fn clocks() {
 fn pwm_and_control_rates() {
     assert_eq!(S.tim1_arr, 4250);
     assert_eq!(S.sysclk_hz / (2 * S.tim1_arr), 20_000);
-    assert_eq!(S.tim1_rcr, 9);
+    // An update (ADC trigger, compare preload transfer) every PWM period; a step every 5th.
+    assert_eq!(S.tim1_rcr, 1);
     let update_hz = S.sysclk_hz / (S.tim1_arr * (u32::from(S.tim1_rcr) + 1));
-    assert_eq!(update_hz, S.control_hz);
+    assert_eq!(update_hz, S.pwm_hz);
+    assert_eq!(update_hz / S.pwm_per_step, S.control_hz);
     assert_eq!(S.control_hz, 4000);
 }
 
@@ -127,4 +129,92 @@ fn drive_told_the_same() {
             }
         }
     }
+}
+
+/// TIM1's register words, field by field (RM0440 TIM1 register map).
+#[test]
+fn tim1_words() {
+    use crate::tim1::*;
+    let cr1 = cr1(&S);
+    assert_eq!((cr1 >> 5) & 0b11, 0b01, "CMS centre-aligned 1");
+    assert_eq!((cr1 >> 7) & 1, 1, "ARPE");
+    assert_eq!((cr1 >> 8) & 0b11, u32::from(S.dead_time.ckd), "CKD");
+    assert_eq!(cr1 & 1, 0, "CEN later");
+    for mode in [PWM_MODE_1, PWM_MODE_2] {
+        let c1 = ccmr1(mode);
+        assert_eq!((c1 >> 4) & 0b111, mode);
+        assert_eq!((c1 >> 12) & 0b111, mode);
+        assert_eq!((c1 >> 3) & 1, 1, "OC1PE");
+        assert_eq!((c1 >> 11) & 1, 1, "OC2PE");
+        assert_eq!(c1 & 0b11, 0, "CC1S output");
+        assert_eq!((c1 >> 8) & 0b11, 0, "CC2S output");
+        assert_eq!(ccmr2(mode), (mode << 4) | 1 << 3);
+    }
+    assert_eq!(CCER, 0x555);
+    assert_eq!(CR2, 0x20);
+    assert_eq!(AF2, 0b1_0110);
+    let b = bdtr(&S, S.break_filter);
+    assert_eq!(b & 0xFF, u32::from(S.dead_time.dtg), "DTG");
+    assert_eq!((b >> 8) & 0b11, 3, "LOCK level 3");
+    assert_eq!((b >> 10) & 0b11, 0b11, "OSSI, OSSR");
+    assert_eq!((b >> 12) & 0b11, 0b11, "BKE, BKP high");
+    assert_eq!((b >> 14) & 0b11, 0, "AOE = 0, MOE = 0");
+    assert_eq!((b >> 16) & 0xF, S.break_filter, "BKF");
+    assert_eq!((b >> 20) & 0xF, S.break_filter, "BK2F");
+    assert_eq!((b >> 24) & 0b11, 0b11, "BK2E, BK2P high");
+    assert_eq!(b >> 26, 0, "no bidirectional break, no disarm");
+    assert_eq!(b & MOE, 0);
+}
+
+/// The break filter: the shortest of at least 500 ns is /16 × 6 samples = 565 ns; every
+/// request gets the shortest filter at least as long.
+#[test]
+fn break_filters() {
+    use crate::tim1::{break_filter, BREAK_FILTERS};
+    assert_eq!(S.break_filter, 11);
+    assert!((S.break_filter_ns - 564.7).abs() < 0.1);
+    for ns in (0..2800).step_by(13) {
+        let (code, t) = break_filter(ns, S.sysclk_hz);
+        if ns as f32 <= 1505.9 {
+            assert!(t >= ns as f32 - 1e-3, "{ns} -> {code} {t}");
+            for (k, &(d, n)) in BREAK_FILTERS.iter().enumerate().skip(1) {
+                let tk = (d * n) as f32 * 1e9 / S.sysclk_hz as f32;
+                assert!(
+                    tk < ns as f32 - 1e-3 || tk >= t - 1e-3,
+                    "{k} shorter than {code}"
+                );
+            }
+        } else {
+            assert_eq!(code, 15);
+        }
+    }
+}
+
+/// The comparators' thresholds: the DAC code for the drive's trip, and back.
+#[test]
+fn over_current_thresholds() {
+    use crate::ocp::*;
+    let cfg = drive_config();
+    let i_trip = cfg.limits.i_trip_a;
+    // 3 mΩ × 9.14/16 = 1.714 mV/A; one DAC step (0.806 mV) = 0.47 A.
+    assert!((S.comp_v_per_a - 1.714e-3).abs() < 1e-6);
+    for v0 in [0.2_f32, 1.0, 1.65, 2.5] {
+        let code = dac_code(&S, v0, i_trip);
+        let i = trip_current_a(&S, v0, code);
+        let lsb_a = S.vref_v / 4096.0 / S.comp_v_per_a;
+        assert!(i >= 1.5 * i_trip - 1e-3, "{v0} V: {i} A");
+        assert!(i < 1.5 * i_trip + lsb_a + 1e-3, "{v0} V: {i} A");
+    }
+    // An input near the top of the range clamps at full scale.
+    assert_eq!(dac_code(&S, 3.29, 100.0), 4095);
+    let w = comp_csr(2);
+    assert_eq!(w & 1, 1, "EN");
+    assert_eq!((w >> 4) & 0b111, 0b100, "INMSEL DAC3");
+    assert_eq!((w >> 8) & 1, 0, "INPSEL INP0");
+    assert_eq!((w >> 15) & 1, 0, "not inverted");
+    assert_eq!((w >> 16) & 0b111, 2, "HYST");
+    assert_eq!(w >> 31, 1, "LOCK");
+    assert_eq!(DAC3_MCR & 0b111, 0b011);
+    assert_eq!((DAC3_MCR >> 16) & 0b111, 0b011);
+    assert_eq!((DAC3_MCR >> 14) & 0b11, 0b10, "HFSEL above 160 MHz");
 }
