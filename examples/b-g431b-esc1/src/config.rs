@@ -73,7 +73,18 @@ impl BoardConfig {
     /// - 8 MHz HSE crystal: NuttX board port (`STM32_BOARD_XTAL`), UM2516 pin table (PF0/PF1
     ///   "HSE crystal 8 MHz").
     /// - 20 kHz PWM, a control step every 5 periods (4 kHz: the drive's rate).
-    /// - Dead time 500 ns (NuttX's value for this board; see the dead-time note in `pwm.rs`).
+    /// - Dead time 800 ns, ST's value for this power stage (the reading of ST's
+    ///   reference design; NuttX's port used 500 ns, marked "REVISIT"). The L6387E gate
+    ///   driver interlocks its inputs (HIN and LIN both high: both outputs low) but inserts
+    ///   no dead time of its own (datasheet DocID13990, "Input logic"); it sinks 650 mA and
+    ///   sources 400 mA, 30/50 ns fall/rise into 1 nF. The STL180N6F7 MOSFETs (60 V,
+    ///   ~1.9 mΩ, PowerFLAT 5x6) carry a gate charge of order 100 nC (UNVERIFIED: their
+    ///   datasheet was not at hand, nor the board's gate resistors): discharged by 0.65 A,
+    ///   some 150 ns to turn off, plus the driver's propagation delays and their mismatch
+    ///   (UNVERIFIED) and the resistors. 500 ns leaves little margin against shoot-through
+    ///   that nothing here can measure; 800 ns costs 0.6 % of the bus in the voltage limit
+    ///   (`2·t_d·f_pwm`, compensated by the drive, which is told the same value) and 0.012 of
+    ///   the largest duty. TIM1 makes exactly 800 ns (136 clocks, DTG 0x84).
     /// - Amplifier settling 1.3 µs after a switching edge: measured on this board by the
     ///   FOC-Stim project (diglet48/FOC-Stim). UNVERIFIED here.
     /// - ADC at HCLK/4 = 42.5 MHz, 6.5 cycles for the op-amp outputs (low impedance),
@@ -95,7 +106,7 @@ impl BoardConfig {
         sysclk_hz: 170_000_000,
         pwm_hz: 20_000,
         pwm_per_step: 5,
-        dead_time_ns: 500,
+        dead_time_ns: 800,
         settle_ns: 1300,
         adc_clock_div: 4,
         current_smp: 1,

@@ -46,9 +46,10 @@ fn sampling_window() {
     assert!((w - c.settle_ns as f32).abs() < 0.5, "window {w} ns");
     let half_low_ns = (1.0 - S.duty_max) * 0.5e9 / S.pwm_hz as f32;
     assert!(half_low_ns >= S.sample_end_ns);
-    // 1 − 2·(t_dead + settle)·f_pwm.
+    // 1 − 2·(t_dead + settle)·f_pwm = 1 − 2·2.1 µs·20 kHz.
     let expected = 1.0 - 2.0 * (S.dead_time.ns + 1300.0) * 1e-9 * 20_000.0;
     assert!((S.duty_max - expected).abs() < 1e-6, "{}", S.duty_max);
+    assert!((S.duty_max - 0.916).abs() < 1e-5);
 }
 
 /// A per LSB and V per LSB: Vref/4096 through the shunt and amplifier, and the divider.
@@ -93,6 +94,17 @@ fn refusals() {
     assert!(bad(|c| c.sysclk_hz = 180_000_000).contains("170"));
     assert!(bad(|c| c.settle_ns = 13_000).contains("no voltage"));
     assert!(bad(|c| c.watchdog_ms = 0).contains("watchdog"));
+}
+
+/// The board's dead time: 800 ns, exactly (DTG 0x84, CKD 0).
+#[test]
+fn dead_time() {
+    assert_eq!(
+        (S.dead_time.dtg, S.dead_time.ckd, S.dead_time.clocks),
+        (0x84, 0, 136)
+    );
+    assert!((S.dead_time.ns - 800.0).abs() < 0.01);
+    assert!((S.dead_time_s() - 800e-9).abs() < 1e-12);
 }
 
 /// The drive is told the board's rate, PWM frequency, dead time and largest duty, and its
