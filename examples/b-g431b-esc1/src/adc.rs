@@ -32,10 +32,11 @@ pub struct Adc {
 }
 
 impl Adc {
-    /// This period's sample: phase currents [A] (positive into the motor) and bus voltage
-    /// [V]. Acknowledges the interrupt. A V phase whose conversion is missing reads NaN.
+    /// This period's sample: phase currents [A] (positive into the motor), bus voltage
+    /// [V] and the NTC's reading [LSB]. Acknowledges the interrupt. A V phase whose
+    /// conversion is missing reads NaN.
     #[inline(always)]
-    pub fn read(&mut self) -> (Abc, f32) {
+    pub fn read(&mut self) -> (Abc, f32, f32) {
         // Acknowledge the interrupt source first.
         acknowledge(&self.adc1);
         // ADC2 converts one channel against ADC1's three from the same trigger, so it is
@@ -47,6 +48,7 @@ impl Adc {
         let raw_w = f32::from(self.adc1.jdr2().read().jdata().bits());
         let raw_bus = f32::from(self.adc1.jdr3().read().jdata().bits());
         let raw_v = f32::from(self.adc2.jdr1().read().jdata().bits());
+        let raw_ntc = f32::from(self.adc1.jdr4().read().jdata().bits());
         let i_abc = Abc::new(
             (raw_u - self.offsets[0]) * AMPS_PER_LSB,
             if adc2_done {
@@ -56,7 +58,7 @@ impl Adc {
             },
             (raw_w - self.offsets[2]) * AMPS_PER_LSB,
         );
-        (i_abc, raw_bus * VOLTS_PER_LSB)
+        (i_abc, raw_bus * VOLTS_PER_LSB, raw_ntc)
     }
 
     /// Whether ADC1 has completed another injected sequence since [`Adc::read`]
@@ -82,7 +84,7 @@ fn acknowledge(adc: &pac::adc1::RegisterBlock) {
 }
 
 /// The analog pins to analog mode (their reset state on the G4 already, RM0440 GPIO chapter):
-/// bus voltage, OPAMP1 (+, out, −), OPAMP2 (−, out, +), OPAMP3 (+, out, −).
+/// bus voltage, OPAMP1 (+, out, −), OPAMP2 (−, out, +), OPAMP3 (+, out, −), the NTC (PB14).
 pub fn init_pins(gpioa: &pac::GPIOA, gpiob: &pac::GPIOB) {
     gpioa.moder().modify(|_, w| {
         w.moder0()
@@ -100,9 +102,16 @@ pub fn init_pins(gpioa: &pac::GPIOA, gpiob: &pac::GPIOB) {
             .moder7()
             .analog()
     });
-    gpiob
-        .moder()
-        .modify(|_, w| w.moder0().analog().moder1().analog().moder2().analog());
+    gpiob.moder().modify(|_, w| {
+        w.moder0()
+            .analog()
+            .moder1()
+            .analog()
+            .moder2()
+            .analog()
+            .moder14()
+            .analog()
+    });
 }
 
 /// OPAMP1..3 in PGA mode, as NuttX configures them for this board (RM0440 §25, PGA mode;
@@ -135,10 +144,11 @@ pub fn init_opamps(opamp: &pac::OPAMP) {
 
 /// Sets up and starts both converters ([`init_adcs`]), then measures the current offsets
 /// with the bridge off and refuses to go on if one is implausible. Also returns the
-/// over-current comparators' inputs with no current (PA1, PA7, PB0 for U, V, W) \[V].
-pub fn init(common: &pac::ADC12_COMMON, adc1: pac::ADC1, adc2: pac::ADC2) -> (Adc, [f32; 3]) {
+/// over-current comparators' inputs with no current (PA1, PA7, PB0 for U, V, W) \[V] and
+/// the NTC's reading \[LSB].
+pub fn init(common: &pac::ADC12_COMMON, adc1: pac::ADC1, adc2: pac::ADC2) -> (Adc, [f32; 3], f32) {
     let comparator_inputs = init_adcs(common, &adc1, &adc2);
-    let (offsets, v_bus) = measure_offsets(&adc1, &adc2);
+    let (offsets, v_bus, ntc_raw) = measure_offsets(&adc1, &adc2);
     defmt::info!(
         "current offsets U V W = {=f32} {=f32} {=f32} LSB, bus {=f32} V",
         offsets[0],
@@ -161,6 +171,7 @@ pub fn init(common: &pac::ADC12_COMMON, adc1: pac::ADC1, adc2: pac::ADC2) -> (Ad
             offsets,
         },
         comparator_inputs,
+        ntc_raw,
     )
 }
 
@@ -199,7 +210,8 @@ fn convert_regular(adc: &pac::adc1::RegisterBlock, channel: u8) -> f32 {
 /// "ADC1/2 external triggers for injected channels"):
 ///
 /// * ADC1: JSQ1 = IN3 (OPAMP1 out, phase U), JSQ2 = IN12 (OPAMP3 out, phase W),
-///   JSQ3 = IN1 (bus divider). Currents first; the slow bus sample last.
+///   JSQ3 = IN1 (bus divider), JSQ4 = IN5 (the NTC, PB14). Currents first; the slow
+///   samples last.
 /// * ADC2: JSQ1 = IN3 (OPAMP2 out, phase V), simultaneous with ADC1's first rank.
 ///
 /// Sample times: 6.5 cycles for the amplifier outputs (low impedance; NuttX uses 2.5),
@@ -236,7 +248,7 @@ fn init_adcs(common: &pac::ADC12_COMMON, adc1: &pac::ADC1, adc2: &pac::ADC2) -> 
     // SAFETY: SMP codes are 0..7 (checked by `BoardConfig::derive`).
     unsafe {
         adc1.smpr1()
-            .modify(|_, w| w.smp1().bits(bus).smp3().bits(current));
+            .modify(|_, w| w.smp1().bits(bus).smp3().bits(current).smp5().bits(bus));
         adc1.smpr2().modify(|_, w| w.smp12().bits(current));
         adc2.smpr1().modify(|_, w| w.smp3().bits(current));
     }
@@ -258,18 +270,20 @@ fn init_adcs(common: &pac::ADC12_COMMON, adc1: &pac::ADC1, adc2: &pac::ADC2) -> 
     fn on_tim1_trgo(w: &mut pac::adc1::jsqr::W) -> &mut pac::adc1::jsqr::W {
         w.jextsel().tim1_trgo().jexten().rising_edge()
     }
-    // SAFETY: JSQx are 5-bit channel numbers; 3, 12 and 1 are ADC1 inputs IN3 (PA2),
-    // IN12 (PB1) and IN1 (PA0) and 3 is ADC2's IN3 (PA6) (DS12589 pin table).
+    // SAFETY: JSQx are 5-bit channel numbers; 3, 12, 1 and 5 are ADC1 inputs IN3 (PA2),
+    // IN12 (PB1), IN1 (PA0) and IN5 (PB14) and 3 is ADC2's IN3 (PA6) (DS12589 pin table).
     adc1.jsqr().write(|w| unsafe {
         on_tim1_trgo(w)
             .jl()
-            .set(2)
+            .set(3)
             .jsq1()
             .bits(3)
             .jsq2()
             .bits(12)
             .jsq3()
             .bits(1)
+            .jsq4()
+            .bits(5)
     });
     // SAFETY: as above.
     adc2.jsqr()
@@ -283,9 +297,9 @@ fn init_adcs(common: &pac::ADC12_COMMON, adc1: &pac::ADC1, adc2: &pac::ADC2) -> 
 }
 
 /// Averages `OFFSET_SAMPLES` triggered conversions with the bridge off (MOE = 0): the
-/// current channels' zero [LSB] and the bus voltage [V]. Polls the flags; the control
-/// interrupt is still masked in the NVIC.
-fn measure_offsets(adc1: &pac::ADC1, adc2: &pac::ADC2) -> ([f32; 3], f32) {
+/// current channels' zero [LSB], the bus voltage [V] and the NTC's reading [LSB]. Polls the
+/// flags; the control interrupt is still masked in the NVIC.
+fn measure_offsets(adc1: &pac::ADC1, adc2: &pac::ADC2) -> ([f32; 3], f32, f32) {
     let wait = |adc: &pac::adc1::RegisterBlock| {
         let mut waited = 0u32;
         while adc.isr().read().jeos().bit_is_clear() {
@@ -301,7 +315,7 @@ fn measure_offsets(adc1: &pac::ADC1, adc2: &pac::ADC2) -> ([f32; 3], f32) {
         wait(adc1);
         wait(adc2);
     }
-    let (mut u, mut v, mut w, mut bus) = (0u32, 0u32, 0u32, 0u32);
+    let (mut u, mut v, mut w, mut bus, mut ntc) = (0u32, 0u32, 0u32, 0u32, 0u32);
     for _ in 0..OFFSET_SAMPLES {
         wait(adc1);
         wait(adc2);
@@ -309,10 +323,12 @@ fn measure_offsets(adc1: &pac::ADC1, adc2: &pac::ADC2) -> ([f32; 3], f32) {
         w += u32::from(adc1.jdr2().read().jdata().bits());
         bus += u32::from(adc1.jdr3().read().jdata().bits());
         v += u32::from(adc2.jdr1().read().jdata().bits());
+        ntc += u32::from(adc1.jdr4().read().jdata().bits());
     }
     let n = OFFSET_SAMPLES as f32;
     (
         [u as f32 / n, v as f32 / n, w as f32 / n],
         bus as f32 / n * VOLTS_PER_LSB,
+        ntc as f32 / n,
     )
 }

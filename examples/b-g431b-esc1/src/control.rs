@@ -31,7 +31,7 @@ use pmsm_sensorless::control::{Commands, TickCopy};
 use stm32g4::stm32g431::{interrupt, Interrupt};
 
 use crate::power_stage::Esc1;
-use crate::protection::Watchdog;
+use crate::protection::{Watchdog, TICK_ALIVE};
 use crate::telemetry::{Event, Sender, TELEMETRY_EVERY};
 use pmsm_b_g431b_esc1::config::SETTINGS;
 use pmsm_b_g431b_esc1::drive_settings::{BoardDrive, Monitor, Primary, SPEED_CMD_RPM};
@@ -63,6 +63,11 @@ pub static STEPS: AtomicU32 = AtomicU32::new(0);
 pub static IDENTIFY: AtomicBool = AtomicBool::new(false);
 /// 1 kHz tasks taken again because a step ran while they computed (see the module's doc).
 pub static TICK_RETRIES: AtomicU32 = AtomicU32::new(0);
+/// The speed command of the last step, derated by the temperature [rpm] (f32 bits): the
+/// 1 kHz task's command.
+pub static SPEED_RPM: AtomicU32 = AtomicU32::new(0);
+/// The power stage's temperature at the last step [°C] (f32 bits), for the log.
+pub static STAGE_TEMP_C: AtomicU32 = AtomicU32::new(0);
 
 /// The core's control loop on this board's power stage.
 type BoardControl = pmsm_sensorless::control::Control<Primary, Monitor, Esc1>;
@@ -107,9 +112,15 @@ impl Control {
     #[link_section = ".ramfunc.control_step"]
     #[inline(never)]
     pub fn step(&mut self) {
+        // The speed command derated by the power stage's temperature (`ntc`), shared with
+        // the 1 kHz task.
+        let stage = self.control.stage();
+        let speed_rpm = SPEED_CMD_RPM * stage.speed_scale();
+        SPEED_RPM.store(speed_rpm.to_bits(), Ordering::Relaxed);
+        STAGE_TEMP_C.store(stage.temp_c().to_bits(), Ordering::Relaxed);
         let cmd = Commands {
             enable: ENABLE.load(Ordering::Relaxed),
-            speed_rpm: SPEED_CMD_RPM,
+            speed_rpm,
             clear_fault: CLEAR_FAULT.swap(false, Ordering::Relaxed),
             identify: false,
         };
@@ -160,7 +171,7 @@ impl Tick {
     fn run(&mut self) {
         let cmd = Commands {
             enable: ENABLE.load(Ordering::Relaxed),
-            speed_rpm: SPEED_CMD_RPM,
+            speed_rpm: f32::from_bits(SPEED_RPM.load(Ordering::Relaxed)),
             clear_fault: false,
             // The commissioning firmware (`cargo fw-identify`) only.
             identify: cfg!(feature = "identify") && IDENTIFY.swap(false, Ordering::Relaxed),
@@ -175,6 +186,7 @@ impl Tick {
             }
             TICK_RETRIES.fetch_add(1, Ordering::Relaxed);
         };
+        TICK_ALIVE.store(true, Ordering::Relaxed);
         let step = self.copy.steps();
         for tr in ticked.transitions() {
             self.events.send(Event::Transition { step, tr });

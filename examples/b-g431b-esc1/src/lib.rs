@@ -9,13 +9,15 @@
 //! `config` (the configuration and everything derived from it), `dead_time` (TIM1's
 //! dead-time generator, BDTR.DTG and CR1.CKD), `pll` (the PLL's dividers within the
 //! datasheet's ranges), `tim1` (TIM1's register words: PWM, preload, break, BDTR),
-//! `ocp` (the hardware over-current trip: comparators, DAC3 thresholds), `drive_settings`
+//! `ocp` (the hardware over-current trip: comparators, DAC3 thresholds), `ntc` (the power
+//! stage's temperature, its derating and trip), `drive_settings`
 //! (the motor, the command, the drive's configuration on this board).
 #![cfg_attr(not(test), no_std)]
 
 pub mod config;
 pub mod dead_time;
 pub mod drive_settings;
+pub mod ntc;
 pub mod ocp;
 pub mod pll;
 pub mod tim1;

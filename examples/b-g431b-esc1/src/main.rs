@@ -104,11 +104,16 @@ mod firmware {
     use panic_probe as _;
     use stm32g4::stm32g431 as pac;
 
-    use crate::control::{self, Control, Tick, CLEAR_FAULT, ENABLE, IDENTIFY, STEPS, TICK_RETRIES};
+    use crate::control::{
+        self, Control, Tick, CLEAR_FAULT, ENABLE, IDENTIFY, SPEED_RPM, STAGE_TEMP_C, STEPS,
+        TICK_RETRIES,
+    };
     use crate::power_stage::Esc1;
+    use crate::protection::MAIN_ALIVE;
     use crate::{adc, clocks, overcurrent, protection, pwm, settings, telemetry};
     use pmsm_b_g431b_esc1::config::SETTINGS;
     use pmsm_b_g431b_esc1::drive_settings::drive_config;
+    use pmsm_b_g431b_esc1::ntc::NtcConfig;
 
     /// The button is sampled every this many steps (40 steps = 10 ms, longer than contact
     /// bounce).
@@ -171,7 +176,9 @@ mod firmware {
         // once (dead time, breaks, off-states, LOCK); only then the pins to the timer.
         let pwm = pwm::start(dp.TIM1);
         pwm::init_pins(&dp.GPIOA, &dp.GPIOB, &dp.GPIOC);
-        let (adc, comparator_inputs) = adc::init(&dp.ADC12_COMMON, dp.ADC1, dp.ADC2);
+        let (adc, comparator_inputs, ntc_raw) = adc::init(&dp.ADC12_COMMON, dp.ADC1, dp.ADC2);
+        let temp_c = NtcConfig::ESC1.temp_c(ntc_raw, SETTINGS.vref_v);
+        defmt::info!("power stage at {=f32} C (NTC, PB14)", temp_c);
         let i_trip_a = drive_config().limits.i_trip_a;
         let hw_trip = overcurrent::init(&dp.RCC, &dp.DAC3, &dp.COMP, comparator_inputs, i_trip_a);
         defmt::info!(
@@ -187,7 +194,7 @@ mod firmware {
         let drive = settings::build_drive();
         let (step_events, tick_events, mut receiver) = telemetry::queues();
 
-        let mut stage = Esc1::new(pwm, adc);
+        let mut stage = Esc1::new(pwm, adc, temp_c);
         // Before the first enable: the bootstrap capacitors charged through the low sides.
         stage.precharge_bootstrap(SETTINGS.precharge_periods);
         let watchdog = protection::Watchdog::start(dp.IWDG);
@@ -212,7 +219,10 @@ mod firmware {
         #[cfg(not(feature = "identify"))]
         defmt::info!("running; press the user button (PC10) to enable/disable");
 
+        let mut last_temp_log = 0u32;
         loop {
+            // This loop has run: the control step may feed the watchdog.
+            MAIN_ALIVE.store(true, Ordering::Relaxed);
             receiver.log(|ev| faulted = ev.faulted());
             let retries = TICK_RETRIES.swap(0, Ordering::Relaxed);
             if retries > 0 {
@@ -224,6 +234,14 @@ mod firmware {
 
             // The button's idle level was read at boot, so its polarity does not matter.
             let now = STEPS.load(Ordering::Relaxed);
+            if now.wrapping_sub(last_temp_log) >= SETTINGS.control_hz {
+                last_temp_log = now;
+                defmt::info!(
+                    "power stage {=f32} C, speed command {=f32} rpm",
+                    f32::from_bits(STAGE_TEMP_C.load(Ordering::Relaxed)),
+                    f32::from_bits(SPEED_RPM.load(Ordering::Relaxed))
+                );
+            }
             if now.wrapping_sub(last_poll) >= BUTTON_POLL_STEPS {
                 last_poll = now;
                 let pressed = gpioc.idr().read().idr(10).bit() != button_idle;

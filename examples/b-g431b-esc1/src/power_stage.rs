@@ -7,8 +7,14 @@ use pmsm_sensorless::drive::DriveInput;
 use pmsm_sensorless::power_stage::{PowerStage, StageFault};
 use pmsm_sensorless::svpwm::Duties;
 
+use pmsm_b_g431b_esc1::config::SETTINGS;
+use pmsm_b_g431b_esc1::ntc::NtcConfig;
+
 use crate::adc::Adc;
 use crate::pwm::Pwm;
+
+/// The board's NTC, its derating and trip.
+const NTC: NtcConfig = NtcConfig::ESC1;
 
 /// TIM1's three half-bridges with the shunt and bus sensing of the B-G431B-ESC1.
 pub struct Esc1 {
@@ -16,15 +22,40 @@ pub struct Esc1 {
     adc: Adc,
     /// The previous step overran its period.
     overrun: bool,
+    /// The power stage's temperature, low-pass filtered \[°C].
+    temp_c: f32,
+    /// The filter's gain per step.
+    temp_gain: f32,
+    /// The latest unfiltered temperature \[°C].
+    temp_now_c: f32,
+    /// Over-temperature (or an implausible reading) latched until [`Esc1::clear_faults`].
+    hot: bool,
 }
 
 impl Esc1 {
-    pub fn new(pwm: Pwm, adc: Adc) -> Self {
+    /// The stage of `pwm` and `adc`, its temperature filter started at `temp_c` \[°C].
+    pub fn new(pwm: Pwm, adc: Adc, temp_c: f32) -> Self {
         Self {
             pwm,
             adc,
             overrun: false,
+            temp_c,
+            temp_gain: NTC.filter_gain(SETTINGS.control_hz as f32),
+            temp_now_c: temp_c,
+            hot: false,
         }
+    }
+
+    /// The power stage's temperature, filtered \[°C].
+    #[inline(always)]
+    pub fn temp_c(&self) -> f32 {
+        self.temp_c
+    }
+
+    /// The share of the speed command the temperature leaves ([`NtcConfig::speed_scale`]).
+    #[inline(always)]
+    pub fn speed_scale(&self) -> f32 {
+        NTC.speed_scale(self.temp_c)
     }
 
     /// Drops any sequence that completed before the control interrupt is enabled.
@@ -43,6 +74,10 @@ impl Esc1 {
     /// break is still active).
     pub fn clear_faults(&mut self) {
         self.pwm.clear_break();
+        // The filter restarts from the latest reading (a NaN does not stay in it); a stage
+        // still too hot faults again in the next sample.
+        self.temp_c = self.temp_now_c;
+        self.hot = false;
     }
 
     /// Bootstrap pre-charge before the first enable (see [`Pwm::precharge_bootstrap`]).
@@ -62,7 +97,12 @@ impl Esc1 {
 impl PowerStage for Esc1 {
     #[inline(always)]
     fn sample(&mut self) -> DriveInput {
-        let (i_abc, v_bus) = self.adc.read();
+        let (i_abc, v_bus, raw_ntc) = self.adc.read();
+        self.temp_now_c = NTC.temp_c(raw_ntc, SETTINGS.vref_v);
+        self.temp_c += self.temp_gain * (self.temp_now_c - self.temp_c);
+        if NTC.fault(self.temp_c) {
+            self.hot = true;
+        }
         DriveInput {
             i_abc,
             v_bus,
@@ -71,6 +111,8 @@ impl PowerStage for Esc1 {
             overrun: self.overrun,
             stage_fault: if self.pwm.break_latched() {
                 Some(StageFault::HardwareOvercurrent)
+            } else if self.hot {
+                Some(StageFault::OverTemperature)
             } else {
                 None
             },
