@@ -102,16 +102,11 @@ pub fn init_pins(gpioa: &pac::GPIOA, gpiob: &pac::GPIOB) {
             .moder7()
             .analog()
     });
-    gpiob.moder().modify(|_, w| {
-        w.moder0()
-            .analog()
-            .moder1()
-            .analog()
-            .moder2()
-            .analog()
-            .moder14()
-            .analog()
-    });
+    gpiob
+        .moder()
+        .modify(|_, w| w.moder0().analog().moder1().analog().moder2().analog());
+    // The NTC.
+    gpiob.moder().modify(|_, w| w.moder14().analog());
 }
 
 /// OPAMP1..3 in PGA mode, as NuttX configures them for this board (RM0440 §25, PGA mode;

@@ -197,7 +197,7 @@ impl BoardConfig {
         if !comparators_ok {
             return Err("comp_v_per_a not positive or hw_trip_factor below 1");
         }
-        let break_filter = crate::tim1::break_filter(self.break_filter_ns, self.sysclk_hz);
+        let break_filter = crate::break_filter::break_filter(self.break_filter_ns, self.sysclk_hz);
         Ok(Settings {
             sysclk_hz: self.sysclk_hz,
             pll_hse,

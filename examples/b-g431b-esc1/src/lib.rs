@@ -6,7 +6,8 @@
 //! examples/b-g431b-esc1/Cargo.toml --lib` checks them against RM0440's and DS12589's
 //! formulas and ranges.
 //!
-//! `config` (the configuration and everything derived from it), `dead_time` (TIM1's
+//! `config` (the configuration and everything derived from it), `break_filter` (TIM1's
+//! break input filters), `dead_time` (TIM1's
 //! dead-time generator, BDTR.DTG and CR1.CKD), `pll` (the PLL's dividers within the
 //! datasheet's ranges), `tim1` (TIM1's register words: PWM, preload, break, BDTR),
 //! `ocp` (the hardware over-current trip: comparators, DAC3 thresholds), `ntc` (the power
@@ -14,6 +15,7 @@
 //! (the motor, the command, the drive's configuration on this board).
 #![cfg_attr(not(test), no_std)]
 
+pub mod break_filter;
 pub mod config;
 pub mod dead_time;
 pub mod drive_settings;

@@ -72,34 +72,29 @@ pub fn freeze_on_debug_halt(dbgmcu: &pac::DBGMCU) {
 // SAFETY (of the signature): cortex-m-rt requires HardFault handlers to be `unsafe fn`;
 // this one only touches TIM1's BDTR and never returns.
 unsafe fn HardFault(_frame: &ExceptionFrame) -> ! {
-    // SAFETY: nothing else runs after a HardFault (it is the highest-priority handler
-    // short of NMI and never returns); clearing MOE is a single read-modify-write of
-    // TIM1_BDTR that forces the outputs to their idle (off) level.
-    let tim1 = unsafe { pac::TIM1::steal() };
-    pwm::outputs_off(&tim1);
-    loop {
-        cortex_m::asm::nop();
-    }
+    bridge_off_and_wait()
 }
 
 /// Every interrupt without a handler of its own (and every fault exception not enabled on
-/// its own): switch the bridge off, then wait for the watchdog to reset the MCU.
+/// its own): the bridge off, then the watchdog's reset.
 #[exception]
 unsafe fn DefaultHandler(_irqn: i16) -> ! {
-    // SAFETY: as in `HardFault`: one read-modify-write of TIM1_BDTR forcing the outputs to
-    // their idle (off) level; nothing returns here.
-    let tim1 = unsafe { pac::TIM1::steal() };
-    pwm::outputs_off(&tim1);
-    loop {
-        cortex_m::asm::nop();
-    }
+    bridge_off_and_wait()
 }
 
 /// The NMI (among others the HSE clock security system's, see `overcurrent::system_break`):
 /// the bridge off, then the watchdog's reset.
 #[exception]
 unsafe fn NonMaskableInt() -> ! {
-    // SAFETY: as in `HardFault`.
+    bridge_off_and_wait()
+}
+
+/// MOE cleared (all six outputs to their idle, off, level), then nothing until the
+/// watchdog resets the MCU.
+fn bridge_off_and_wait() -> ! {
+    // SAFETY: called only from the handlers above, which never return: nothing else runs
+    // after them but higher-priority exceptions, and clearing MOE is a single
+    // read-modify-write of TIM1_BDTR that forces the outputs to their idle (off) level.
     let tim1 = unsafe { pac::TIM1::steal() };
     pwm::outputs_off(&tim1);
     loop {

@@ -182,7 +182,7 @@ fn tim1_words() {
 /// request gets the shortest filter at least as long.
 #[test]
 fn break_filters() {
-    use crate::tim1::{break_filter, BREAK_FILTERS};
+    use crate::break_filter::{break_filter, BREAK_FILTERS};
     assert_eq!(S.break_filter, 11);
     assert!((S.break_filter_ns - 564.7).abs() < 0.1);
     for ns in (0..2800).step_by(13) {
