@@ -195,6 +195,9 @@ mod firmware {
         let (step_events, tick_events, mut receiver) = telemetry::queues();
 
         let mut stage = Esc1::new(pwm, adc, temp_c);
+        // A break flag set while the comparators started (none is high now: checked) is
+        // not a fault.
+        stage.clear_faults();
         // Before the first enable: the bootstrap capacitors charged through the low sides.
         stage.precharge_bootstrap(SETTINGS.precharge_periods);
         let watchdog = protection::Watchdog::start(dp.IWDG);

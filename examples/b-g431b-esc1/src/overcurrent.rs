@@ -12,7 +12,9 @@ const HYSTERESIS: u32 = 2;
 /// DAC3 thresholds for the comparator inputs `v0_v` (U, V, W at zero current \[V]) to trip
 /// at `hw_trip_factor` × `i_trip_a`, then the three comparators, locked. COMP2 (V) and COMP4
 /// (W) share DAC3_CH2: its threshold is the higher of theirs (neither trips below its
-/// current). Returns the trip currents of U, V, W \[A].
+/// current). Returns the trip currents of U, V, W \[A]. A comparator whose output is high
+/// with no current (a threshold below its input: a wrong scale or a broken path) stops the
+/// firmware here.
 pub fn init(
     rcc: &pac::RCC,
     dac3: &pac::DAC3,
@@ -39,6 +41,20 @@ pub fn init(
         comp.c1csr().write(|w| w.bits(csr));
         comp.c2csr().write(|w| w.bits(csr));
         comp.c4csr().write(|w| w.bits(csr));
+    }
+    // Comparator start-up (DS12589 t_START, some µs).
+    cortex_m::asm::delay(SETTINGS.sysclk_hz / 50_000);
+    for (phase, csr) in [
+        ("U", comp.c1csr()),
+        ("V", comp.c2csr()),
+        ("W", comp.c4csr()),
+    ] {
+        if csr.read().value().bit_is_set() {
+            defmt::panic!(
+                "over-current comparator {=str} trips with no current: check its threshold",
+                phase
+            );
+        }
     }
     [
         ocp::trip_current_a(&SETTINGS, v0_v[0], code_u),
