@@ -206,7 +206,10 @@ fn a_stage_fault_is_named_and_latched() {
     let drive = sinano_drive();
     let ok = no_current_48v();
     let run = running_at(500.0);
-    for f in [StageFault::HardwareOvercurrent, StageFault::OverTemperature] {
+    for (f, named) in [
+        (StageFault::HardwareOvercurrent, Fault::HardwareOvercurrent),
+        (StageFault::OverTemperature, Fault::OverTemperature),
+    ] {
         let mut st = DriveState::default();
         assert!(drive.step(&mut st, &ok, &run).duties.is_some());
         let tripped = DriveInput {
@@ -216,7 +219,7 @@ fn a_stage_fault_is_named_and_latched() {
         let out = drive.step(&mut st, &tripped, &run);
         assert!(out.duties.is_none());
         assert_eq!(st.mode(), Mode::Fault);
-        assert_eq!(st.fault(), Some(Fault::Stage(f)));
+        assert_eq!(st.fault(), Some(named));
         for _ in 0..10 {
             assert!(drive.step(&mut st, &ok, &run).duties.is_none(), "latched");
         }

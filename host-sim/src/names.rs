@@ -2,7 +2,6 @@
 //! summaries print them and scenario files (`expect_fault`) name them.
 
 use pmsm_sensorless::drive::{Fault, IdentifyError};
-use pmsm_sensorless::power_stage::StageFault;
 
 /// Every drive fault but the identification's, in the order `pmsm-sim` lists them.
 pub const FAULTS: [Fault; 10] = [
@@ -14,8 +13,8 @@ pub const FAULTS: [Fault; 10] = [
     Fault::Stall,
     Fault::Overrun,
     Fault::AdcOffset,
-    Fault::Stage(StageFault::HardwareOvercurrent),
-    Fault::Stage(StageFault::OverTemperature),
+    Fault::HardwareOvercurrent,
+    Fault::OverTemperature,
 ];
 
 /// Snake-case name of a drive fault, as in the JSON summary.
@@ -29,8 +28,8 @@ pub fn fault_name(f: Fault) -> &'static str {
         Fault::Stall => "stall",
         Fault::Overrun => "overrun",
         Fault::AdcOffset => "adc_offset",
-        Fault::Stage(StageFault::HardwareOvercurrent) => "hardware_overcurrent",
-        Fault::Stage(StageFault::OverTemperature) => "over_temperature",
+        Fault::HardwareOvercurrent => "hardware_overcurrent",
+        Fault::OverTemperature => "over_temperature",
         Fault::Identify(e) => error_name(e),
     }
 }
