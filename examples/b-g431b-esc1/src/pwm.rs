@@ -72,11 +72,14 @@ impl Pwm {
         }
     }
 
-    /// See [`outputs_off`].
+    /// See [`outputs_off`]. The compare values go back to half the period (zero volts), so
+    /// that an enable, whose own duties wait for the next update, starts from them and not
+    /// from the duties before the stop.
     #[inline(always)]
     pub fn outputs_off(&mut self) {
         outputs_off(&self.tim1);
         self.on = false;
+        self.load(Duties::NEUTRAL);
     }
 
     /// Whether a break has cleared MOE since the last [`Pwm::clear_break`] (latched).
@@ -117,10 +120,8 @@ impl Pwm {
         wait_updates(&self.tim1, 1);
         self.outputs_on();
         wait_updates(&self.tim1, periods);
+        // Off, the compare values back at half the period (loaded at the next update).
         self.outputs_off();
-        for ccr in [self.tim1.ccr1(), self.tim1.ccr2(), self.tim1.ccr3()] {
-            ccr.write(|w| w.ccr().set(PWM_ARR / 2));
-        }
         wait_updates(&self.tim1, 1);
     }
 
