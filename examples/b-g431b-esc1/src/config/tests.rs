@@ -50,6 +50,13 @@ fn sampling_window() {
     let expected = 1.0 - 2.0 * (S.dead_time.ns + 1300.0) * 1e-9 * 20_000.0;
     assert!((S.duty_max - expected).abs() < 1e-6, "{}", S.duty_max);
     assert!((S.duty_max - 0.916).abs() < 1e-5);
+    println!(
+        "dead time {} ns, largest duty {}, samples end {} ns after the peak, settle window {} ns",
+        S.dead_time.ns,
+        S.duty_max,
+        S.sample_end_ns,
+        S.settle_window_ns(S.duty_max)
+    );
 }
 
 /// A per LSB and V per LSB: Vref/4096 through the shunt and amplifier, and the divider.
@@ -217,6 +224,12 @@ fn over_current_thresholds() {
         assert!(i >= 1.5 * i_trip - 1e-3, "{v0} V: {i} A");
         assert!(i < 1.5 * i_trip + lsb_a + 1e-3, "{v0} V: {i} A");
     }
+    let lsb_a = S.vref_v / 4096.0 / S.comp_v_per_a;
+    println!(
+        "software trip {i_trip} A, hardware trip {} A, comparator {} mV/A, one DAC step {lsb_a} A",
+        S.hw_trip_factor * i_trip,
+        S.comp_v_per_a * 1e3
+    );
     // An input near the top of the range clamps at full scale.
     assert_eq!(dac_code(&S, 3.29, 100.0), 4095);
     let w = comp_csr(2);
