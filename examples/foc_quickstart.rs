@@ -56,6 +56,7 @@ fn main() {
         v_bus: 48.0,
         v_ab_terminal: None,
         overrun: false,
+        stage_fault: None,
     };
     let run = Command {
         enable: true,

@@ -66,6 +66,13 @@ pub struct DeadTimeConfig {
     /// Width of the smooth sign \[A], > 0: a phase current of `band_a` or more gets the full
     /// compensation, a smaller one the fraction `i/band_a`.
     pub band_a: f32,
+    /// The largest duty the power stage applies, in `(0.5 + t_d·f_pwm, 1]`: a board that
+    /// samples its phase currents in the low-side interval keeps that interval long enough
+    /// for the sample (`1 − d_max` of the period), so its duties stay in
+    /// `[1 − d_max, d_max]`. The voltage limit [`DeadTimeConfig::v_max_per_bus`] keeps every
+    /// duty the FOC computes there, so the board never clips one (the observers see the
+    /// voltage applied). 1: the whole bus.
+    pub duty_max: f32,
 }
 
 impl DeadTimeConfig {
@@ -75,6 +82,7 @@ impl DeadTimeConfig {
         dead_time_s: 0.0,
         pwm_hz: 20_000.0,
         band_a: 1.0,
+        duty_max: 1.0,
     };
 
     /// The dead time as a duty fraction, `t_d·f_pwm` (unvalidated).
@@ -83,36 +91,40 @@ impl DeadTimeConfig {
     }
 
     /// The largest voltage per volt of bus \[V/V] the compensated inverter applies in every
-    /// direction, `(1 − 2·t_d·f_pwm)/√3` (unvalidated): a command inside this circle plus the
-    /// compensation `E` stays inside the inverter's hexagon (SVPWM's linear range, `max − min`
-    /// of the phase voltages at most `V_bus`). `Clarke(s)` of signs in `[−1, 1]` lies in the
+    /// direction, `(2·d_max − 1 − 2·t_d·f_pwm)/√3` (unvalidated): a command inside this circle
+    /// plus the compensation `E` stays inside the inverter's hexagon shrunk to the duties
+    /// `[1 − d_max, d_max]` (`max − min` of the phase voltages at most `(2·d_max − 1)·V_bus`;
+    /// with `d_max = 1` SVPWM's linear range). `Clarke(s)` of signs in `[−1, 1]` lies in the
     /// hexagon of the six-step vectors, `4/3` long and pointing at the voltage hexagon's
     /// corners, so `E`'s component along any edge's normal is at most `(4/3)·cos 30°·t_d·f_pwm·
     /// V_bus = (2/√3)·t_d·f_pwm·V_bus`: the edges, `V_bus/√3` from the centre, move in by that
-    /// much, and the circle they enclose is `(1 − 2·t_d·f_pwm)·V_bus/√3`. Exactly `1/√3`
-    /// without dead time.
+    /// much, and the circle they enclose is `(2·d_max − 1 − 2·t_d·f_pwm)·V_bus/√3`. Exactly
+    /// `1/√3` without dead time and with `d_max = 1`.
     pub fn v_max_per_bus(&self) -> f32 {
-        INV_SQRT3 * (1.0 - 2.0 * self.duty())
+        INV_SQRT3 * ((2.0 * self.duty_max - 1.0) - 2.0 * self.duty())
     }
 
-    /// Validates the settings (the error names `dead_time_s`, `pwm_hz` or `band_a`) and folds
-    /// them into per-sample coefficients.
+    /// Validates the settings (the error names `dead_time_s`, `pwm_hz`, `band_a` or
+    /// `duty_max`) and folds them into per-sample coefficients.
     pub fn build(&self) -> Result<DeadTime, ParamError> {
         let mut c = Checks::new();
-        self.check(&mut c, ["pwm_hz", "dead_time_s", "band_a"]);
+        self.check(&mut c, ["pwm_hz", "dead_time_s", "band_a", "duty_max"]);
         c.done()?;
         Ok(DeadTime::new(self))
     }
 
     /// Adds the checks of these settings to `c` under the names `fields` (`pwm_hz`,
-    /// `dead_time_s`, `band_a` as the caller calls them): `pwm_hz` positive, `dead_time_s` in
-    /// `[0, 0.1/pwm_hz]`, `band_a` positive.
-    pub fn check(&self, c: &mut Checks, fields: [&'static str; 3]) {
-        let [pwm, dead, band] = fields;
+    /// `dead_time_s`, `band_a`, `duty_max` as the caller calls them): `pwm_hz` positive,
+    /// `dead_time_s` in `[0, 0.1/pwm_hz]`, `band_a` positive, `duty_max` in
+    /// `(0.5 + t_d·f_pwm, 1]` (a voltage limit above zero).
+    pub fn check(&self, c: &mut Checks, fields: [&'static str; 4]) {
+        let [pwm, dead, band, duty_max] = fields;
         c.check(pwm, self.pwm_hz, Allowed::POSITIVE);
         let tenth = Allowed::between(0.0, 0.1 / self.pwm_hz).because("a tenth of 1/pwm_hz");
         c.check(dead, self.dead_time_s, tenth);
         c.check(band, self.band_a, Allowed::POSITIVE);
+        let duty = Allowed::above_up_to(0.5 + self.duty(), 1.0).because("0.5 + t_d f_pwm..1");
+        c.check(duty_max, self.duty_max, duty);
     }
 }
 

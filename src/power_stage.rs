@@ -22,6 +22,21 @@ pub struct DriveInput {
     pub v_ab_terminal: Option<AlphaBeta>,
     /// The previous step did not finish within its period.
     pub overrun: bool,
+    /// The power stage's own protection has stopped it (`None` on a board without one):
+    /// the drive faults by this name, and the board keeps its switches off until the fault
+    /// is cleared.
+    pub stage_fault: Option<StageFault>,
+}
+
+/// What a power stage's own protection found ([`DriveInput::stage_fault`]).
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StageFault {
+    /// The hardware over-current protection (comparators on the shunts into the timer's
+    /// break input) switched every output off within the PWM period, before any sample.
+    HardwareOvercurrent,
+    /// The power stage's temperature is beyond its limit.
+    OverTemperature,
 }
 
 /// Three half-bridges with phase-current and bus sensing.

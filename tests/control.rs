@@ -39,6 +39,7 @@ impl PowerStage for Turning {
             v_bus: 48.0,
             v_ab_terminal: None,
             overrun: false,
+            stage_fault: None,
         }
     }
 

@@ -39,6 +39,7 @@ fn board(dead_time_s: f32) -> DeadTimeConfig {
         dead_time_s,
         pwm_hz: 20_000.0,
         band_a: band_a(),
+        duty_max: 1.0,
     }
 }
 
@@ -121,6 +122,7 @@ fn zero_dead_time_leaves_duties_and_voltages_unchanged() {
         dead_time_s: 0.0,
         pwm_hz: 16_000.0,
         band_a: 0.01,
+        duty_max: 1.0,
     });
     for k in 0..20_000u32 {
         let theta = 0.000_314_2 * k as f32 - std::f32::consts::PI;

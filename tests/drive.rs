@@ -5,12 +5,15 @@ use pmsm_host_sim::report::summary::Summary;
 use pmsm_host_sim::scenario::profile::Pwl;
 use pmsm_host_sim::scenario::{self, Scenario};
 use pmsm_host_sim::sim::{run, SimConfig};
-use pmsm_sensorless::drive::{Command, Drive, DriveConfig, DriveInput, DriveState, Mode, StateOf};
+use pmsm_sensorless::drive::{
+    Command, Drive, DriveConfig, DriveInput, DriveState, Fault, Mode, StateOf,
+};
 use pmsm_sensorless::frames::{Abc, AlphaBeta};
 use pmsm_sensorless::motor::HORNG_SINANO;
 use pmsm_sensorless::observer::flux_speed::FluxPll;
 use pmsm_sensorless::observer::sliding::SlidingObserver;
 use pmsm_sensorless::observer::Observer;
+use pmsm_sensorless::power_stage::StageFault;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed, TestCaseError};
 
@@ -41,6 +44,7 @@ fn no_current_48v() -> DriveInput {
         v_bus: 48.0,
         v_ab_terminal: None,
         overrun: false,
+        stage_fault: None,
     }
 }
 
@@ -194,6 +198,34 @@ fn a_speed_collapse_under_load_is_a_stall() {
     assert_eq!(s.fault.as_deref(), Some("stall"));
 }
 
+/// A fault of the power stage's own protection (the board's hardware over-current break, its
+/// over-temperature) faults the drive by name, the PWM off in the same step, latched until
+/// cleared.
+#[test]
+fn a_stage_fault_is_named_and_latched() {
+    let drive = sinano_drive();
+    let ok = no_current_48v();
+    let run = running_at(500.0);
+    for (f, named) in [
+        (StageFault::HardwareOvercurrent, Fault::HardwareOvercurrent),
+        (StageFault::OverTemperature, Fault::OverTemperature),
+    ] {
+        let mut st = DriveState::default();
+        assert!(drive.step(&mut st, &ok, &run).duties.is_some());
+        let tripped = DriveInput {
+            stage_fault: Some(f),
+            ..ok
+        };
+        let out = drive.step(&mut st, &tripped, &run);
+        assert!(out.duties.is_none());
+        assert_eq!(st.mode(), Mode::Fault);
+        assert_eq!(st.fault(), Some(named));
+        for _ in 0..10 {
+            assert!(drive.step(&mut st, &ok, &run).duties.is_none(), "latched");
+        }
+    }
+}
+
 #[test]
 fn a_fault_latches_until_cleared() {
     let drive = sinano_drive();
@@ -335,6 +367,7 @@ fn step_input() -> impl Strategy<Value = (DriveInput, Command)> {
                         v_bus,
                         v_ab_terminal: v_t.map(|(alpha, beta)| AlphaBeta::new(alpha, beta)),
                         overrun,
+                        stage_fault: None,
                     },
                     Command {
                         enable,

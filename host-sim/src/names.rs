@@ -4,7 +4,7 @@
 use pmsm_sensorless::drive::{Fault, IdentifyError};
 
 /// Every drive fault but the identification's, in the order `pmsm-sim` lists them.
-pub const FAULTS: [Fault; 8] = [
+pub const FAULTS: [Fault; 10] = [
     Fault::Overcurrent,
     Fault::BusUndervoltage,
     Fault::BusOvervoltage,
@@ -13,6 +13,8 @@ pub const FAULTS: [Fault; 8] = [
     Fault::Stall,
     Fault::Overrun,
     Fault::AdcOffset,
+    Fault::HardwareOvercurrent,
+    Fault::OverTemperature,
 ];
 
 /// Snake-case name of a drive fault, as in the JSON summary.
@@ -26,6 +28,8 @@ pub fn fault_name(f: Fault) -> &'static str {
         Fault::Stall => "stall",
         Fault::Overrun => "overrun",
         Fault::AdcOffset => "adc_offset",
+        Fault::HardwareOvercurrent => "hardware_overcurrent",
+        Fault::OverTemperature => "over_temperature",
         Fault::Identify(e) => error_name(e),
     }
 }

@@ -224,6 +224,7 @@ fn idle_samples_give_the_offsets_an_enable_takes() {
             v_bus: 48.0,
             v_ab_terminal: None,
             overrun: false,
+            stage_fault: None,
         };
         for _ in 0..100 {
             assert!(drive.step(&mut st, &input, &idle).duties.is_none());

@@ -138,6 +138,10 @@ pub struct PowerStageConfig {
     /// Width of the compensation's smooth sign \[A], > 0: a phase current of this or more
     /// gets the full `t_d·f_pwm`.
     pub dead_time_band_a: f32,
+    /// The largest duty the board applies, in `(0.5 + t_d·f_pwm, 1]`: the voltage limit keeps
+    /// every duty within `[1 − duty_max, duty_max]`
+    /// ([`DeadTimeConfig::v_max_per_bus`](crate::dead_time::DeadTimeConfig::v_max_per_bus)).
+    pub duty_max: f32,
 }
 
 /// Everything the drive is built from. [`DriveConfig::new`] derives it from a motor.
@@ -223,6 +227,7 @@ impl DriveConfig {
                 pwm_hz: 20_000.0,
                 dead_time_s: 500e-9,
                 dead_time_band_a: 0.05 * i_rated,
+                duty_max: 1.0,
             },
             ratings: motor.ratings,
             // The drive's own sensing range; a board sets its own.
@@ -316,6 +321,7 @@ impl DriveConfig {
                 "power_stage.pwm_hz",
                 "power_stage.dead_time_s",
                 "power_stage.dead_time_band_a",
+                "power_stage.duty_max",
             ],
         );
         c.done()?;
@@ -414,6 +420,7 @@ impl DriveConfig {
             dead_time_s: p.dead_time_s,
             pwm_hz: p.pwm_hz,
             band_a: p.dead_time_band_a,
+            duty_max: p.duty_max,
         }
     }
 

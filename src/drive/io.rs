@@ -53,6 +53,18 @@ pub enum Fault {
     /// A current sensor's offset, measured with the PWM off, is beyond a twentieth of the
     /// sensing range: a broken sensing path, or a current flowing.
     AdcOffset,
+    /// The power stage's hardware over-current protection switched it off
+    /// ([`StageFault::HardwareOvercurrent`] in [`DriveInput::stage_fault`]).
+    ///
+    /// [`StageFault::HardwareOvercurrent`]: crate::power_stage::StageFault::HardwareOvercurrent
+    /// [`DriveInput::stage_fault`]: crate::power_stage::DriveInput::stage_fault
+    HardwareOvercurrent,
+    /// The power stage is too hot ([`StageFault::OverTemperature`] in
+    /// [`DriveInput::stage_fault`]).
+    ///
+    /// [`StageFault::OverTemperature`]: crate::power_stage::StageFault::OverTemperature
+    /// [`DriveInput::stage_fault`]: crate::power_stage::DriveInput::stage_fault
+    OverTemperature,
     /// The identification stopped: why (with the feature `identify`).
     #[cfg(feature = "identify")]
     Identify(super::identify::IdentifyError),

@@ -18,7 +18,7 @@ use super::config::Limits;
 use super::io::{Command, Fault, Mode};
 use crate::frames::AlphaBeta;
 use crate::math::{all_finite, max};
-use crate::power_stage::DriveInput;
+use crate::power_stage::{DriveInput, StageFault};
 use core::hint::cold_path;
 
 /// The fault `input` shows, if any. `starting`: this step leaves idle.
@@ -31,6 +31,12 @@ pub(super) fn check_input(
     cmd: &Command,
 ) -> Option<Fault> {
     let i = input.i_abc;
+    if let Some(f) = input.stage_fault {
+        return found(match f {
+            StageFault::HardwareOvercurrent => Fault::HardwareOvercurrent,
+            StageFault::OverTemperature => Fault::OverTemperature,
+        });
+    }
     if input.overrun {
         return found(Fault::Overrun);
     }

@@ -117,6 +117,7 @@ impl FocConfig {
             "dead_time.pwm_hz",
             "dead_time.dead_time_s",
             "dead_time.band_a",
+            "dead_time.duty_max",
         ];
         self.dead_time.check(&mut c, dead);
         c.done()?;

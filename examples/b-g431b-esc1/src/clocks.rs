@@ -1,10 +1,9 @@
 //! Clocks: SYSCLK 170 MHz from the PLL (HSE crystal, HSI16 as fallback), and the peripheral
 //! clocks the firmware uses.
 
+use pmsm_b_g431b_esc1::config::SETTINGS;
+use pmsm_b_g431b_esc1::pll::{SRC_HSE, SRC_HSI16};
 use stm32g4::stm32g431 as pac;
-
-/// SYSCLK = HCLK = PCLK1 = PCLK2 = TIM1 kernel clock [Hz].
-pub const SYSCLK_HZ: u32 = 170_000_000;
 
 #[derive(Clone, Copy, defmt::Format)]
 pub enum ClockSource {
@@ -17,16 +16,18 @@ pub enum ClockSource {
 /// SYSCLK = 170 MHz from PLLR, in range 1 boost mode (RM0440 §6.1.5, §7.2.7).
 ///
 /// HSE: the board's 8 MHz crystal (NuttX board port: `STM32_BOARD_XTAL 8000000`, "Y2 on
-/// board"; crystal mode, not bypass: UNVERIFIED against UM2516). PLL input 4 MHz
-/// (HSE/2 or HSI16/4), VCO ×85 = 340 MHz, R /2 = 170 MHz. If the HSE is not ready
+/// board"; crystal mode, not bypass: UNVERIFIED against UM2516). The PLL's dividers are
+/// `SETTINGS.pll_hse` / `pll_hsi` (PLL input 4 MHz, HSE/2 or HSI16/4, VCO ×85 = 340 MHz,
+/// R /2 = 170 MHz, within DS12589's ranges: host-tested). If the HSE is not ready
 /// within ~100 ms the PLL runs from HSI16 instead (same frequencies, ±1 % accuracy).
 pub fn init(rcc: &pac::RCC, pwr: &pac::PWR, flash: &pac::FLASH) -> ClockSource {
     // Flash: 4 wait states for HCLK ≤ 170 MHz in range 1 boost (RM0440 FLASH chapter,
     // "Read access latency", wait states versus HCLK table), prefetch and both caches on,
     // before any frequency increase (more wait states than needed are always safe).
-    flash.acr().modify(|_, w| {
+    // SAFETY: LATENCY 0..15 wait states; `flash_wait_states` is 4 at 170 MHz (host-tested).
+    flash.acr().modify(|_, w| unsafe {
         w.latency()
-            .wait4()
+            .bits(SETTINGS.flash_wait_states as u8)
             .prften()
             .set_bit()
             .icen()
@@ -34,7 +35,7 @@ pub fn init(rcc: &pac::RCC, pwr: &pac::PWR, flash: &pac::FLASH) -> ClockSource {
             .dcen()
             .set_bit()
     });
-    while !flash.acr().read().latency().is_wait4() {}
+    while u32::from(flash.acr().read().latency().bits()) != SETTINGS.flash_wait_states {}
 
     rcc.cr().modify(|_, w| w.hseon().set_bit());
     let mut hse_ready = false;
@@ -53,13 +54,13 @@ pub fn init(rcc: &pac::RCC, pwr: &pac::PWR, flash: &pac::FLASH) -> ClockSource {
     };
 
     // PLL is off after reset; configure, enable, wait for lock.
-    rcc.pllcfgr().write(|w| {
-        let w = match source {
-            ClockSource::Hse => w.pllsrc().hse().pllm().div2(),
-            ClockSource::HsiFallback => w.pllsrc().hsi16().pllm().div4(),
-        };
-        w.plln().div85().pllr().div2().pllren().set_bit()
-    });
+    let word = match source {
+        ClockSource::Hse => SETTINGS.pll_hse.pllcfgr(SRC_HSE),
+        ClockSource::HsiFallback => SETTINGS.pll_hsi.pllcfgr(SRC_HSI16),
+    };
+    // SAFETY: the word's fields are within their ranges (`Pll::exact`, `Pll::pllcfgr`:
+    // host-tested field by field); the PLL is off.
+    rcc.pllcfgr().write(|w| unsafe { w.bits(word) });
     rcc.cr().modify(|_, w| w.pllon().set_bit());
     while rcc.cr().read().pllrdy().bit_is_clear() {}
 

@@ -31,9 +31,10 @@ use pmsm_sensorless::control::{Commands, TickCopy};
 use stm32g4::stm32g431::{interrupt, Interrupt};
 
 use crate::power_stage::Esc1;
-use crate::protection::Watchdog;
-use crate::settings::{BoardDrive, Monitor, Primary, SPEED_CMD_RPM};
+use crate::protection::{Watchdog, TICK_ALIVE};
 use crate::telemetry::{Event, Sender, TELEMETRY_EVERY};
+use pmsm_b_g431b_esc1::config::SETTINGS;
+use pmsm_b_g431b_esc1::drive_settings::{BoardDrive, Monitor, Primary, SPEED_CMD_RPM};
 
 /// The step's interrupt: ADC1 end of injected sequence (ADC1 and ADC2 share the vector).
 pub const STEP_IRQ: Interrupt = Interrupt::ADC1_2;
@@ -62,6 +63,11 @@ pub static STEPS: AtomicU32 = AtomicU32::new(0);
 pub static IDENTIFY: AtomicBool = AtomicBool::new(false);
 /// 1 kHz tasks taken again because a step ran while they computed (see the module's doc).
 pub static TICK_RETRIES: AtomicU32 = AtomicU32::new(0);
+/// The speed command of the last step, derated by the temperature [rpm] (f32 bits): the
+/// 1 kHz task's command.
+pub static SPEED_RPM: AtomicU32 = AtomicU32::new(0);
+/// The power stage's temperature at the last step [°C] (f32 bits), for the log.
+pub static STAGE_TEMP_C: AtomicU32 = AtomicU32::new(0);
 
 /// The core's control loop on this board's power stage.
 type BoardControl = pmsm_sensorless::control::Control<Primary, Monitor, Esc1>;
@@ -106,12 +112,22 @@ impl Control {
     #[link_section = ".ramfunc.control_step"]
     #[inline(never)]
     pub fn step(&mut self) {
+        // The speed command derated by the power stage's temperature (`ntc`), shared with
+        // the 1 kHz task.
+        let stage = self.control.stage();
+        let speed_rpm = SPEED_CMD_RPM * stage.speed_scale();
+        SPEED_RPM.store(speed_rpm.to_bits(), Ordering::Relaxed);
+        STAGE_TEMP_C.store(stage.temp_c().to_bits(), Ordering::Relaxed);
         let cmd = Commands {
             enable: ENABLE.load(Ordering::Relaxed),
-            speed_rpm: SPEED_CMD_RPM,
+            speed_rpm,
             clear_fault: CLEAR_FAULT.swap(false, Ordering::Relaxed),
             identify: false,
         };
+        if cmd.clear_fault {
+            // The board's latched faults with the drive's.
+            self.control.stage_mut().clear_faults();
+        }
         let out = self.control.step(&cmd);
         if let Some(tr) = out.transition {
             self.events.send(Event::Transition { step: out.step, tr });
@@ -155,7 +171,7 @@ impl Tick {
     fn run(&mut self) {
         let cmd = Commands {
             enable: ENABLE.load(Ordering::Relaxed),
-            speed_rpm: SPEED_CMD_RPM,
+            speed_rpm: f32::from_bits(SPEED_RPM.load(Ordering::Relaxed)),
             clear_fault: false,
             // The commissioning firmware (`cargo fw-identify`) only.
             identify: cfg!(feature = "identify") && IDENTIFY.swap(false, Ordering::Relaxed),
@@ -170,6 +186,7 @@ impl Tick {
             }
             TICK_RETRIES.fetch_add(1, Ordering::Relaxed);
         };
+        TICK_ALIVE.store(true, Ordering::Relaxed);
         let step = self.copy.steps();
         for tr in ticked.transitions() {
             self.events.send(Event::Transition { step, tr });
@@ -218,15 +235,28 @@ pub fn start(nvic: &mut NVIC, control: Control, tick: Tick) {
     }
 }
 
-/// The step's interrupt ([`STEP_IRQ`]): [`Control::step`].
+/// The step's interrupt ([`STEP_IRQ`], every PWM period: the ADCs convert at every update
+/// event): [`Control::step`] on every `pwm_per_step`-th sample, the others' flags cleared.
 #[interrupt]
 fn ADC1_2() {
+    // Samples to skip before the next step.
+    static mut SKIP: u32 = 0;
+    let step = *SKIP == 0;
+    *SKIP = if step {
+        SETTINGS.pwm_per_step - 1
+    } else {
+        *SKIP - 1
+    };
     cortex_m::interrupt::free(|cs| {
         // Never borrowed twice (the task borrows it with interrupts off); no panic path
         // either way.
         if let Ok(mut ctl) = CONTROL.borrow(cs).try_borrow_mut() {
             if let Some(ctl) = ctl.as_mut() {
-                ctl.step();
+                if step {
+                    ctl.step();
+                } else {
+                    ctl.control.stage().skip_sample();
+                }
             }
         }
     });

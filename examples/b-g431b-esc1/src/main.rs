@@ -11,8 +11,8 @@
 //!
 //! # Use
 //!
-//! The motor is the constant `settings::MOTOR` (edit it for yours), the speed command the
-//! constant `settings::SPEED_CMD_RPM`. The user button toggles `enable` (on its release);
+//! The motor is the constant `drive_settings::MOTOR` of the library (`src/lib.rs`; edit it
+//! for yours), the speed command the constant `drive_settings::SPEED_CMD_RPM`. The user button toggles `enable` (on its release);
 //! pressed while the drive is in `Fault` it clears the fault and leaves the drive disabled
 //! (press again to restart); held 2 s with the drive disabled, it starts the identification
 //! (issue #19), whose end prints the motor file in the log.
@@ -20,9 +20,13 @@
 //!
 //! # Modules
 //!
+//! The library (`src/lib.rs`, host-tested): `config` computes every clock, timer, ADC and
+//! watchdog value from one configuration and what the drive is told (PWM frequency, dead
+//! time, control rate, largest duty); `drive_settings` holds the motor, the observers and
+//! the speed command. The firmware's modules write those values:
 //! `clocks` (170 MHz, peripheral clocks), `pwm` (TIM1: timing, dead time, duties), `adc`
 //! (OPAMPs, ADCs, offsets, scaling), `power_stage` (the core's `PowerStage` on those two),
-//! `settings` (the motor, the observers, the speed command, the drive built from them),
+//! `settings` (the drive built from the library's configuration),
 //! `control` (the core's shared control loop on this board: the step's interrupt, the 1 kHz
 //! task's interrupt below it, the commands), `protection` (watchdog, HardFault, debug halt, the
 //! board's bus limit), `telemetry` (the interrupts → main-loop queues and the defmt log). This
@@ -80,6 +84,8 @@ mod clocks;
 #[cfg(target_os = "none")]
 mod control;
 #[cfg(target_os = "none")]
+mod overcurrent;
+#[cfg(target_os = "none")]
 mod power_stage;
 #[cfg(target_os = "none")]
 mod protection;
@@ -98,15 +104,22 @@ mod firmware {
     use panic_probe as _;
     use stm32g4::stm32g431 as pac;
 
-    use crate::control::{self, Control, Tick, CLEAR_FAULT, ENABLE, IDENTIFY, STEPS, TICK_RETRIES};
+    use crate::control::{
+        self, Control, Tick, CLEAR_FAULT, ENABLE, IDENTIFY, SPEED_RPM, STAGE_TEMP_C, STEPS,
+        TICK_RETRIES,
+    };
     use crate::power_stage::Esc1;
-    use crate::{adc, clocks, protection, pwm, settings, telemetry};
+    use crate::protection::MAIN_ALIVE;
+    use crate::{adc, clocks, overcurrent, protection, pwm, settings, telemetry};
+    use pmsm_b_g431b_esc1::config::SETTINGS;
+    use pmsm_b_g431b_esc1::drive_settings::drive_config;
+    use pmsm_b_g431b_esc1::ntc::NtcConfig;
 
     /// The button is sampled every this many steps (40 steps = 10 ms, longer than contact
     /// bounce).
     const BUTTON_POLL_STEPS: u32 = 40;
     /// A press held this long (2 s) with the drive disabled starts the identification.
-    const IDENTIFY_HOLD_STEPS: u32 = 2 * crate::pwm::CONTROL_HZ;
+    const IDENTIFY_HOLD_STEPS: u32 = 2 * pmsm_b_g431b_esc1::config::SETTINGS.control_hz;
 
     /// Copies the control path (`.ramfunc`, placed by `ramfunc.x`) from its load image in
     /// flash to CCM SRAM. Must run before anything in it is called.
@@ -147,22 +160,47 @@ mod firmware {
 
         protection::freeze_on_debug_halt(&dp.DBGMCU);
         clocks::enable_peripherals(&dp.RCC);
+        overcurrent::system_break(
+            &dp.SYSCFG,
+            &dp.RCC,
+            matches!(clock, clocks::ClockSource::Hse),
+        );
         pwm::release_dead_battery_pins(&dp.PWR);
 
         pwm::init_tim1(&dp.TIM1);
-        pwm::init_pins(&dp.GPIOA, &dp.GPIOB, &dp.GPIOC);
         adc::init_pins(&dp.GPIOA, &dp.GPIOB);
         init_button(&dp.GPIOC);
         adc::init_opamps(&dp.OPAMP);
 
-        // Start the timer (outputs still off: MOE = 0) and find where its update lands.
+        // Start the timer (outputs off: MOE = 0), find where its update lands, write BDTR
+        // once (dead time, breaks, off-states, LOCK); only then the pins to the timer.
         let pwm = pwm::start(dp.TIM1);
-        let adc = adc::init(&dp.ADC12_COMMON, dp.ADC1, dp.ADC2);
+        pwm::init_pins(&dp.GPIOA, &dp.GPIOB, &dp.GPIOC);
+        let (adc, comparator_inputs, ntc_raw) = adc::init(&dp.ADC12_COMMON, dp.ADC1, dp.ADC2);
+        let temp_c = NtcConfig::ESC1.temp_c(ntc_raw, SETTINGS.vref_v);
+        defmt::info!("power stage at {=f32} C (NTC, PB14)", temp_c);
+        let i_trip_a = drive_config().limits.i_trip_a;
+        let hw_trip = overcurrent::init(&dp.RCC, &dp.DAC3, &dp.COMP, comparator_inputs, i_trip_a);
+        defmt::info!(
+            "hardware over-current trip (COMP1/2/4 -> TIM1 BRK2) at U {=f32} V {=f32} W {=f32} A (software trip {=f32} A); comparator inputs {=f32} {=f32} {=f32} V",
+            hw_trip[0],
+            hw_trip[1],
+            hw_trip[2],
+            i_trip_a,
+            comparator_inputs[0],
+            comparator_inputs[1],
+            comparator_inputs[2]
+        );
         let drive = settings::build_drive();
         let (step_events, tick_events, mut receiver) = telemetry::queues();
 
+        let mut stage = Esc1::new(pwm, adc, temp_c);
+        // A break flag set while the comparators started (none is high now: checked) is
+        // not a fault.
+        stage.clear_faults();
+        // Before the first enable: the bootstrap capacitors charged through the low sides.
+        stage.precharge_bootstrap(SETTINGS.precharge_periods);
         let watchdog = protection::Watchdog::start(dp.IWDG);
-        let stage = Esc1::new(pwm, adc);
         // Drop any sequence that completed since the calibration, so the first step starts on
         // a fresh sample (a stale one could make the first step look like an overrun).
         stage.discard_samples();
@@ -184,7 +222,10 @@ mod firmware {
         #[cfg(not(feature = "identify"))]
         defmt::info!("running; press the user button (PC10) to enable/disable");
 
+        let mut last_temp_log = 0u32;
         loop {
+            // This loop has run: the control step may feed the watchdog.
+            MAIN_ALIVE.store(true, Ordering::Relaxed);
             receiver.log(|ev| faulted = ev.faulted());
             let retries = TICK_RETRIES.swap(0, Ordering::Relaxed);
             if retries > 0 {
@@ -196,6 +237,14 @@ mod firmware {
 
             // The button's idle level was read at boot, so its polarity does not matter.
             let now = STEPS.load(Ordering::Relaxed);
+            if now.wrapping_sub(last_temp_log) >= SETTINGS.control_hz {
+                last_temp_log = now;
+                defmt::info!(
+                    "power stage {=f32} C, speed command {=f32} rpm",
+                    f32::from_bits(STAGE_TEMP_C.load(Ordering::Relaxed)),
+                    f32::from_bits(SPEED_RPM.load(Ordering::Relaxed))
+                );
+            }
             if now.wrapping_sub(last_poll) >= BUTTON_POLL_STEPS {
                 last_poll = now;
                 let pressed = gpioc.idr().read().idr(10).bit() != button_idle;

@@ -1,13 +1,20 @@
 //! The board's power stage as the core sees it ([`PowerStage`]): the sample is the injected
-//! conversions ADC1/ADC2 made at TIM1's update, scaled; applying duties loads TIM1's compare
-//! registers and sets MOE, applying `None` clears MOE.
+//! conversions ADC1/ADC2 made at TIM1's update, scaled, with a latched break reported by
+//! name; applying duties loads TIM1's compare registers and sets MOE (unless a break is
+//! latched), applying `None` clears MOE.
 
 use pmsm_sensorless::drive::DriveInput;
-use pmsm_sensorless::power_stage::PowerStage;
+use pmsm_sensorless::power_stage::{PowerStage, StageFault};
 use pmsm_sensorless::svpwm::Duties;
+
+use pmsm_b_g431b_esc1::config::SETTINGS;
+use pmsm_b_g431b_esc1::ntc::NtcConfig;
 
 use crate::adc::Adc;
 use crate::pwm::Pwm;
+
+/// The board's NTC, its derating and trip.
+const NTC: NtcConfig = NtcConfig::ESC1;
 
 /// TIM1's three half-bridges with the shunt and bus sensing of the B-G431B-ESC1.
 pub struct Esc1 {
@@ -15,20 +22,67 @@ pub struct Esc1 {
     adc: Adc,
     /// The previous step overran its period.
     overrun: bool,
+    /// The power stage's temperature, low-pass filtered \[°C].
+    temp_c: f32,
+    /// The filter's gain per step.
+    temp_gain: f32,
+    /// The latest unfiltered temperature \[°C].
+    temp_now_c: f32,
+    /// Over-temperature (or an implausible reading) latched until [`Esc1::clear_faults`].
+    hot: bool,
 }
 
 impl Esc1 {
-    pub fn new(pwm: Pwm, adc: Adc) -> Self {
+    /// The stage of `pwm` and `adc`, its temperature filter started at `temp_c` \[°C].
+    pub fn new(pwm: Pwm, adc: Adc, temp_c: f32) -> Self {
         Self {
             pwm,
             adc,
             overrun: false,
+            temp_c,
+            temp_gain: NTC.filter_gain(SETTINGS.control_hz as f32),
+            temp_now_c: temp_c,
+            hot: false,
         }
+    }
+
+    /// The power stage's temperature, filtered \[°C].
+    #[inline(always)]
+    pub fn temp_c(&self) -> f32 {
+        self.temp_c
+    }
+
+    /// The share of the speed command the temperature leaves ([`NtcConfig::speed_scale`]).
+    #[inline(always)]
+    pub fn speed_scale(&self) -> f32 {
+        NTC.speed_scale(self.temp_c)
     }
 
     /// Drops any sequence that completed before the control interrupt is enabled.
     pub fn discard_samples(&self) {
         self.adc.discard();
+    }
+
+    /// A sample the step does not use (the ADC converts every PWM period, the step runs on
+    /// every `pwm_per_step`-th): its flags cleared.
+    #[inline(always)]
+    pub fn skip_sample(&self) {
+        self.adc.discard();
+    }
+
+    /// The user cleared the fault: the latched break too (reported again at once if the
+    /// break is still active).
+    pub fn clear_faults(&mut self) {
+        self.pwm.clear_break();
+        // The filter restarts from the latest reading (a NaN does not stay in it); a stage
+        // still too hot faults again in the next sample.
+        self.temp_c = self.temp_now_c;
+        self.hot = false;
+    }
+
+    /// Bootstrap pre-charge before the first enable (see [`Pwm::precharge_bootstrap`]).
+    pub fn precharge_bootstrap(&mut self, periods: u32) {
+        self.pwm.precharge_bootstrap(periods);
     }
 
     /// Called last in each step: another injected sequence completed while this step ran,
@@ -43,18 +97,31 @@ impl Esc1 {
 impl PowerStage for Esc1 {
     #[inline(always)]
     fn sample(&mut self) -> DriveInput {
-        let (i_abc, v_bus) = self.adc.read();
+        let (i_abc, v_bus, raw_ntc) = self.adc.read();
+        self.temp_now_c = NTC.temp_c(raw_ntc, SETTINGS.vref_v);
+        self.temp_c += self.temp_gain * (self.temp_now_c - self.temp_c);
+        if NTC.fault(self.temp_c) {
+            self.hot = true;
+        }
         DriveInput {
             i_abc,
             v_bus,
             // The board's back-EMF dividers are not read yet: an enable always aligns.
             v_ab_terminal: None,
             overrun: self.overrun,
+            stage_fault: if self.pwm.break_latched() {
+                Some(StageFault::HardwareOvercurrent)
+            } else if self.hot {
+                Some(StageFault::OverTemperature)
+            } else {
+                None
+            },
         }
     }
 
     /// PWM outputs stay off (MOE = 0) until the drive returns duties, and MOE is cleared in
-    /// the same step in which it returns `None`.
+    /// the same step in which it returns `None`; a latched break keeps them off (the drive
+    /// faulted on it in this step's sample, so it returns `None` anyway).
     #[inline(always)]
     fn apply(&mut self, duties: Option<Duties>) {
         match duties {

@@ -5,37 +5,16 @@ use stm32g4::stm32g431 as pac;
 
 use pmsm_sensorless::svpwm::Duties;
 
-use crate::clocks::SYSCLK_HZ;
+use pmsm_b_g431b_esc1::config::SETTINGS;
+use pmsm_b_g431b_esc1::tim1;
 
-/// Switching frequency [Hz].
-pub const PWM_HZ: u32 = 20_000;
-/// Control (drive step) rate [Hz]; must equal the drive's `rate_hz`.
-pub const CONTROL_HZ: u32 = 4_000;
-/// Centre-aligned: one PWM period is 2·ARR timer clocks (RM0440 §28, "Center-aligned mode
-/// (up/down counting)").
-const PWM_ARR: u32 = SYSCLK_HZ / (2 * PWM_HZ);
-/// PWM periods per control step.
-const PWM_PER_STEP: u32 = PWM_HZ / CONTROL_HZ;
-/// In centre-aligned mode the repetition counter counts both overflows and underflows
-/// (RM0440 §28, "Repetition counter"): RCR + 1 = 2 × periods per update event.
-const TIM1_RCR: u16 = (2 * PWM_PER_STEP - 1) as u16;
-/// Dead time [ns]. The L6387 gate driver interlocks its two inputs but, to my knowledge,
-/// inserts no dead time of its own; 500 ns is the value NuttX uses for this board ("REVISIT" there): NOT
-/// derived from the STL180N6F7 switching times.
-const DEAD_TIME_NS: u32 = 500;
-/// DTG[7:0] with DTG[7] = 0: dead time = DTG × t_DTS, t_DTS = 1/170 MHz (CKD = 0),
-/// at most 127 steps = 747 ns (RM0440 TIMx_BDTR).
-const DTG: u8 = (DEAD_TIME_NS * (SYSCLK_HZ / 1_000_000) / 1000) as u8;
-/// Largest duty loaded into the timer. Currents are sampled in the middle of the low-side
-/// conduction interval, which lasts (1 − d)·50 µs at 20 kHz; the
-/// shunt amplifiers need about 1.3 µs to settle after a switching edge (measured by the
-/// FOC-Stim project, diglet48/FOC-Stim, on this board) plus dead time and the ~0.5 µs conversion of the first
-/// two ranks: 0.92 leaves 2 µs each side of the sample. An engineering estimate.
-const DUTY_MAX: f32 = 0.92;
-
-const _: () = assert!(
-    PWM_HZ.is_multiple_of(CONTROL_HZ) && DEAD_TIME_NS * (SYSCLK_HZ / 1_000_000) / 1000 <= 127
-);
+/// Half a PWM period in timer clocks (centre-aligned: one period is 2·ARR clocks).
+const PWM_ARR: u32 = SETTINGS.tim1_arr;
+/// Largest duty loaded into the timer, `SETTINGS.duty_max`: the low-side interval (where
+/// the currents are sampled) keeps room for the amplifiers to settle after the dead time
+/// and for both samples. The drive's voltage limit is computed from the same value
+/// (`PowerStageConfig::duty_max`), so this clamp only catches rounding.
+const DUTY_MAX: f32 = SETTINGS.duty_max;
 
 /// Where the update event (and so the current sample) falls in the PWM period; decides
 /// how duties map to compare values (see [`configure_pwm_edge`]).
@@ -51,10 +30,15 @@ enum SampleAt {
 pub struct Pwm {
     tim1: pac::TIM1,
     sample_at: SampleAt,
+    /// MOE set by the step (the outputs follow the compare registers).
+    on: bool,
+    /// A break cleared MOE: latched until [`Pwm::clear_break`], MOE not set meanwhile.
+    tripped: bool,
 }
 
 impl Pwm {
-    /// Duties in [0, 1] → CCR1..3 (preload off: they take effect now, see [`init_tim1`]).
+    /// Duties in [0, 1] → CCR1..3, preloaded: they take effect at the next update event, the
+    /// next counter peak ([`pmsm_b_g431b_esc1::tim1`]).
     #[inline(always)]
     pub fn load(&self, d: Duties) {
         let ccr = |x: f32| {
@@ -71,124 +55,190 @@ impl Pwm {
         self.tim1.ccr3().write(|w| w.ccr().set(ccr(d.c)));
     }
 
-    /// Main output enable: the six outputs follow the compare registers.
+    /// Main output enable: the six outputs follow the compare registers. Written only when
+    /// the outputs are off and no break is latched: a break's MOE = 0 is never undone here.
     #[inline(always)]
-    pub fn outputs_on(&self) {
-        self.tim1.bdtr().modify(|_, w| w.moe().enabled());
+    pub fn outputs_on(&mut self) {
+        if self.on || self.tripped {
+            return;
+        }
+        self.tim1.bdtr().modify(|_, w| w.moe().set_bit());
+        self.on = true;
+        // A break between the read and the write of BDTR would be undone by the write:
+        // look again, and take MOE back if one came.
+        if self.break_seen() {
+            outputs_off(&self.tim1);
+            self.tripped = true;
+        }
     }
 
-    /// See [`outputs_off`].
+    /// See [`outputs_off`]. The compare values go back to half the period (zero volts), so
+    /// that an enable, whose own duties wait for the next update, starts from them and not
+    /// from the duties before the stop.
     #[inline(always)]
-    pub fn outputs_off(&self) {
+    pub fn outputs_off(&mut self) {
         outputs_off(&self.tim1);
+        self.on = false;
+        self.load(Duties::NEUTRAL);
+    }
+
+    /// Whether a break has cleared MOE since the last [`Pwm::clear_break`] (latched).
+    #[inline(always)]
+    pub fn break_latched(&mut self) -> bool {
+        if !self.tripped && self.break_seen() {
+            self.tripped = true;
+            self.on = false;
+        }
+        self.tripped
+    }
+
+    /// The user cleared the fault: the break flags and the latch cleared. A break still
+    /// active sets its flag again at once, and the next sample reports it.
+    pub fn clear_break(&mut self) {
+        // SAFETY: TIMx_SR is read/clear-by-writing-0: writing 1 elsewhere leaves the other
+        // flags as they are.
+        self.tim1
+            .sr()
+            .write(|w| unsafe { w.bits(!tim1::SR_BREAK_FLAGS) });
+        self.tripped = false;
+    }
+
+    /// A break flag is set (BIF, B2IF or SBIF).
+    #[inline(always)]
+    fn break_seen(&self) -> bool {
+        self.tim1.sr().read().bits() & tim1::SR_BREAK_FLAGS != 0
+    }
+
+    /// Bootstrap pre-charge: all three low sides on (compare 0: the high sides never on)
+    /// for `periods` PWM periods, then every output off and the compare values back at
+    /// half the period. Before the control interrupt is enabled.
+    pub fn precharge_bootstrap(&mut self, periods: u32) {
+        for ccr in [self.tim1.ccr1(), self.tim1.ccr2(), self.tim1.ccr3()] {
+            ccr.write(|w| w.ccr().set(self.off_compare()));
+        }
+        // The preloaded zeros take effect at the next update.
+        wait_updates(&self.tim1, 1);
+        self.outputs_on();
+        wait_updates(&self.tim1, periods);
+        // Off, the compare values back at half the period (loaded at the next update).
+        self.outputs_off();
+        wait_updates(&self.tim1, 1);
+    }
+
+    /// The compare value that keeps the high side off for the whole period.
+    fn off_compare(&self) -> u32 {
+        match self.sample_at {
+            SampleAt::Peak => 0,
+            SampleAt::Valley => PWM_ARR,
+        }
     }
 }
 
 /// MOE = 0: all six outputs to their idle (off) level at once (OSSI = 1, idle levels low).
 #[inline(always)]
 pub fn outputs_off(tim1: &pac::tim1::RegisterBlock) {
-    tim1.bdtr().modify(|_, w| w.moe().disabled_idle());
+    tim1.bdtr().modify(|_, w| w.moe().clear_bit());
+}
+
+/// Waits for `n` update events (polling UIF; the update interrupt is not enabled).
+fn wait_updates(tim1: &pac::TIM1, n: u32) {
+    for _ in 0..n {
+        tim1.sr().write(|w| w.uif().clear());
+        let mut waited = 0u32;
+        while tim1.sr().read().uif().bit_is_clear() {
+            waited += 1;
+            if waited > 1_000_000 {
+                defmt::panic!("TIM1 produces no update event");
+            }
+        }
+    }
+    tim1.sr().write(|w| w.uif().clear());
 }
 
 /// TIM1: centre-aligned PWM with complementary outputs and dead time (RM0440 §28,
-/// "Complementary outputs and dead-time insertion"), TRGO = update event for the ADCs
-/// (TIMx_CR2.MMS), repetition counter for the 4 kHz update ("Repetition counter"). Outputs enabled per channel but MOE = 0 with OSSI = 1, so
-/// all six pins sit at their idle (inactive = low) level until the drive asks for PWM.
+/// "Complementary outputs and dead-time insertion"), TRGO = update event for the ADCs,
+/// repetition counter for an update every PWM period, compare preload on (the words of
+/// [`pmsm_b_g431b_esc1::tim1`]). BDTR is not written here: [`start`] writes it once,
+/// complete, before the pins are switched to the timer.
 /// Polarities: active high on both CHx and CHxN, as the L6387 inputs need (NuttX port).
 pub fn init_tim1(tim1: &pac::TIM1) {
+    // SAFETY (every `bits` below): the words of `pmsm_b_g431b_esc1::tim1`, each field within
+    // its range (host-tested field by field).
     tim1.cr1()
-        .write(|w| w.cms().center_aligned1().arpe().enabled());
+        .write(|w| unsafe { w.bits(tim1::cr1(&SETTINGS)) });
     tim1.psc().write(|w| w.psc().set(0));
     tim1.arr().write(|w| w.arr().set(PWM_ARR));
     // Written before the counter starts: RM0440 ("Repetition counter") says the update
-    // then falls on the overflow (counter peak). `configure_pwm_edge` checks it and copes either way.
-    tim1.rcr().write(|w| w.rep().set(TIM1_RCR));
-    // Compare preload off (OCxPE = 0): a CCR written by the step acts at once instead of at
-    // the next update one control period later, so the voltage over a period is the one
-    // the drive computed last (its `v_ab_last`), less the step's own latency. Price: at
-    // most one asymmetric pulse per control period; dead time is still inserted.
+    // then falls on the overflow (counter peak). `configure_pwm_edge` checks it and copes
+    // either way.
+    tim1.rcr().write(|w| w.rep().set(SETTINGS.tim1_rcr));
     tim1.ccmr1_output()
-        .write(|w| w.oc1m().pwm_mode1().oc2m().pwm_mode1());
-    tim1.ccmr2_output().write(|w| w.oc3m().pwm_mode1());
+        .write(|w| unsafe { w.bits(tim1::ccmr1(tim1::PWM_MODE_1)) });
+    tim1.ccmr2_output()
+        .write(|w| unsafe { w.bits(tim1::ccmr2(tim1::PWM_MODE_1)) });
     for ccr in [tim1.ccr1(), tim1.ccr2(), tim1.ccr3()] {
         ccr.write(|w| w.ccr().set(PWM_ARR / 2));
     }
-    tim1.ccer().write(|w| {
-        w.cc1e()
-            .enabled()
-            .cc1ne()
-            .set_bit()
-            .cc2e()
-            .enabled()
-            .cc2ne()
-            .set_bit()
-            .cc3e()
-            .enabled()
-            .cc3ne()
-            .set_bit()
-    });
-    // OISx = OISxN = 0 (reset): idle level low on all six outputs.
-    // SAFETY: MMS = 0b010 selects "Update" as TRGO, a value defined for this 3-bit field
-    // (RM0440 TIMx_CR2; the PAC has no enumeration for it).
-    tim1.cr2().write(|w| unsafe { w.mms().bits(0b010) });
-    tim1.bdtr().write(|w| {
-        w.dtg()
-            .set(DTG)
-            .ossi()
-            .idle_level()
-            .ossr()
-            .set_bit()
-            .moe()
-            .disabled_idle()
-    });
-    // Load PSC/ARR/RCR now; the flag this sets is cleared.
+    tim1.ccer().write(|w| unsafe { w.bits(tim1::CCER) });
+    tim1.cr2().write(|w| unsafe { w.bits(tim1::CR2) });
+    // Load PSC/ARR/RCR and the compare values now; the flag this sets is cleared.
     tim1.egr().write(|w| w.ug().update());
     tim1.sr().write(|w| w.uif().clear());
 }
 
-/// Starts the counter (outputs still off: MOE = 0), finds where its update lands, then locks
-/// the timer's setup.
+/// Starts the counter (outputs off: MOE = 0), finds where its update lands and sets the PWM
+/// mode for it, routes the comparators to BRK2 and writes BDTR once: dead time, breaks,
+/// off-states and LOCK level 3 (RM0440 TIMx_BDTR: the LOCK bits are written once after
+/// reset; level 3 freezes the dead time, the breaks, the off-states, the polarities and the
+/// output modes; MOE stays writable).
 pub fn start(tim1: pac::TIM1) -> Pwm {
     tim1.cr1().modify(|_, w| w.cen().enabled());
     let sample_at = configure_pwm_edge(&tim1);
-    // Timer setup done: lock the dead time, break and idle-state bits (LOCK level 1,
-    // RM0440 TIMx_BDTR). MOE stays writable.
-    tim1.bdtr().modify(|_, w| w.lock().level1());
+    // SAFETY: the words of `pmsm_b_g431b_esc1::tim1` (host-tested); AF1/AF2 before the lock.
+    tim1.af1().write(|w| unsafe { w.bits(tim1::AF1) });
+    tim1.af2().write(|w| unsafe { w.bits(tim1::AF2) });
+    tim1.bdtr()
+        .write(|w| unsafe { w.bits(tim1::bdtr(&SETTINGS, SETTINGS.break_filter)) });
+    // SAFETY: as above (SR: clear by writing 0).
+    tim1.sr()
+        .write(|w| unsafe { w.bits(!tim1::SR_BREAK_FLAGS) });
     defmt::info!(
-        "TIM1: {=u32} Hz centre-aligned, ARR {=u32}, dead time {=u8} x 5.9 ns, update every {=u32} periods at the counter {}",
-        PWM_HZ,
+        "TIM1: {=u32} Hz centre-aligned, ARR {=u32}, dead time {=f32} ns (DTG {=u8:#x}, CKD {=u8}), update every period at the counter {}, a step every {=u32}, break filter {=f32} ns",
+        SETTINGS.pwm_hz,
         PWM_ARR,
-        DTG,
-        PWM_PER_STEP,
-        sample_at
+        SETTINGS.dead_time.ns,
+        SETTINGS.dead_time.dtg,
+        SETTINGS.dead_time.ckd,
+        sample_at,
+        SETTINGS.pwm_per_step,
+        SETTINGS.break_filter_ns
     );
-    Pwm { tim1, sample_at }
+    Pwm {
+        tim1,
+        sample_at,
+        on: false,
+        tripped: false,
+    }
 }
 
 /// Waits for an update event and reads the counting direction: just after the peak the
 /// counter counts down. The PWM mode is chosen so that the update, hence the ADC trigger,
 /// falls in the middle of the low-side conduction interval either way (PWM mode 1: high
 /// side on while CNT < CCR, off around the peak; PWM mode 2: the opposite, off around the
-/// valley; RM0440 §28, "PWM mode").
+/// valley; RM0440 §28, "PWM mode"). Before BDTR's LOCK (level 3 freezes the modes).
 fn configure_pwm_edge(tim1: &pac::TIM1) -> SampleAt {
-    tim1.sr().write(|w| w.uif().clear());
-    let mut waited = 0u32;
-    while tim1.sr().read().uif().bit_is_clear() {
-        waited += 1;
-        if waited > 1_000_000 {
-            defmt::panic!("TIM1 produces no update event");
-        }
-    }
+    wait_updates(tim1, 1);
     let at = if tim1.cr1().read().dir().is_down() {
         SampleAt::Peak
     } else {
         SampleAt::Valley
     };
-    tim1.sr().write(|w| w.uif().clear());
     if let SampleAt::Valley = at {
+        // SAFETY: the words of `pmsm_b_g431b_esc1::tim1` (host-tested).
         tim1.ccmr1_output()
-            .write(|w| w.oc1m().pwm_mode2().oc2m().pwm_mode2());
-        tim1.ccmr2_output().write(|w| w.oc3m().pwm_mode2());
+            .write(|w| unsafe { w.bits(tim1::ccmr1(tim1::PWM_MODE_2)) });
+        tim1.ccmr2_output()
+            .write(|w| unsafe { w.bits(tim1::ccmr2(tim1::PWM_MODE_2)) });
     }
     at
 }

@@ -1,53 +1,14 @@
-//! The user's settings of this board: the motor, the observers, the speed command, and the
-//! drive built from them for the board's rate and limits.
+//! The drive this board runs, built from the library's configuration
+//! ([`pmsm_b_g431b_esc1::drive_settings`]: the motor, the observers, the speed command, the
+//! board's rate, PWM, dead time and largest duty).
 
-use pmsm_sensorless::drive::{Drive, DriveConfig};
-use pmsm_sensorless::motor::{Motor, Ratings, HORNG_SINANO};
-use pmsm_sensorless::observer::flux_speed::FluxPll;
-use pmsm_sensorless::observer::sliding::SlidingObserver;
+use pmsm_b_g431b_esc1::drive_settings::{drive_config, BoardDrive, Primary, MOTOR, SPEED_CMD_RPM};
 
-use crate::adc::{AMPS_PER_LSB, I_ADC_RANGE_A};
-use crate::protection::BOARD_BUS_MAX_V;
-use crate::pwm::CONTROL_HZ;
-
-/// The board's default motor: Horng & Chin's Sinano motor ([`HORNG_SINANO`], R, L, K, N,
-/// J, B of their Table 1) with its bus rating moved from 48 V to 24 V, the bus this board
-/// takes (UM2516: up to 6S LiPo). Everything else is the preset's (its 1000 rpm rating
-/// stays, as the sliding-gain bounds are checked there; at 24 V the motor's back-EMF
-/// limits it to about 570 rpm, hence [`SPEED_CMD_RPM`]). Replace this with your motor.
-pub const MOTOR: Motor = Motor {
-    name: "sinano-24v",
-    params: HORNG_SINANO.params,
-    ratings: Ratings {
-        bus_v: 24.0,
-        ..HORNG_SINANO.ratings
-    },
-};
-
-/// The observer feeding the controller (Horng & Chin's sliding torque observer) and the one
-/// watching it (Ortega et al.'s flux observer with its PLL). To swap them, swap these two and
-/// call `DriveConfig::build_flux_primary` in [`build_drive`].
-pub type Primary = SlidingObserver;
-/// See [`Primary`].
-pub type Monitor = FluxPll;
-
-/// The drive this board runs.
-pub type BoardDrive = Drive<Primary, Monitor>;
-
-/// Speed command while enabled [rpm, mechanical].
-pub const SPEED_CMD_RPM: f32 = 400.0;
-
-/// The drive for [`MOTOR`] at [`CONTROL_HZ`], its limits narrowed to the board's: bus trip at
-/// most [`BOARD_BUS_MAX_V`], sensing range at most the ADC's ([`I_ADC_RANGE_A`]).
+/// The drive of [`drive_config`]; a configuration the drive refuses stops the firmware here
+/// with its reason in the log (the host test `drive_told_the_same` builds the same one).
 pub fn build_drive() -> BoardDrive {
-    let mut cfg = DriveConfig::new(&MOTOR);
-    cfg.rate_hz = CONTROL_HZ as f32;
-    cfg.limits.bus_max_v = cfg.limits.bus_max_v.min(BOARD_BUS_MAX_V);
-    cfg.limits.i_sense_max_a = cfg.limits.i_sense_max_a.min(I_ADC_RANGE_A);
-    // What the identification checks a motor's rated current against.
-    cfg.identify.sense_range_a = I_ADC_RANGE_A;
-    cfg.identify.sense_lsb_a = AMPS_PER_LSB.abs();
-    let drive = match cfg.build_sliding_primary() {
+    let cfg = drive_config();
+    let drive = match cfg.build_flux_primary() {
         Ok(d) => d,
         Err(e) => defmt::panic!(
             "drive configuration rejected: {=str} = {=f32}, allowed {=f32}..{=f32}",

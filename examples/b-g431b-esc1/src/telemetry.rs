@@ -12,9 +12,9 @@ use pmsm_sensorless::drive::Identified;
 use pmsm_sensorless::drive::{Mode, Telemetry, Transition};
 use pmsm_sensorless::frames::Abc;
 
-use crate::pwm::CONTROL_HZ;
+use pmsm_b_g431b_esc1::config::SETTINGS;
 #[cfg(feature = "identify")]
-use crate::settings::MOTOR;
+use pmsm_b_g431b_esc1::drive_settings::MOTOR;
 
 /// One telemetry record every this many steps (400 steps = 10 Hz).
 pub const TELEMETRY_EVERY: u32 = 400;
@@ -186,5 +186,5 @@ pub fn queues() -> (Sender, Sender, Receiver) {
 
 /// Control steps → seconds since the control interrupt started.
 pub fn seconds(step: u32) -> f32 {
-    step as f32 / CONTROL_HZ as f32
+    step as f32 / SETTINGS.control_hz as f32
 }

@@ -59,6 +59,7 @@ mod firmware {
                 v_bus: BUS_V as f32,
                 v_ab_terminal: None,
                 overrun: false,
+                stage_fault: None,
             }
         }
 

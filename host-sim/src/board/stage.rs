@@ -142,6 +142,7 @@ impl PowerStage for BoardStage {
             v_bus: self.voltage.bus(self.plant.supply.v_bus),
             v_ab_terminal: self.voltage.terminal(self.v_terminal),
             overrun: false,
+            stage_fault: None,
         };
         self.last = Some(input);
         input

@@ -66,6 +66,7 @@ impl PowerStage for Latch {
             v_bus: f32::NAN,
             v_ab_terminal: None,
             overrun: false,
+            stage_fault: None,
         })
     }
     fn apply(&mut self, duties: Option<Duties>) {
@@ -174,6 +175,7 @@ impl Controller {
             dead_time_s: config.board.dead_time_s as f32,
             pwm_hz: config.board.pwm_hz as f32,
             band_a,
+            duty_max: 1.0,
         };
         let foc = foc_cfg
             .build()

@@ -183,6 +183,7 @@ mod firmware {
             v_bus: 48.0,
             v_ab_terminal: None,
             overrun: false,
+            stage_fault: None,
         };
         let cmd = Command {
             enable: true,
@@ -206,6 +207,7 @@ mod firmware {
                     v_bus,
                     v_ab_terminal: None,
                     overrun: false,
+                    stage_fault: None,
                 };
                 let (begin, end) = markers;
                 begin();

@@ -22,7 +22,7 @@ mod firmware {
     use pmsm_sensorless::observer::flux_speed::FluxIi;
     use pmsm_sensorless::observer::ii::IiConfig;
     use pmsm_sensorless::observer::{Observer, Rotor};
-    use pmsm_sensorless::power_stage::PowerStage;
+    use pmsm_sensorless::power_stage::{PowerStage, StageFault};
     use pmsm_sensorless::svpwm::Duties;
 
     extern "C" {
@@ -104,6 +104,7 @@ mod firmware {
                 v_bus: x[3],
                 v_ab_terminal: flags[3].then_some(AlphaBeta::new(x[4], x[5])),
                 overrun: flags[0],
+                stage_fault: flags[2].then_some(StageFault::HardwareOvercurrent),
             }
         }
 

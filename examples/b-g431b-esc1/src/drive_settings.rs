@@ -1,0 +1,66 @@
+//! The user's settings of this board (the motor, the observers, the speed command) and the
+//! drive's configuration on it: its rate, PWM frequency, dead time and largest duty from the
+//! board's [`SETTINGS`], its limits narrowed to the board's.
+
+use pmsm_sensorless::drive::{Drive, DriveConfig};
+use pmsm_sensorless::motor::{Motor, Ratings, HORNG_SINANO};
+use pmsm_sensorless::observer::flux_speed::FluxPll;
+use pmsm_sensorless::observer::sliding::SlidingObserver;
+
+use crate::config::SETTINGS;
+
+/// The board's default motor: Horng & Chin's Sinano motor ([`HORNG_SINANO`], R, L, K, N,
+/// J, B of their Table 1) with its bus rating moved from 48 V to 24 V, the bus this board
+/// takes (UM2516: up to 6S LiPo), and its rated speed to 560 rpm: at the board's 25.2 V
+/// bus trip the motor's back-EMF limits it to 599 rpm, and the drive refuses a rated speed
+/// beyond that (with the preset's 1000 rpm the firmware stopped at start-up:
+/// `ratings.speed_rpm` rejected, found by the host test `drive_told_the_same`). Below about
+/// 620 rpm the sliding observer's constant gain is outside its window (Horng & Chin Sec 4),
+/// so the flux observer drives and the sliding observer watches. Replace this with your
+/// motor.
+pub const MOTOR: Motor = Motor {
+    name: "sinano-24v",
+    params: HORNG_SINANO.params,
+    ratings: Ratings {
+        bus_v: 24.0,
+        speed_rpm: 560.0,
+        ..HORNG_SINANO.ratings
+    },
+};
+
+/// The observer feeding the controller (Ortega et al.'s flux observer with its PLL) and the
+/// one watching it (Horng & Chin's sliding torque observer). To swap them, swap these two
+/// and call `DriveConfig::build_sliding_primary` in the firmware's `settings::build_drive`
+/// (for a motor whose sliding gain window is not empty).
+pub type Primary = FluxPll;
+/// See [`Primary`].
+pub type Monitor = SlidingObserver;
+
+/// The drive this board runs.
+pub type BoardDrive = Drive<Primary, Monitor>;
+
+/// Speed command while enabled [rpm, mechanical].
+pub const SPEED_CMD_RPM: f32 = 400.0;
+
+/// Bus over-voltage trip of this board [V]: a full 6S LiPo (UM2516: "up to 6S"; NuttX's
+/// board port gives 25 V as Vbus max). The drive's own default (1.25 × rated bus) is
+/// lowered to this if higher.
+pub const BOARD_BUS_MAX_V: f32 = 25.2;
+
+/// The drive's configuration for [`MOTOR`] on this board: the step rate, PWM frequency,
+/// dead time and largest duty are [`SETTINGS`]' (what TIM1 makes), the bus trip at most
+/// [`BOARD_BUS_MAX_V`], the sensing range at most the ADC's.
+pub fn drive_config() -> DriveConfig {
+    let mut cfg = DriveConfig::new(&MOTOR);
+    let s = &SETTINGS;
+    cfg.rate_hz = s.control_hz as f32;
+    cfg.power_stage.pwm_hz = s.pwm_hz as f32;
+    cfg.power_stage.dead_time_s = s.dead_time_s();
+    cfg.power_stage.duty_max = s.duty_max;
+    cfg.limits.bus_max_v = cfg.limits.bus_max_v.min(BOARD_BUS_MAX_V);
+    cfg.limits.i_sense_max_a = cfg.limits.i_sense_max_a.min(s.i_adc_range_a);
+    // What the identification checks a motor's rated current against.
+    cfg.identify.sense_range_a = s.i_adc_range_a;
+    cfg.identify.sense_lsb_a = s.amps_per_lsb.abs();
+    cfg
+}
