@@ -95,6 +95,7 @@ fn sample(v_bus: f32, v: Option<AlphaBeta>) -> DriveInput {
         v_bus,
         v_ab_terminal: v,
         overrun: false,
+        stage_fault: None,
     }
 }
 
