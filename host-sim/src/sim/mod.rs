@@ -13,12 +13,12 @@ mod row;
 pub use config::{Mismatch, SimConfig};
 pub use row::{wrap_deg, wrap_rad, Row, RowHealth};
 
-use crate::board::BoardStage;
+use crate::board::{BoardPlant, BoardStage};
 use crate::names::fault_name;
 use crate::scenario::Injection;
 use crate::RAD_S_PER_RPM;
 use controller::{Controller, Period, PeriodOut};
-use pmsm_plant::{Plant, PlantParams};
+use pmsm_plant::PlantParams;
 use pmsm_sensorless::bounds::ks_min;
 use pmsm_sensorless::drive::{Fault, Reason, Transition};
 use pmsm_sensorless::frames::AlphaBeta;
@@ -31,7 +31,7 @@ pub struct Run {
     /// One row per control period.
     pub rows: Vec<Row>,
     /// The plant at the end (energy integrals included).
-    pub plant: Plant,
+    pub plant: BoardPlant,
     /// Why the run stopped early (plant not finite) or the drive's fault, if any.
     pub fault: Option<String>,
     /// Drive scenarios: every mode change with its time \[s].
@@ -110,7 +110,7 @@ impl Sim {
     }
 
     /// The plant (state, energy integrals, parameters).
-    pub fn plant(&self) -> &Plant {
+    pub fn plant(&self) -> &BoardPlant {
         self.stage.plant()
     }
 
@@ -140,7 +140,7 @@ impl Sim {
                 p.l *= l;
                 p.flux *= flux;
             }
-            Injection::Bus { v, .. } => plant.supply.v_bus = v,
+            Injection::Bus { v, .. } => plant.supply.set_supply_v(v),
             Injection::NanCurrent { .. } => self.stage.break_phase_b(),
             Injection::Plant { .. } => {}
         }
