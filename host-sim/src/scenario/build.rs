@@ -55,7 +55,9 @@ impl Spec {
             "speed_tolerance = {speed_tolerance}: must be > 0"
         );
         let drive = self.drive_script(&motor)?;
-        let dc_link = f.dc_link.as_ref().map(|d| dc_link(d, &motor)).transpose()?;
+        if let Some(d) = &f.dc_link {
+            dc_link(d, &motor)?;
+        }
         Ok(Scenario {
             name: self.name.clone(),
             description: self.description().to_string(),
@@ -74,8 +76,16 @@ impl Spec {
             drive,
             speed_tolerance,
             locked_rotor: f.locked_rotor.unwrap_or(false),
-            dc_link,
         })
+    }
+
+    /// The scenario's `[dc_link]` for `motor`: its keys over the defaults scaled from the
+    /// motor's ratings ([`DcLinkSpec::for_motor`]), checked; `None` without the table (a
+    /// stiff bus). It belongs to the board (`SimBoard::dc_link`), where `run` puts it.
+    pub fn dc_link(&self, motor: &Motor) -> anyhow::Result<Option<DcLinkSpec>> {
+        let link = self.file.dc_link.as_ref().map(|d| dc_link(d, motor));
+        link.transpose()
+            .with_context(|| format!("scenario {}", self.name))
     }
 
     /// Drive scenarios: the enable schedule, the injection and the fault expected; the other

@@ -64,7 +64,6 @@ pub use built_in::{
 pub use file::{ScenarioFile, Spec};
 
 use self::profile::Pwl;
-use crate::board::DcLinkSpec;
 use pmsm_sensorless::drive::Fault;
 use pmsm_sensorless::motor::Motor;
 
@@ -129,8 +128,6 @@ pub struct Scenario {
     pub speed_tolerance: f64,
     /// The rotor is held throughout (a blocked shaft).
     pub locked_rotor: bool,
-    /// The board's DC link (`[dc_link]`; `None`: a stiff bus).
-    pub dc_link: Option<DcLinkSpec>,
 }
 
 /// A brake's torque fades to zero below this fraction of rated speed, unless the scenario

@@ -109,10 +109,8 @@ impl SimConfig {
         Self::on(board, scenario, observer)
     }
 
-    /// The defaults of [`SimConfig::new`] on `board`; a board without a DC link takes the
-    /// scenario's, if it has one.
-    pub fn on(mut board: SimBoard, scenario: Scenario, observer: ObserverKind) -> Self {
-        board.dc_link = board.dc_link.or(scenario.dc_link);
+    /// The defaults of [`SimConfig::new`] on `board`.
+    pub fn on(board: SimBoard, scenario: Scenario, observer: ObserverKind) -> Self {
         Self {
             scenario,
             observer,

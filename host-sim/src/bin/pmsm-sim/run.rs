@@ -126,7 +126,7 @@ pub fn prepare(args: &RunArgs) -> anyhow::Result<SimConfig> {
         );
         board.bus_v = 0.01 * p * rated_bus;
     }
-    board.dc_link = args.dc_link.resolve(sc.dc_link, &m)?;
+    board.dc_link = args.dc_link.resolve(spec.dc_link(&m)?, &m)?;
     let mut cfg = SimConfig::on(board, sc, observer);
     cfg.mismatch = args.mismatch;
     if let Some(path) = &args.drive_motor_file {
