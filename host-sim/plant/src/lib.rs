@@ -9,8 +9,8 @@
 //! - [`converter`]: what feeds the windings from the DC link: the averaged two-level inverter
 //!   with dead time, the diode bridge with every switch off, and the DC-link current either
 //!   draws;
-//! - [`supply`]: the DC bus, which owns its voltage and takes the DC-link current (a stiff
-//!   bus today);
+//! - [`supply`]: the DC bus, which owns its voltage and takes the DC-link current: a stiff
+//!   bus, or a DC link (its capacitor, a supply behind a diode, a brake chopper);
 //! - [`plant`]: the composition, integrated with RK4 on fixed sub-steps, with the energy
 //!   integrals that check the power balance.
 //!
@@ -43,4 +43,4 @@ pub use mechanical::{Load, Rotor};
 pub use params::PlantParams;
 pub use plant::Plant;
 pub use state::PlantState;
-pub use supply::{StiffBus, Supply};
+pub use supply::{Chopper, DcLink, LinkEnergy, Source, StiffBus, Supply};

@@ -1,14 +1,17 @@
 //! The simulated board: one description of it ([`SimBoard`]: PWM, dead time, current
 //! sensing, bus, idle time, terminal-voltage sensing) shared by `run`, `sweep` and
-//! `identify`; its sensors ([`sensors`]); the faults of the motor on it ([`motor_fault`]);
-//! and the board around the plant as the core's `PowerStage` ([`stage`]).
+//! `identify`; its DC bus, stiff or a DC link ([`bus`]); its sensors ([`sensors`]); the
+//! faults of the motor on it ([`motor_fault`]); and the board around the plant as the core's
+//! `PowerStage` ([`stage`]).
 
+pub mod bus;
 pub mod motor_fault;
 pub mod sensors;
 pub mod stage;
 
+pub use bus::{BoardBus, DcLinkSpec};
 pub use motor_fault::MotorFault;
-pub use stage::BoardStage;
+pub use stage::{BoardPlant, BoardStage};
 
 use pmsm_sensorless::drive::DriveConfig;
 use pmsm_sensorless::motor::Motor;
@@ -17,8 +20,10 @@ use pmsm_sensorless::motor::Motor;
 /// t = 0.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SimBoard {
-    /// DC bus voltage \[V].
+    /// DC bus voltage \[V] (with a DC link: its supply's open-circuit voltage).
     pub bus_v: f64,
+    /// The DC link between the supply and the inverter (`None`: a stiff bus at `bus_v`).
+    pub dc_link: Option<DcLinkSpec>,
     /// PWM frequency \[Hz]: the averaged dead-time error per phase is
     /// `sign(i)·t_dead·f_pwm·V_bus`.
     pub pwm_hz: f64,
@@ -48,11 +53,12 @@ pub struct SimBoard {
 }
 
 impl SimBoard {
-    /// An ideal board for `motor`: its rated bus, 20 kHz PWM without dead time, exact
+    /// An ideal board for `motor`: its rated bus, stiff, 20 kHz PWM without dead time, exact
     /// current sensing, no idle time, the terminal voltage sensed.
     pub fn ideal(motor: &Motor) -> Self {
         Self {
             bus_v: f64::from(motor.ratings.bus_v),
+            dc_link: None,
             pwm_hz: 20_000.0,
             dead_time_s: 0.0,
             noise_sigma_a: 0.0,
@@ -80,14 +86,23 @@ impl SimBoard {
         }
     }
 
-    /// Errors unless the bus voltage is a finite number > 0 V.
+    /// Errors unless the bus voltage is a finite number > 0 V and the DC link's values, if
+    /// any, are in their ranges.
     pub fn check_bus(&self) -> anyhow::Result<()> {
         anyhow::ensure!(
             self.bus_v.is_finite() && self.bus_v > 0.0,
             "bus voltage must be a finite number > 0 V, got {}",
             self.bus_v
         );
-        Ok(())
+        self.dc_link.as_ref().map_or(Ok(()), DcLinkSpec::check)
+    }
+
+    /// The bus the plant runs on: stiff at `bus_v`, or the DC link charged to it.
+    pub fn bus(&self) -> BoardBus {
+        match &self.dc_link {
+            None => BoardBus::Stiff(pmsm_plant::StiffBus { v_bus: self.bus_v }),
+            Some(spec) => BoardBus::Link(spec.link(self.bus_v)),
+        }
     }
 
     /// The board's power stage as the drive is told it: its PWM frequency and dead time.

@@ -3,18 +3,22 @@
 //! control period with them, as a firmware's interrupt samples, steps the drive (the
 //! core's `control::Control`) and leaves the PWM running until the next.
 
+use super::bus::BoardBus;
 use super::motor_fault::{Faulty, MotorFault};
 use super::sensors::{CurrentSensor, VoltageSensors};
 use super::SimBoard;
-use pmsm_plant::{Inverter, Load, Plant, PlantParams, StiffBus};
+use pmsm_plant::{Inverter, Load, Plant, PlantParams, Supply};
 use pmsm_sensorless::drive::DriveInput;
 use pmsm_sensorless::frames::{Abc, AlphaBeta};
 use pmsm_sensorless::power_stage::PowerStage;
 use pmsm_sensorless::svpwm::Duties;
 
-/// The board around the plant: its inverter on a stiff bus, its sensors, the duties loaded.
+/// The plant on the board's bus.
+pub type BoardPlant = Plant<BoardBus>;
+
+/// The board around the plant: its inverter on its bus, its sensors, the duties loaded.
 pub struct BoardStage {
-    plant: Plant,
+    plant: BoardPlant,
     inverter: Inverter,
     current: CurrentSensor,
     voltage: VoltageSensors,
@@ -47,9 +51,9 @@ impl BoardStage {
             board.adc_lsb_a,
             board.seed,
         )?;
-        let bus = StiffBus { v_bus: board.bus_v };
+        board.check_bus()?;
         Ok(Self {
-            plant: Plant::new(params, bus, theta_m0, omega_m0),
+            plant: Plant::new(params, board.bus(), theta_m0, omega_m0),
             inverter: Inverter {
                 dead_time_s: board.dead_time_s,
                 pwm_hz: board.pwm_hz,
@@ -68,17 +72,17 @@ impl BoardStage {
     }
 
     /// The plant (state, energy integrals, parameters).
-    pub fn plant(&self) -> &Plant {
+    pub fn plant(&self) -> &BoardPlant {
         &self.plant
     }
 
     /// The plant, to change it (a fault injected into the motor or the bus).
-    pub fn plant_mut(&mut self) -> &mut Plant {
+    pub fn plant_mut(&mut self) -> &mut BoardPlant {
         &mut self.plant
     }
 
     /// The plant at the end of the run.
-    pub fn into_plant(self) -> Plant {
+    pub fn into_plant(self) -> BoardPlant {
         self.plant
     }
 
@@ -139,7 +143,7 @@ impl PowerStage for BoardStage {
         }
         let input = DriveInput {
             i_abc,
-            v_bus: self.voltage.bus(self.plant.supply.v_bus),
+            v_bus: self.voltage.bus(self.plant.supply.v_dc()),
             v_ab_terminal: self.voltage.terminal(self.v_terminal),
             overrun: false,
             stage_fault: None,

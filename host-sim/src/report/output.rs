@@ -36,16 +36,25 @@ pub const CSV_HEADER: [&str; 24] = [
     "transition",
 ];
 
+/// The column a run on a DC link adds after [`CSV_HEADER`]: the bus voltage at the sample.
+pub const CSV_BUS: &str = "v_bus_v";
+
 /// Writes the time series; optional columns (`load_hat_nm`, the sliding observers'
 /// `s_a_a`, `ks_a_per_s`, `ks_min_a_per_s`, the drive's `driving`, residuals and
-/// `transition`) are empty when the run has no such value.
+/// `transition`) are empty when the run has no such value; a run on a DC link has the bus
+/// voltage last ([`CSV_BUS`]).
 pub fn write_csv(run: &Run, path: &Path) -> anyhow::Result<()> {
     let mut w =
         csv::Writer::from_path(path).with_context(|| format!("creating {}", path.display()))?;
-    w.write_record(CSV_HEADER)?;
+    let link = run.config.board.dc_link.is_some();
+    let mut header = CSV_HEADER.to_vec();
+    if link {
+        header.push(CSV_BUS);
+    }
+    w.write_record(&header)?;
     for r in &run.rows {
         let opt = |x: Option<f64>| x.map(|x| format!("{x:.6}")).unwrap_or_default();
-        w.write_record([
+        let mut record = vec![
             format!("{:.6}", r.t),
             format!("{:.4}", r.speed_cmd_rpm),
             format!("{:.4}", r.speed_rpm),
@@ -76,7 +85,11 @@ pub fn write_csv(run: &Run, path: &Path) -> anyhow::Result<()> {
             r.transition
                 .map(|t| format!("{:?}->{:?}: {:?}", t.from, t.to, t.reason))
                 .unwrap_or_default(),
-        ])?;
+        ];
+        if link {
+            record.push(format!("{:.4}", r.v_bus));
+        }
+        w.write_record(&record)?;
     }
     w.flush()
         .with_context(|| format!("writing {}", path.display()))?;

@@ -88,6 +88,10 @@ pub struct Summary {
     /// Drive scenarios: the drive's adapted motor model at the end of the run.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub adapted: Option<Adapted>,
+    /// Runs on a DC link: the highest bus voltage, idle time included \[V] (absent on a
+    /// stiff bus).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bus_peak_v: Option<f64>,
 }
 
 /// The drive's adapted motor model (`Telemetry::r_ohm`, `flux_wb`) against the plant's.
@@ -198,6 +202,7 @@ impl Summary {
                 .collect(),
             lowest_sensorless_rpm: sensorless.map(|r| r.speed_rpm.abs()).reduce(f64::min),
             adapted: adapted(run),
+            bus_peak_v: run.plant.supply.link().map(|l| l.v_peak),
         }
     }
 

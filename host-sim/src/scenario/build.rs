@@ -1,9 +1,10 @@
 //! A scenario file turned into a [`Scenario`] for one motor: fractions of its ratings into
 //! speeds and torques, every value checked; the errors name the key.
 
-use super::file::{InjectFile, ScenarioFile, Spec};
+use super::file::{DcLinkFile, InjectFile, ScenarioFile, Spec};
 use super::profile::Pwl;
 use super::{DriveScript, Injection, LoadKind, Scenario, Window, BRAKE_FADE};
+use crate::board::DcLinkSpec;
 use crate::names::{fault_name, FAULTS};
 use anyhow::{bail, ensure, Context};
 use pmsm_sensorless::drive::Fault;
@@ -54,6 +55,9 @@ impl Spec {
             "speed_tolerance = {speed_tolerance}: must be > 0"
         );
         let drive = self.drive_script(&motor)?;
+        if let Some(d) = &f.dc_link {
+            dc_link(d, &motor)?;
+        }
         Ok(Scenario {
             name: self.name.clone(),
             description: self.description().to_string(),
@@ -73,6 +77,15 @@ impl Spec {
             speed_tolerance,
             locked_rotor: f.locked_rotor.unwrap_or(false),
         })
+    }
+
+    /// The scenario's `[dc_link]` for `motor`: its keys over the defaults scaled from the
+    /// motor's ratings ([`DcLinkSpec::for_motor`]), checked; `None` without the table (a
+    /// stiff bus). It belongs to the board (`SimBoard::dc_link`), where `run` puts it.
+    pub fn dc_link(&self, motor: &Motor) -> anyhow::Result<Option<DcLinkSpec>> {
+        let link = self.file.dc_link.as_ref().map(|d| dc_link(d, motor));
+        link.transpose()
+            .with_context(|| format!("scenario {}", self.name))
     }
 
     /// Drive scenarios: the enable schedule, the injection and the fault expected; the other
@@ -285,6 +298,7 @@ fn injection(i: &InjectFile, motor: &Motor, duration_s: f64) -> anyhow::Result<I
             ("l", i.l.is_some()),
             ("flux", i.flux.is_some()),
             ("bus", i.bus.is_some()),
+            ("until", i.until.is_some()),
         ] {
             ensure!(
                 !set || allowed.contains(&key),
@@ -305,7 +319,7 @@ fn injection(i: &InjectFile, motor: &Motor, duration_s: f64) -> anyhow::Result<I
             }
         }
         "bus" => {
-            only(&["bus"])?;
+            only(&["bus", "until"])?;
             let bus = i
                 .bus
                 .ok_or_else(|| anyhow::anyhow!("inject.bus: kind \"bus\" needs it"))?;
@@ -313,9 +327,17 @@ fn injection(i: &InjectFile, motor: &Motor, duration_s: f64) -> anyhow::Result<I
                 (0.0..=10.0).contains(&bus),
                 "inject.bus = {bus}: a fraction of the rated bus in [0, 10]"
             );
+            if let Some(u) = i.until {
+                ensure!(
+                    u.is_finite() && i.t < u && u <= duration_s,
+                    "inject.until = {u}: must be after inject.t ({}) and within the run",
+                    i.t
+                );
+            }
             Injection::Bus {
                 t: i.t,
                 v: bus * motor.ratings.bus_v as f64,
+                until: i.until,
             }
         }
         "nan_current" => {
@@ -324,6 +346,31 @@ fn injection(i: &InjectFile, motor: &Motor, duration_s: f64) -> anyhow::Result<I
         }
         other => bail!("inject.kind = \"{other}\": must be \"plant\", \"bus\" or \"nan_current\""),
     })
+}
+
+/// `[dc_link]` for `motor`: the keys given over [`DcLinkSpec::for_motor`], checked.
+fn dc_link(d: &DcLinkFile, motor: &Motor) -> anyhow::Result<DcLinkSpec> {
+    let mut spec = DcLinkSpec::for_motor(motor);
+    if let Some(uf) = d.capacitance_uf {
+        spec.capacitance_f = uf * 1e-6;
+    }
+    spec.source_ohm = d.source_ohm.unwrap_or(spec.source_ohm);
+    spec.sink_a = d.sink_a.unwrap_or(spec.sink_a);
+    match d.brake_ohm {
+        Some(r) => {
+            let mut ch = DcLinkSpec::default_chopper(motor, r);
+            let bus = f64::from(motor.ratings.bus_v);
+            ch.v_on = d.brake_on.map_or(ch.v_on, |x| x * bus);
+            ch.v_off = d.brake_off.map_or(ch.v_off, |x| x * bus);
+            spec.chopper = Some(ch);
+        }
+        None => ensure!(
+            d.brake_on.is_none() && d.brake_off.is_none(),
+            "dc_link.brake_on, brake_off: only with dc_link.brake_ohm"
+        ),
+    }
+    spec.check().context("[dc_link]")?;
+    Ok(spec)
 }
 
 /// The fault called `name` (as in the JSON summary).

@@ -6,7 +6,7 @@ use super::Scenario;
 use anyhow::Context;
 
 /// The built-in scenario files, in listing order.
-const BUILT_IN: [(&str, &str); 25] = [
+const BUILT_IN: [(&str, &str); 26] = [
     (
         "horng-ramp-brake",
         include_str!("../../scenarios/horng-ramp-brake.toml"),
@@ -106,6 +106,10 @@ const BUILT_IN: [(&str, &str); 25] = [
     (
         "warm-winding",
         include_str!("../../scenarios/warm-winding.toml"),
+    ),
+    (
+        "stop-regen",
+        include_str!("../../scenarios/stop-regen.toml"),
     ),
 ];
 

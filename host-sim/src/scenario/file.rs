@@ -34,6 +34,7 @@ pub struct ScenarioFile {
     pub(super) speed_tolerance: Option<f64>,
     pub(super) locked_rotor: Option<bool>,
     pub(super) ideal: Option<bool>,
+    pub(super) dc_link: Option<DcLinkFile>,
 }
 
 /// `[inject]` of a scenario file.
@@ -46,6 +47,19 @@ pub(super) struct InjectFile {
     pub(super) l: Option<f64>,
     pub(super) flux: Option<f64>,
     pub(super) bus: Option<f64>,
+    pub(super) until: Option<f64>,
+}
+
+/// `[dc_link]` of a scenario file.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct DcLinkFile {
+    pub(super) capacitance_uf: Option<f64>,
+    pub(super) source_ohm: Option<f64>,
+    pub(super) sink_a: Option<f64>,
+    pub(super) brake_ohm: Option<f64>,
+    pub(super) brake_on: Option<f64>,
+    pub(super) brake_off: Option<f64>,
 }
 
 /// A scenario: its name and its file.

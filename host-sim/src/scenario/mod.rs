@@ -21,10 +21,25 @@
 //! enable = [[0.0, true], [3.0, false], [3.5, true]]          # enabled throughout by default
 //! expect_fault = "stall"          # the run passes only if the drive faults so
 //! [inject]                        # a fault cause: kind = "plant" (factors r, l, flux),
-//! t = 1.8                         # "bus" (bus, a fraction of the rated bus) or "nan_current"
-//! kind = "plant"
+//! t = 1.8                         # "bus" (bus, a fraction of the rated bus, and `until`, the
+//! kind = "plant"                  # time it recovers: a sag) or "nan_current"
 //! r = 0.1
+//! [dc_link]                       # a DC link instead of the stiff bus (every key optional)
+//! capacitance_uf = 158.0          # default: P·50 µs/(0.01·V²), the rated DC-link current P/V
+//!                                 # for one 20 kHz PWM period with a 1 % droop
+//! source_ohm = 0.63               # the supply's resistance; default 0.02·V²/P (2 % droop at P)
+//! sink_a = 0.0                    # the most current the supply takes back; default 0: a diode
+//! brake_ohm = 20.0                # a brake chopper's resistor; default: none
+//! brake_on = 1.15                 # its switch-on and switch-off voltages, fractions of the
+//! brake_off = 1.10                # rated bus (defaults 1.15 and 1.10; the drive trips at 1.25)
 //! ```
+//!
+//! With a `[dc_link]` (`V`, `P`: the motor's rated bus and power), the bus is a capacitor fed
+//! by the supply at the rated bus through `source_ohm` and a diode (sinking at most `sink_a`),
+//! with the chopper across it (the model: `pmsm_plant::supply::dc_link`): braking returns
+//! energy into it and raises the bus. The run's CSV then has a `v_bus_v` column and its JSON
+//! summary a `bus_peak_v`. `run --dc-link-uf`, `--supply-sink-a` and `--brake-ohm` set a link
+//! (over the scenario's, or the defaults) from the command line.
 //!
 //! Further keys: `figures` (the papers' figures, in the plot title), `brake_fade` (a brake
 //! fades linearly to zero below this fraction of rated speed, default 0.03) or
@@ -179,12 +194,15 @@ pub enum Injection {
         /// Factor on the flux linkage.
         flux: f64,
     },
-    /// The DC bus steps to `v` at `t`.
+    /// The DC bus (a DC link's supply) steps to `v` at `t`, and back to the board's at
+    /// `until` if given (a sag and its recovery).
     Bus {
         /// Time \[s].
         t: f64,
         /// New bus voltage \[V].
         v: f64,
+        /// When the bus recovers \[s] (`None`: never).
+        until: Option<f64>,
     },
     /// The current sample of phase b reads NaN from `t` on.
     NanCurrent {

@@ -13,12 +13,12 @@ mod row;
 pub use config::{Mismatch, SimConfig};
 pub use row::{wrap_deg, wrap_rad, Row, RowHealth};
 
-use crate::board::BoardStage;
+use crate::board::{BoardPlant, BoardStage};
 use crate::names::fault_name;
 use crate::scenario::Injection;
 use crate::RAD_S_PER_RPM;
 use controller::{Controller, Period, PeriodOut};
-use pmsm_plant::{Plant, PlantParams};
+use pmsm_plant::{PlantParams, Supply};
 use pmsm_sensorless::bounds::ks_min;
 use pmsm_sensorless::drive::{Fault, Reason, Transition};
 use pmsm_sensorless::frames::AlphaBeta;
@@ -31,7 +31,7 @@ pub struct Run {
     /// One row per control period.
     pub rows: Vec<Row>,
     /// The plant at the end (energy integrals included).
-    pub plant: Plant,
+    pub plant: BoardPlant,
     /// Why the run stopped early (plant not finite) or the drive's fault, if any.
     pub fault: Option<String>,
     /// Drive scenarios: every mode change with its time \[s].
@@ -110,7 +110,7 @@ impl Sim {
     }
 
     /// The plant (state, energy integrals, parameters).
-    pub fn plant(&self) -> &Plant {
+    pub fn plant(&self) -> &BoardPlant {
         self.stage.plant()
     }
 
@@ -132,6 +132,8 @@ impl Sim {
         if first {
             self.causes.injection = Some(self.k);
         }
+        let back = self.config.board.bus_v;
+        let half = 0.5 * self.ts;
         let plant = self.stage.plant_mut();
         match inj {
             Injection::Plant { r, l, flux, .. } if first => {
@@ -140,7 +142,10 @@ impl Sim {
                 p.l *= l;
                 p.flux *= flux;
             }
-            Injection::Bus { v, .. } => plant.supply.v_bus = v,
+            Injection::Bus { v, until, .. } => {
+                let recovered = until.is_some_and(|u| t + half >= u);
+                plant.supply.set_supply_v(if recovered { back } else { v });
+            }
             Injection::NanCurrent { .. } => self.stage.break_phase_b(),
             Injection::Plant { .. } => {}
         }
@@ -241,6 +246,7 @@ impl Sim {
             v_alpha: v_ab.alpha as f64,
             v_beta: v_ab.beta as f64,
             load_nm: self.config.scenario.load_at(t, truth.omega_m),
+            v_bus: self.stage.plant().supply.v_dc(),
             load_hat_nm: est.load_nm.map(f64::from),
             s_a: est.sliding.map(|d| d.s_ab.alpha as f64),
             ks: est.sliding.map(|d| d.ks as f64),

@@ -29,6 +29,8 @@ pub struct Row {
     pub v_beta: f64,
     /// Load torque \[N·m].
     pub load_nm: f64,
+    /// The DC bus's voltage at the sample \[V].
+    pub v_bus: f64,
     /// Estimated load torque \[N·m], if the observer has one.
     pub load_hat_nm: Option<f64>,
     /// Sliding observers: `S_a = î_a − i_a` \[A] (Horng Figs 9, 10).

@@ -1,11 +1,13 @@
 //! Argument groups several subcommands share: the motor (`--motor | --motor-file`), the
 //! simulated board (`BoardArgs`: the board's conditions by default, `--ideal` for the ideal
-//! plant) and the value parsers and checks behind them.
+//! plant; `DcLinkArgs`: its DC link) and the value parsers and checks behind them.
 
-use pmsm_host_sim::board::SimBoard;
+use anyhow::Context;
+use pmsm_host_sim::board::{DcLinkSpec, SimBoard};
 use pmsm_host_sim::motor_file;
 use pmsm_host_sim::number;
 use pmsm_host_sim::sim::Mismatch;
+use pmsm_plant::Chopper;
 use pmsm_sensorless::motor::{self, Motor};
 use std::path::PathBuf;
 
@@ -136,6 +138,50 @@ impl BoardArgs {
         board.adc_lsb_a = self.adc_lsb_a;
         board.seed = self.seed;
         Ok(board)
+    }
+}
+
+/// The DC link's flags: any of them puts the board on a DC link (the scenario's `[dc_link]`,
+/// or the defaults scaled from the motor, `DcLinkSpec::for_motor`), replacing its part.
+#[derive(clap::Args, Clone, Debug)]
+pub struct DcLinkArgs {
+    /// A DC link of this capacitance (µF) instead of the stiff bus.
+    #[arg(long, allow_negative_numbers = true)]
+    pub dc_link_uf: Option<f64>,
+    /// A DC link whose supply takes back at most this current (A) (0: it cannot sink).
+    #[arg(long, allow_negative_numbers = true)]
+    pub supply_sink_a: Option<f64>,
+    /// A DC link with a brake chopper of this resistance (Ω), on at 1.15 and off at 1.10 of
+    /// the motor's rated bus unless the scenario's `[dc_link]` says otherwise.
+    #[arg(long, allow_negative_numbers = true)]
+    pub brake_ohm: Option<f64>,
+}
+
+impl DcLinkArgs {
+    /// The board's DC link: `base` (the scenario's) with the flags over it; errors name the
+    /// value out of range.
+    pub fn resolve(
+        &self,
+        base: Option<DcLinkSpec>,
+        motor: &Motor,
+    ) -> anyhow::Result<Option<DcLinkSpec>> {
+        if self.dc_link_uf.is_none() && self.supply_sink_a.is_none() && self.brake_ohm.is_none() {
+            return Ok(base);
+        }
+        let mut spec = base.unwrap_or_else(|| DcLinkSpec::for_motor(motor));
+        if let Some(uf) = self.dc_link_uf {
+            spec.capacitance_f = uf * 1e-6;
+        }
+        spec.sink_a = self.supply_sink_a.unwrap_or(spec.sink_a);
+        if let Some(r) = self.brake_ohm {
+            let ch = spec
+                .chopper
+                .unwrap_or_else(|| DcLinkSpec::default_chopper(motor, r));
+            spec.chopper = Some(Chopper { r_ohm: r, ..ch });
+        }
+        spec.check()
+            .context("--dc-link-uf, --supply-sink-a, --brake-ohm")?;
+        Ok(Some(spec))
     }
 }
 

@@ -1,7 +1,7 @@
 //! `pmsm-sim run`: a scenario on the simulated board, its summary and verdict; `prepare`
 //! turns the flags into the simulation's configuration (`sweep` runs its cells through it).
 
-use crate::args::{parse_mismatch, BoardArgs, MotorArg};
+use crate::args::{parse_mismatch, BoardArgs, DcLinkArgs, MotorArg};
 use pmsm_host_sim::observer::ObserverKind;
 use pmsm_host_sim::report::output;
 use pmsm_host_sim::report::summary::Summary;
@@ -42,6 +42,9 @@ pub struct RunArgs {
     /// `ideal = true`).
     #[command(flatten)]
     board: BoardArgs,
+    /// The board's DC link (default: the scenario's `[dc_link]`, else a stiff bus).
+    #[command(flatten)]
+    dc_link: DcLinkArgs,
     /// Controller parameter factors, e.g. `r=1.2,l=0.9` (keys r, l, flux, j, b).
     #[arg(long, value_parser = parse_mismatch, default_value = "")]
     mismatch: Mismatch,
@@ -123,6 +126,7 @@ pub fn prepare(args: &RunArgs) -> anyhow::Result<SimConfig> {
         );
         board.bus_v = 0.01 * p * rated_bus;
     }
+    board.dc_link = args.dc_link.resolve(spec.dc_link(&m)?, &m)?;
     let mut cfg = SimConfig::on(board, sc, observer);
     cfg.mismatch = args.mismatch;
     if let Some(path) = &args.drive_motor_file {
@@ -249,6 +253,9 @@ pub fn run(args: RunArgs) -> anyhow::Result<(String, bool)> {
             a.flux_wb,
             a.flux_err_pct
         );
+    }
+    if let Some(v) = summary.bus_peak_v {
+        outln!(out, "DC link: bus peak {v:.2} V");
     }
     if let Some((csv, png)) = files {
         outln!(out, "plot: {}", png.display());

@@ -1,6 +1,12 @@
 //! The DC supply: the bus the converter switches. It owns the DC-link voltage and takes the
 //! DC-link current the converter draws; a stiff bus ([`StiffBus`]) holds its voltage
-//! whatever the current (a DC link with its capacitance would integrate it).
+//! whatever the current, a DC link ([`DcLink`], in [`dc_link`]) integrates it on its
+//! capacitor, fed by a supply that cannot sink current (or sinks a set amount), with an
+//! optional brake chopper.
+
+pub mod dc_link;
+
+pub use dc_link::{Chopper, DcLink, LinkEnergy, Source};
 
 /// The DC bus as the plant sees it.
 pub trait Supply {
