@@ -187,6 +187,7 @@ fn passing() -> Summary {
         handovers_s: vec![],
         lowest_sensorless_rpm: None,
         adapted: None,
+        bus_peak_v: None,
     }
 }
 
