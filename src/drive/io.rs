@@ -65,6 +65,14 @@ pub enum Fault {
     /// [`StageFault::OverTemperature`]: crate::power_stage::StageFault::OverTemperature
     /// [`DriveInput::stage_fault`]: crate::power_stage::DriveInput::stage_fault
     OverTemperature,
+    /// The drive's 1 kHz task ([`Drive::tick`]) did not run for more than
+    /// [`STEPS_WITHOUT_TICK_MAX`] steps while the drive switched (or caught a rotor): the
+    /// main loop stalled, the interrupt still running, so the speed loop, the supervision and
+    /// its stall and loss checks stopped with it.
+    ///
+    /// [`Drive::tick`]: super::Drive::tick
+    /// [`STEPS_WITHOUT_TICK_MAX`]: crate::schedule::STEPS_WITHOUT_TICK_MAX
+    TaskStall,
     /// The identification stopped: why (with the feature `identify`).
     #[cfg(feature = "identify")]
     Identify(super::identify::IdentifyError),
