@@ -4,7 +4,7 @@
 use pmsm_sensorless::drive::{Fault, IdentifyError};
 
 /// Every drive fault but the identification's, in the order `pmsm-sim` lists them.
-pub const FAULTS: [Fault; 11] = [
+pub const FAULTS: [Fault; 12] = [
     Fault::Overcurrent,
     Fault::BusUndervoltage,
     Fault::BusOvervoltage,
@@ -16,6 +16,7 @@ pub const FAULTS: [Fault; 11] = [
     Fault::HardwareOvercurrent,
     Fault::OverTemperature,
     Fault::TaskStall,
+    Fault::Overspeed,
 ];
 
 /// Snake-case name of a drive fault, as in the JSON summary.
@@ -32,6 +33,7 @@ pub fn fault_name(f: Fault) -> &'static str {
         Fault::HardwareOvercurrent => "hardware_overcurrent",
         Fault::OverTemperature => "over_temperature",
         Fault::TaskStall => "task_stall",
+        Fault::Overspeed => "overspeed",
         Fault::Identify(e) => error_name(e),
     }
 }

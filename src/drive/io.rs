@@ -73,6 +73,11 @@ pub enum Fault {
     /// [`Drive::tick`]: super::Drive::tick
     /// [`STEPS_WITHOUT_TICK_MAX`]: crate::schedule::STEPS_WITHOUT_TICK_MAX
     TaskStall,
+    /// The driving observer's speed, while it is locked in sensorless control, beyond the
+    /// speed whose line-to-line back-EMF peak reaches `bus_max_v` (above it the diodes
+    /// conduct with the PWM off) for `loss_time_s`: a load drives the rotor beyond what the
+    /// current limit can brake.
+    Overspeed,
     /// The identification stopped: why (with the feature `identify`).
     #[cfg(feature = "identify")]
     Identify(super::identify::IdentifyError),

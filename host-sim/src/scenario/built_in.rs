@@ -6,7 +6,7 @@ use super::Scenario;
 use anyhow::Context;
 
 /// The built-in scenario files, in listing order.
-const BUILT_IN: [(&str, &str); 27] = [
+const BUILT_IN: [(&str, &str); 28] = [
     (
         "horng-ramp-brake",
         include_str!("../../scenarios/horng-ramp-brake.toml"),
@@ -114,6 +114,10 @@ const BUILT_IN: [(&str, &str); 27] = [
     (
         "fault-task-stall",
         include_str!("../../scenarios/fault-task-stall.toml"),
+    ),
+    (
+        "fault-overspeed",
+        include_str!("../../scenarios/fault-overspeed.toml"),
     ),
 ];
 
