@@ -168,3 +168,54 @@ fn a_record_every_n_steps() {
     let mut quiet = Control::new(drive, Turning::default());
     assert!((0..10).all(|_| quiet.step(&enabled()).record.is_none()));
 }
+
+/// The step counts the steps since the last tick: in sensorless control, a tick late by up to
+/// `TICKS_MISSED_MAX` runs is tolerated; without one the step after
+/// `STEPS_WITHOUT_TICK_MAX` steps faults `TaskStall`, PWM off, latched. Idle, nothing counts.
+#[test]
+fn a_stalled_tick_is_a_task_stall_after_its_bound() {
+    use pmsm_sensorless::drive::{Fault, Reason};
+    use pmsm_sensorless::schedule::{SLOTS, STEPS_WITHOUT_TICK_MAX, TICKS_MISSED_MAX};
+    assert_eq!(STEPS_WITHOUT_TICK_MAX, SLOTS * TICKS_MISSED_MAX);
+    let drive = sinano_drive();
+    // A late tick resets the count: 16 steps, a tick, 16 steps again.
+    let mut control = Control::new(drive, Turning::default()).with_state(running(&drive));
+    for _ in 0..2 {
+        for _ in 0..STEPS_WITHOUT_TICK_MAX {
+            assert!(control.step(&enabled()).transition.is_none());
+            assert!(control.stage().duties.is_some());
+        }
+        control.tick(&enabled());
+    }
+    // Stalled: the next 16 steps switch, the 17th faults.
+    let mut control = Control::new(drive, Turning::default()).with_state(running(&drive));
+    for k in 1..=STEPS_WITHOUT_TICK_MAX {
+        let stepped = control.step(&enabled());
+        assert!(stepped.transition.is_none(), "step {k}");
+        assert!(control.stage().duties.is_some(), "step {k}");
+    }
+    let stepped = control.step(&enabled());
+    let tr = stepped.transition.expect("a fault");
+    assert_eq!(
+        (tr.from, tr.to, tr.reason),
+        (
+            Mode::Sensorless,
+            Mode::Fault,
+            Reason::Fault(Fault::TaskStall)
+        )
+    );
+    assert!(control.stage().duties.is_none());
+    // Latched: a tick now does not clear it.
+    control.tick(&enabled());
+    for _ in 0..10 {
+        control.step(&enabled());
+        assert!(control.stage().duties.is_none());
+    }
+    assert_eq!(control.state().fault(), Some(Fault::TaskStall));
+    // Idle (enable low), no tick: no fault.
+    let mut idle = Control::new(drive, Turning::default());
+    for _ in 0..100 {
+        idle.step(&Commands::default());
+    }
+    assert_eq!(idle.state().mode(), Mode::Idle);
+}

@@ -4,7 +4,7 @@
 use pmsm_sensorless::drive::{Fault, IdentifyError};
 
 /// Every drive fault but the identification's, in the order `pmsm-sim` lists them.
-pub const FAULTS: [Fault; 10] = [
+pub const FAULTS: [Fault; 12] = [
     Fault::Overcurrent,
     Fault::BusUndervoltage,
     Fault::BusOvervoltage,
@@ -15,6 +15,8 @@ pub const FAULTS: [Fault; 10] = [
     Fault::AdcOffset,
     Fault::HardwareOvercurrent,
     Fault::OverTemperature,
+    Fault::TaskStall,
+    Fault::Overspeed,
 ];
 
 /// Snake-case name of a drive fault, as in the JSON summary.
@@ -30,6 +32,8 @@ pub fn fault_name(f: Fault) -> &'static str {
         Fault::AdcOffset => "adc_offset",
         Fault::HardwareOvercurrent => "hardware_overcurrent",
         Fault::OverTemperature => "over_temperature",
+        Fault::TaskStall => "task_stall",
+        Fault::Overspeed => "overspeed",
         Fault::Identify(e) => error_name(e),
     }
 }

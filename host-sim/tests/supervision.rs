@@ -4,26 +4,15 @@
 //! fault, no loss of lock by the driving observer while sensorless, every window within 2 %)
 //! and the property its case names.
 
+mod board;
+
+use board::{board_run, MOTORS, PRIMARIES};
 use pmsm_host_sim::observer::ObserverKind;
 use pmsm_host_sim::report::summary::Summary;
 use pmsm_host_sim::scenario::Spec;
 use pmsm_host_sim::sim::{run, Run, SimConfig};
 use pmsm_sensorless::drive::{DriveConfig, Mode, Reason};
 use pmsm_sensorless::motor::preset;
-
-const MOTORS: [&str; 2] = ["sinano", "ortega-test-0.3kw"];
-const PRIMARIES: [ObserverKind; 2] = [ObserverKind::SlidingTorque, ObserverKind::Flux];
-
-/// `scenario` on `motor` with `observer` primary, the board's defaults and 1 % noise (seed 1).
-fn board_run(scenario: &str, motor: &str, observer: ObserverKind) -> Run {
-    let m = preset(motor).unwrap();
-    let sc = Spec::built_in(scenario).unwrap().build(motor, m).unwrap();
-    let mut cfg = SimConfig::new(sc, observer);
-    cfg.board.noise_sigma_a = 0.01 * f64::from(m.rated_torque_current_a());
-    cfg.board.dead_time_s = 0.5e-6;
-    cfg.board.pwm_hz = 20_000.0;
-    run(cfg).unwrap()
-}
 
 /// Runs `scenario` on every motor and primary, asserts the verdict, and hands each run to
 /// `check` with its label.

@@ -555,6 +555,8 @@ impl DriveConfig {
                 handover_decay: 1.0 - SLOTS as f32 * ts * TAU * self.speed_bandwidth_hz / 5.0,
                 handback_rpm: s.handback_rpm,
                 stop_rpm: s.stop_rpm,
+                overspeed_rpm: m.bus_limited_rpm(l.bus_max_v),
+                overspeed_checks: slot_cycles(h.loss_time_s).max(1),
                 stall: sensorless::Stall {
                     checks: slot_cycles(h.stall_time_s).max(1),
                     i_limit_a: 0.99 * l.i_max_a,

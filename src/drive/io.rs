@@ -65,6 +65,19 @@ pub enum Fault {
     /// [`StageFault::OverTemperature`]: crate::power_stage::StageFault::OverTemperature
     /// [`DriveInput::stage_fault`]: crate::power_stage::DriveInput::stage_fault
     OverTemperature,
+    /// The drive's 1 kHz task ([`Drive::tick`]) did not run for more than
+    /// [`STEPS_WITHOUT_TICK_MAX`] steps while the drive switched (or caught a rotor): the
+    /// main loop stalled, the interrupt still running, so the speed loop, the supervision and
+    /// its stall and loss checks stopped with it.
+    ///
+    /// [`Drive::tick`]: super::Drive::tick
+    /// [`STEPS_WITHOUT_TICK_MAX`]: crate::schedule::STEPS_WITHOUT_TICK_MAX
+    TaskStall,
+    /// The driving observer's speed, while it is locked in sensorless control, beyond the
+    /// speed whose line-to-line back-EMF peak reaches `bus_max_v` (above it the diodes
+    /// conduct with the PWM off) for `loss_time_s`: a load drives the rotor beyond what the
+    /// current limit can brake.
+    Overspeed,
     /// The identification stopped: why (with the feature `identify`).
     #[cfg(feature = "identify")]
     Identify(super::identify::IdentifyError),

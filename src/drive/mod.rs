@@ -5,7 +5,10 @@
 //! 1. the input checks (`protection.rs`): a fault turns the PWM off in the
 //!    same step and is latched until cleared (the terminal voltage is checked where it is
 //!    read, while catching);
-//! 2. the commands: enable, disable, clear a fault;
+//! 2. the commands: enable, disable, clear a fault; then, in a running mode, the count of
+//!    steps since the last 1 kHz task: beyond
+//!    [`STEPS_WITHOUT_TICK_MAX`](crate::schedule::STEPS_WITHOUT_TICK_MAX) the task has
+//!    stalled (`Fault::TaskStall`), PWM off;
 //! 3. both observers ([`Observer`]) every step while the inverter is on, the primary feeding
 //!    the controller and the monitor watching it (their read-outs are the 1 kHz task's);
 //! 4. the mode's step, each mode in a file of its own with its state in its variant of the
@@ -182,22 +185,30 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             | ModeState::Align(_)
             | ModeState::OpenLoop(_)
             | ModeState::Sensorless(_) => {
-                // The samples as the board delivers them (its own offsets taken off: the
-                // B-G431B-ESC1 measures them at boot); the drive's offsets correct the
-                // identification's samples and refuse an implausible sensor at the enable.
-                // (Taking them off here too costs 6 cycles the step does not have.)
-                let i_ab = input.i_abc.to_alpha_beta();
-                // PWM off (catching): the voltage is the terminals'.
-                let v_ab = match (&st.mode, input.v_ab_terminal) {
-                    (ModeState::Catch(_), Some(v)) => v,
-                    _ => st.last.v_ab(),
-                };
-                let ok = self.observe(st, i_ab, v_ab);
-                let (duties, r) = self.control(st, input.v_bus, i_ab, input.v_ab_terminal, ok);
-                if r.is_some() {
-                    reason = r;
+                // The 1 kHz task stalled (`STEPS_WITHOUT_TICK_MAX` steps without it): its
+                // speed loop, supervision and checks stopped with it; stop switching. Counted
+                // while catching too (PWM off): the catch's hand-over is the task's.
+                if st.task_stalled() {
+                    reason = Some(enter_fault(st, Fault::TaskStall));
+                    None
+                } else {
+                    // The samples as the board delivers them (its own offsets taken off: the
+                    // B-G431B-ESC1 measures them at boot); the drive's offsets correct the
+                    // identification's samples and refuse an implausible sensor at the enable.
+                    // (Taking them off here too costs 6 cycles the step does not have.)
+                    let i_ab = input.i_abc.to_alpha_beta();
+                    // PWM off (catching): the voltage is the terminals'.
+                    let v_ab = match (&st.mode, input.v_ab_terminal) {
+                        (ModeState::Catch(_), Some(v)) => v,
+                        _ => st.last.v_ab(),
+                    };
+                    let ok = self.observe(st, i_ab, v_ab);
+                    let (duties, r) = self.control(st, input.v_bus, i_ab, input.v_ab_terminal, ok);
+                    if r.is_some() {
+                        reason = r;
+                    }
+                    duties
                 }
-                duties
             }
         };
         st.slot = st.slot.next();
@@ -225,6 +236,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     /// only what every sample needs.
     #[inline(never)]
     pub fn tick(&self, st: &mut StateOf<P, M>, cmd: &Command) -> Option<Transition> {
+        st.ticked();
         let from = st.mode();
         match st.mode {
             ModeState::Idle

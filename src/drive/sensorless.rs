@@ -32,6 +32,15 @@ pub(super) struct Settings {
     pub(super) handback_rpm: f32,
     /// With a zero command, stopped below this estimated |speed| \[rpm].
     pub(super) stop_rpm: f32,
+    /// The driving observer's |speed| above this is an over-speed \[rpm]: the speed whose
+    /// line-to-line back-EMF peak `√3 N ψ_f ω_m` reaches the highest bus `bus_max_v` (above
+    /// it the diodes conduct with the PWM off and brake the rotor into the bus, uncontrolled) ...
+    pub(super) overspeed_rpm: f32,
+    /// ... for this many checks in a row: the supervision's loss time (`loss_time_s`, 20 ms
+    /// by default), the time the drive gives any transient before it faults. A rated-load
+    /// release at rated speed on the Sinano motor, with the drive in control, takes the flux
+    /// observer's estimate to 1,595 rpm, above the bound (1,427 rpm) for 12 ms.
+    pub(super) overspeed_checks: u32,
     /// The stall check.
     pub(super) stall: Stall,
 }
@@ -126,6 +135,8 @@ pub(super) struct Sensorless {
     out_rot: SinCos,
     /// Consecutive checks of a collapsed speed at the current limit.
     stall: u32,
+    /// Consecutive checks of an over-speed.
+    overspeed: u32,
     /// The speed loop's load-torque observer (`load_observer.rs`).
     load: LoadObserverState,
     /// The load torque fed forward last \[N·m].
@@ -181,6 +192,7 @@ impl Settings {
             i_d_ref: i_dq.d,
             out_rot: foc.output_rotation(omega_m),
             stall: 0,
+            overspeed: 0,
             load,
             ff_nm,
         }
@@ -208,8 +220,9 @@ impl Settings {
     /// Sensorless control's 1 kHz work ([`Drive::tick`](super::Drive::tick)), after the
     /// health check (its `verdict`, and `note` when the driving observer changed; `d` the
     /// driving observer's estimate now): the hand-back where no observer is healthy at low
-    /// speed, observer loss, the stop at zero, the output lead at the new speed, the speed loop
-    /// toward the user's `cmd_rpm` with the load torque fed forward, the stall check.
+    /// speed, observer loss, over-speed, the stop at zero, the output lead at the new speed,
+    /// the speed loop toward the user's `cmd_rpm` with the load torque fed forward, the stall
+    /// check.
     /// `applied`: what the current loop applied over the last millisecond.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
@@ -236,6 +249,12 @@ impl Settings {
                 };
             }
             Verdict::NoLock | Verdict::Contradiction => return Next::Fault(Fault::ObserverLoss),
+        }
+        // A locked observer's speed beyond the bound, persistently: a rotor the drive no
+        // longer holds.
+        s.overspeed = consecutive(s.overspeed, speed_rpm.abs() > self.overspeed_rpm);
+        if s.overspeed >= self.overspeed_checks {
+            return Next::Fault(Fault::Overspeed);
         }
         if cmd_rpm == 0.0 && s.speed_ref_rpm == 0.0 && speed_rpm.abs() < self.stop_rpm {
             return Next::Stopped;

@@ -18,6 +18,7 @@ use super::Slot;
 use crate::foc::CurrentLoopState;
 use crate::frames::{AlphaBeta, SinCos};
 use crate::observer::Observer;
+use crate::schedule::STEPS_WITHOUT_TICK_MAX;
 
 /// The running state of a [`Drive<P, M>`](super::Drive): `DriveState<P::State, M::State>`.
 pub type StateOf<P, M> = DriveState<<P as Observer>::State, <M as Observer>::State>;
@@ -31,6 +32,10 @@ pub type StateOf<P, M> = DriveState<<P as Observer>::State, <M as Observer>::Sta
 pub struct DriveState<PS, MS> {
     pub(super) mode: ModeState,
     pub(super) slot: Slot,
+    /// Steps since the last run of the 1 kHz task, counted by the running modes' steps
+    /// ([`DriveState::task_stalled`]), reset by [`Drive::tick`](super::Drive::tick): beyond
+    /// [`STEPS_WITHOUT_TICK_MAX`], `Fault::TaskStall`.
+    pub(super) since_tick: u8,
     pub(super) obs: ObserverStates<PS, MS>,
     pub(super) current: CurrentLoopState,
     /// The currents of the last sample the observers took \[A].
@@ -52,6 +57,7 @@ impl<PS: Default, MS: Default> Default for DriveState<PS, MS> {
         Self {
             mode: ModeState::Idle,
             slot: Slot::First,
+            since_tick: 0,
             obs: ObserverStates::default(),
             current: CurrentLoopState::default(),
             i_ab_last: AlphaBeta::default(),
@@ -80,6 +86,21 @@ impl<PS: Default, MS: Default> DriveState<PS, MS> {
 }
 
 impl<PS, MS> DriveState<PS, MS> {
+    /// A step of a running mode, counted since the last run of the 1 kHz task: true when the
+    /// count is beyond [`STEPS_WITHOUT_TICK_MAX`] (the task has missed
+    /// [`TICKS_MISSED_MAX`](crate::schedule::TICKS_MISSED_MAX) runs: it stalled).
+    #[inline(always)]
+    pub(super) fn task_stalled(&mut self) -> bool {
+        self.since_tick = self.since_tick.saturating_add(1);
+        u32::from(self.since_tick) > STEPS_WITHOUT_TICK_MAX
+    }
+
+    /// The 1 kHz task ran: the count of [`DriveState::task_stalled`] starts again.
+    #[inline(always)]
+    pub(super) fn ticked(&mut self) {
+        self.since_tick = 0;
+    }
+
     /// The mode.
     pub fn mode(&self) -> Mode {
         match self.mode {

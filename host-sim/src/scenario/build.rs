@@ -344,7 +344,13 @@ fn injection(i: &InjectFile, motor: &Motor, duration_s: f64) -> anyhow::Result<I
             only(&[])?;
             Injection::NanCurrent { t: i.t }
         }
-        other => bail!("inject.kind = \"{other}\": must be \"plant\", \"bus\" or \"nan_current\""),
+        "task_stall" => {
+            only(&[])?;
+            Injection::TaskStall { t: i.t }
+        }
+        other => bail!(
+            "inject.kind = \"{other}\": must be \"plant\", \"bus\", \"nan_current\" or \"task_stall\""
+        ),
     })
 }
 

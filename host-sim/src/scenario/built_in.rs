@@ -6,7 +6,7 @@ use super::Scenario;
 use anyhow::Context;
 
 /// The built-in scenario files, in listing order.
-const BUILT_IN: [(&str, &str); 26] = [
+const BUILT_IN: [(&str, &str); 28] = [
     (
         "horng-ramp-brake",
         include_str!("../../scenarios/horng-ramp-brake.toml"),
@@ -111,6 +111,14 @@ const BUILT_IN: [(&str, &str); 26] = [
         "stop-regen",
         include_str!("../../scenarios/stop-regen.toml"),
     ),
+    (
+        "fault-task-stall",
+        include_str!("../../scenarios/fault-task-stall.toml"),
+    ),
+    (
+        "fault-overspeed",
+        include_str!("../../scenarios/fault-overspeed.toml"),
+    ),
 ];
 
 impl Spec {
@@ -204,6 +212,11 @@ pub fn fault_nan_current() -> Scenario {
 /// Half the flux → observer loss (`scenarios/fault-observer-loss.toml`).
 pub fn fault_observer_loss() -> Scenario {
     built_in("fault-observer-loss")
+}
+
+/// The 1 kHz task stalls → task stall (`scenarios/fault-task-stall.toml`).
+pub fn fault_task_stall() -> Scenario {
+    built_in("fault-task-stall")
 }
 
 #[cfg(test)]

@@ -22,7 +22,7 @@
 //! expect_fault = "stall"          # the run passes only if the drive faults so
 //! [inject]                        # a fault cause: kind = "plant" (factors r, l, flux),
 //! t = 1.8                         # "bus" (bus, a fraction of the rated bus, and `until`, the
-//! kind = "plant"                  # time it recovers: a sag) or "nan_current"
+//! kind = "plant"                  # time it recovers: a sag), "nan_current" or "task_stall"
 //! r = 0.1
 //! [dc_link]                       # a DC link instead of the stiff bus (every key optional)
 //! capacitance_uf = 158.0          # default: P·50 µs/(0.01·V²), the rated DC-link current P/V
@@ -58,8 +58,8 @@ pub mod profile;
 
 pub use built_in::{
     all, by_name, fault_bus_undervoltage, fault_nan_current, fault_observer_loss,
-    fault_overcurrent, horng_ramp_brake, ortega_load_200, ortega_load_800, ortega_ramp,
-    ortega_steps, start_stop_reverse, start_test_motor,
+    fault_overcurrent, fault_task_stall, horng_ramp_brake, ortega_load_200, ortega_load_800,
+    ortega_ramp, ortega_steps, start_stop_reverse, start_test_motor,
 };
 pub use file::{ScenarioFile, Spec};
 
@@ -209,15 +209,22 @@ pub enum Injection {
         /// Time \[s].
         t: f64,
     },
+    /// The drive's 1 kHz task stalls from `t` on (a main loop stuck, the interrupt still
+    /// running): the control loop runs only its step (`Control::step`), never the tick.
+    TaskStall {
+        /// Time \[s].
+        t: f64,
+    },
 }
 
 impl Injection {
     /// When it happens \[s].
     pub fn t(&self) -> f64 {
         match *self {
-            Injection::Plant { t, .. } | Injection::Bus { t, .. } | Injection::NanCurrent { t } => {
-                t
-            }
+            Injection::Plant { t, .. }
+            | Injection::Bus { t, .. }
+            | Injection::NanCurrent { t }
+            | Injection::TaskStall { t } => t,
         }
     }
 }

@@ -8,7 +8,7 @@ use super::row::RowHealth;
 use crate::board::BoardStage;
 use crate::observer::{Bare, BareInput, Estimate, ObserverKind, ObserverSetup};
 use crate::RAD_S_PER_RPM;
-use pmsm_sensorless::control::{Commands, Control};
+use pmsm_sensorless::control::{Commands, Control, Ticked};
 use pmsm_sensorless::dead_time::DeadTimeConfig;
 use pmsm_sensorless::drive::{Drive, DriveConfig, DriveInput, Limits, Mode, Telemetry, Transition};
 use pmsm_sensorless::foc::FocConfig;
@@ -39,8 +39,14 @@ pub(super) enum Controller {
 /// The core's control loop on the board, whatever its observers.
 pub(super) trait SimDrive {
     /// One period on `stage` ([`Control::run`]: its sample, the step, its duties applied,
-    /// then the 1 kHz task when due): the step's transition and the task's.
-    fn run(&mut self, stage: &mut BoardStage, cmd: &Commands) -> [Option<Transition>; 2];
+    /// then the 1 kHz task when due; with `tick` false, [`Control::step`] alone: the task
+    /// stalled): the step's transition and the task's.
+    fn run(
+        &mut self,
+        stage: &mut BoardStage,
+        cmd: &Commands,
+        tick: bool,
+    ) -> [Option<Transition>; 2];
     /// [`Drive::telemetry`](pmsm_sensorless::drive::Drive::telemetry).
     fn telemetry(&self) -> Telemetry;
     /// The voltage the last step's duties apply \[V].
@@ -75,9 +81,18 @@ impl PowerStage for Latch {
 }
 
 impl<P: Observer, M: Observer> SimDrive for Control<P, M, Latch> {
-    fn run(&mut self, stage: &mut BoardStage, cmd: &Commands) -> [Option<Transition>; 2] {
+    fn run(
+        &mut self,
+        stage: &mut BoardStage,
+        cmd: &Commands,
+        tick: bool,
+    ) -> [Option<Transition>; 2] {
         self.stage_mut().input = Some(stage.sample());
-        let (stepped, ticked) = Control::run(self, cmd);
+        let (stepped, ticked) = if tick {
+            Control::run(self, cmd)
+        } else {
+            (Control::step(self, cmd), Ticked::default())
+        };
         stage.apply(self.stage().duties);
         [stepped.transition, ticked.transition]
     }
@@ -107,6 +122,8 @@ pub(super) struct Period {
     pub truth: Rotor,
     /// Bare runs: from this |true speed| on the observer runs on its own \[rad/s].
     pub sensorless_from: f32,
+    /// Drive runs: the 1 kHz task stalled (an injection): the step alone.
+    pub task_stalled: bool,
 }
 
 /// What the controller did in one control period.
@@ -215,7 +232,7 @@ impl Controller {
         };
         let off = Commands::default();
         for _ in 0..steps {
-            drive.run(stage, &off);
+            drive.run(stage, &off, true);
         }
         if steps > 0 {
             stage.take_offsets(drive.offset_ab().to_abc());
@@ -250,7 +267,7 @@ impl Controller {
                     speed_rpm: period.speed_cmd_rpm as f32,
                     ..Commands::default()
                 };
-                let transitions = drive.run(stage, &cmd);
+                let transitions = drive.run(stage, &cmd, !period.task_stalled);
                 let tel = drive.telemetry();
                 let health = RowHealth {
                     driving: tel.driving,

@@ -147,7 +147,8 @@ impl Sim {
                 plant.supply.set_supply_v(if recovered { back } else { v });
             }
             Injection::NanCurrent { .. } => self.stage.break_phase_b(),
-            Injection::Plant { .. } => {}
+            // The controller stops ticking (`Sim::step`).
+            Injection::Plant { .. } | Injection::TaskStall { .. } => {}
         }
     }
 
@@ -158,6 +159,12 @@ impl Sim {
         self.inject(t);
         let truth = self.truth();
         let sc = &self.config.scenario;
+        // From an injected task stall on (`inject` has seen its time), the step alone.
+        let task_stalled = self.causes.injection.is_some()
+            && sc
+                .drive
+                .as_ref()
+                .is_some_and(|d| matches!(d.injection, Some(Injection::TaskStall { .. })));
         let period = Period {
             speed_cmd_rpm: sc.speed_cmd_rpm.at(t),
             enable: sc
@@ -171,6 +178,7 @@ impl Sim {
             },
             sensorless_from: (self.config.sensorless_from_rpm.unwrap_or(0.0) * RAD_S_PER_RPM)
                 as f32,
+            task_stalled,
         };
         let control = self.controller.step(&mut self.stage, &period);
         self.record(t, &control);
