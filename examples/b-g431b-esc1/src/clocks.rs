@@ -1,11 +1,19 @@
 //! Clocks: SYSCLK 170 MHz from the PLL (HSE crystal, HSI16 as fallback), and the peripheral
-//! clocks the firmware uses.
+//! clocks the firmware uses (RM0440 RCC, PWR and FLASH chapters). The register blocks are
+//! borrowed, so a host test runs these on zeroed ones (`init_tests::clocks`).
 
-use pmsm_b_g431b_esc1::config::SETTINGS;
-use pmsm_b_g431b_esc1::pll::{SRC_HSE, SRC_HSI16};
+use crate::config::SETTINGS;
+use crate::hw::{wait_for, Hw, InitError, Wait, POLLS_MAX};
+use crate::pll::{SRC_HSE, SRC_HSI16};
 use stm32g4::stm32g431 as pac;
 
-#[derive(Clone, Copy, defmt::Format)]
+/// Polls of HSERDY, one per millisecond at the reset clock (HSI16): the crystal gets 100 ms.
+const HSE_POLLS: u32 = 100;
+/// One millisecond at the reset clock HSI16 \[cycles].
+const HSI16_MS_CYCLES: u32 = 16_000;
+
+/// Where SYSCLK's PLL takes its reference from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ClockSource {
     /// 8 MHz HSE crystal → PLL.
     Hse,
@@ -20,7 +28,12 @@ pub enum ClockSource {
 /// `SETTINGS.pll_hse` / `pll_hsi` (PLL input 4 MHz, HSE/2 or HSI16/4, VCO ×85 = 340 MHz,
 /// R /2 = 170 MHz, within DS12589's ranges: host-tested). If the HSE is not ready
 /// within ~100 ms the PLL runs from HSI16 instead (same frequencies, ±1 % accuracy).
-pub fn init(rcc: &pac::RCC, pwr: &pac::PWR, flash: &pac::FLASH) -> ClockSource {
+pub fn init(
+    rcc: &pac::rcc::RegisterBlock,
+    pwr: &pac::pwr::RegisterBlock,
+    flash: &pac::flash::RegisterBlock,
+    hw: &mut impl Hw,
+) -> Result<ClockSource, InitError> {
     // Flash: 4 wait states for HCLK ≤ 170 MHz in range 1 boost (RM0440 FLASH chapter,
     // "Read access latency", wait states versus HCLK table), prefetch and both caches on,
     // before any frequency increase (more wait states than needed are always safe).
@@ -35,16 +48,19 @@ pub fn init(rcc: &pac::RCC, pwr: &pac::PWR, flash: &pac::FLASH) -> ClockSource {
             .dcen()
             .set_bit()
     });
-    while u32::from(flash.acr().read().latency().bits()) != SETTINGS.flash_wait_states {}
+    wait_for(hw, Wait::FlashLatency, POLLS_MAX, || {
+        u32::from(flash.acr().read().latency().bits()) == SETTINGS.flash_wait_states
+    })?;
 
     rcc.cr().modify(|_, w| w.hseon().set_bit());
     let mut hse_ready = false;
-    for _ in 0..100 {
+    for _ in 0..HSE_POLLS {
+        hw.poll(Wait::HseReady);
         if rcc.cr().read().hserdy().bit_is_set() {
             hse_ready = true;
             break;
         }
-        cortex_m::asm::delay(16_000); // 1 ms at the reset clock (HSI16)
+        hw.delay_cycles(HSI16_MS_CYCLES);
     }
     let source = if hse_ready {
         ClockSource::Hse
@@ -62,7 +78,9 @@ pub fn init(rcc: &pac::RCC, pwr: &pac::PWR, flash: &pac::FLASH) -> ClockSource {
     // host-tested field by field); the PLL is off.
     rcc.pllcfgr().write(|w| unsafe { w.bits(word) });
     rcc.cr().modify(|_, w| w.pllon().set_bit());
-    while rcc.cr().read().pllrdy().bit_is_clear() {}
+    wait_for(hw, Wait::PllReady, POLLS_MAX, || {
+        rcc.cr().read().pllrdy().bit_is_set()
+    })?;
 
     // Range 1 boost (R1MODE = 0) is needed above 150 MHz. RM0440 §6.1.5 (and §7.2.7 for
     // the AHB prescaler): (1) halve HCLK with the AHB prescaler, (2) clear R1MODE,
@@ -73,14 +91,16 @@ pub fn init(rcc: &pac::RCC, pwr: &pac::PWR, flash: &pac::FLASH) -> ClockSource {
     // APB1 = APB2 = HCLK (reset value, written for clarity); SYSCLK = PLLR.
     rcc.cfgr()
         .modify(|_, w| w.ppre1().div1().ppre2().div1().sw().pll());
-    while !rcc.cfgr().read().sws().is_pll() {}
-    cortex_m::asm::delay(200); // > 1 µs at HCLK = 85 MHz
+    wait_for(hw, Wait::SysclkPll, POLLS_MAX, || {
+        rcc.cfgr().read().sws().is_pll()
+    })?;
+    hw.delay_cycles(200); // > 1 µs at HCLK = 85 MHz
     rcc.cfgr().modify(|_, w| w.hpre().div1());
-    source
+    Ok(source)
 }
 
 /// Clocks of GPIOA..C, ADC1/2, TIM1 and the OPAMPs.
-pub fn enable_peripherals(rcc: &pac::RCC) {
+pub fn enable_peripherals(rcc: &pac::rcc::RegisterBlock) {
     rcc.ahb2enr().modify(|_, w| {
         w.gpioaen()
             .set_bit()

@@ -66,6 +66,12 @@ pub struct BoardConfig {
     pub hw_trip_factor: f32,
     /// Bootstrap pre-charge before the first enable: all low sides on this long \[µs].
     pub precharge_us: u32,
+    /// Phase-voltage (back-EMF) dividers: upper resistor \[Ω] ([`crate::bemf`]).
+    pub bemf_r_top_ohm: f32,
+    /// Phase-voltage dividers: lower resistor, to the GPIO_BEMF pin \[Ω].
+    pub bemf_r_bottom_ohm: f32,
+    /// Sample time of the phase-voltage channels (SMP code).
+    pub bemf_smp: u8,
 }
 
 impl BoardConfig {
@@ -101,6 +107,10 @@ impl BoardConfig {
     /// - Bootstrap pre-charge 1 ms (20 periods): the L6387's bootstrap capacitor charges
     ///   through its internal diode while the low side conducts (time constant not
     ///   checked against UM2516's component values: UNVERIFIED).
+    /// - Phase-voltage dividers 10 kΩ / 2.2 kΩ (ratio 5.545; ST gives 5.54 for this board:
+    ///   [`crate::bemf`], the resistors themselves UNVERIFIED), 47.5 ADC cycles (1.1 µs) for
+    ///   their 1.8 kΩ source: RM0440's `t_s ≥ (R_ain + R_adc)·C_adc·ln(2^14)` is some 0.15 µs
+    ///   with DS12589's C_adc ≈ 5 pF and R_adc ≈ 1 kΩ.
     pub const ESC1: Self = Self {
         hse_hz: 8_000_000,
         sysclk_hz: 170_000_000,
@@ -121,6 +131,9 @@ impl BoardConfig {
         comp_v_per_a: 0.003 * 9.14 / 16.0,
         hw_trip_factor: 1.5,
         precharge_us: 1000,
+        bemf_r_top_ohm: 10_000.0,
+        bemf_r_bottom_ohm: 2_200.0,
+        bemf_smp: 4,
     };
 
     /// Everything derived from this configuration, or the first thing that is out of range.
@@ -156,8 +169,22 @@ impl BoardConfig {
         if adc_hz > ADC_MAX_HZ {
             return Err("ADC clock above 60 MHz");
         }
-        if self.current_smp > 7 || self.bus_smp > 7 {
+        if self.current_smp > 7 || self.bus_smp > 7 || self.bemf_smp > 7 {
             return Err("sample-time code above 7");
+        }
+        // ADC1: U, W, bus, NTC; ADC2: V, the three phase voltages. The step starts at ADC1's
+        // end of sequence and reads ADC2: its sequence must end first.
+        let adc1_half_cycles = 2 * SAMPLE_HALF_CYCLES[self.current_smp as usize]
+            + 2 * SAMPLE_HALF_CYCLES[self.bus_smp as usize]
+            + 4 * CONVERSION_HALF_CYCLES;
+        let adc2_half_cycles = SAMPLE_HALF_CYCLES[self.current_smp as usize]
+            + 3 * SAMPLE_HALF_CYCLES[self.bemf_smp as usize]
+            + 4 * CONVERSION_HALF_CYCLES;
+        if adc2_half_cycles >= adc1_half_cycles {
+            return Err("ADC2's sequence does not end before ADC1's");
+        }
+        if !(self.bemf_r_top_ohm > 0.0 && self.bemf_r_bottom_ohm > 0.0) {
+            return Err("bemf divider resistors not positive");
         }
         // ADC1 converts U (rank 1, ADC2's V simultaneously), then W (rank 2): the last
         // current sample ends after two sample times and one conversion.
@@ -231,6 +258,13 @@ impl BoardConfig {
             hw_trip_factor: self.hw_trip_factor,
             precharge_periods: (self.precharge_us as u64 * self.pwm_hz as u64).div_ceil(1_000_000)
                 as u32,
+            bemf_smp: self.bemf_smp,
+            bemf_volts_per_lsb: crate::bemf::volts_per_lsb(
+                self.vref_v,
+                crate::bemf::divider_ratio(self.bemf_r_top_ohm, self.bemf_r_bottom_ohm),
+            ),
+            adc1_sequence_ns: adc1_half_cycles as f32 * 0.5e9 / adc_hz as f32,
+            adc2_sequence_ns: adc2_half_cycles as f32 * 0.5e9 / adc_hz as f32,
         })
     }
 }
@@ -329,6 +363,14 @@ pub struct Settings {
     pub hw_trip_factor: f32,
     /// PWM periods of the bootstrap pre-charge.
     pub precharge_periods: u32,
+    /// SMP code of the phase-voltage channels.
+    pub bemf_smp: u8,
+    /// Phase voltage per ADC count \[V/LSB] ([`crate::bemf`]).
+    pub bemf_volts_per_lsb: f32,
+    /// ADC1's injected sequence (U, W, bus, NTC) from the trigger to its end \[ns].
+    pub adc1_sequence_ns: f32,
+    /// ADC2's (V, the three phase voltages) \[ns]: shorter than ADC1's.
+    pub adc2_sequence_ns: f32,
 }
 
 impl Settings {

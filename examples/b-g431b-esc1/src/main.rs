@@ -78,19 +78,11 @@ fn main() {
 }
 
 #[cfg(target_os = "none")]
-mod adc;
-#[cfg(target_os = "none")]
-mod clocks;
-#[cfg(target_os = "none")]
 mod control;
-#[cfg(target_os = "none")]
-mod overcurrent;
 #[cfg(target_os = "none")]
 mod power_stage;
 #[cfg(target_os = "none")]
 mod protection;
-#[cfg(target_os = "none")]
-mod pwm;
 #[cfg(target_os = "none")]
 mod settings;
 #[cfg(target_os = "none")]
@@ -110,10 +102,44 @@ mod firmware {
     };
     use crate::power_stage::Esc1;
     use crate::protection::MAIN_ALIVE;
-    use crate::{adc, clocks, overcurrent, protection, pwm, settings, telemetry};
+    use crate::{protection, settings, telemetry};
     use pmsm_b_g431b_esc1::config::SETTINGS;
     use pmsm_b_g431b_esc1::drive_settings::drive_config;
+    use pmsm_b_g431b_esc1::hw::{Hw, InitError, Wait};
     use pmsm_b_g431b_esc1::ntc::NtcConfig;
+    use pmsm_b_g431b_esc1::{adc, clocks, overcurrent, pwm, watchdog};
+
+    /// The CPU's part of the init functions: busy-waits of the core clock; the polls spin
+    /// on the peripherals' own flags.
+    struct Cpu;
+
+    impl Hw for Cpu {
+        fn delay_cycles(&mut self, cycles: u32) {
+            cortex_m::asm::delay(cycles);
+        }
+
+        fn poll(&mut self, _what: Wait) {}
+    }
+
+    /// The value of an init function, or the firmware stops with its error in the log.
+    fn ok<T>(r: Result<T, InitError>) -> T {
+        match r {
+            Ok(v) => v,
+            Err(InitError::CurrentOffset(lsb)) => {
+                defmt::panic!(
+                    "start-up: {=str}: {=f32} LSB",
+                    InitError::CurrentOffset(lsb).name(),
+                    lsb
+                )
+            }
+            Err(InitError::ComparatorHigh(phase)) => defmt::panic!(
+                "start-up: {=str}: phase {=usize} (0 = U)",
+                InitError::ComparatorHigh(phase).name(),
+                phase
+            ),
+            Err(e) => defmt::panic!("start-up: {=str}", e.name()),
+        }
+    }
 
     /// The button is sampled every this many steps (40 steps = 10 ms, longer than contact
     /// bounce).
@@ -155,10 +181,17 @@ mod firmware {
 
         // Core and PWR clocks first: the voltage range is in PWR.
         dp.RCC.apb1enr1().modify(|_, w| w.pwren().set_bit());
-        let clock = clocks::init(&dp.RCC, &dp.PWR, &dp.FLASH);
-        defmt::info!("B-G431B-ESC1: SYSCLK 170 MHz from {}", clock);
+        let cpu = &mut Cpu;
+        let clock = ok(clocks::init(&dp.RCC, &dp.PWR, &dp.FLASH, cpu));
+        defmt::info!(
+            "B-G431B-ESC1: SYSCLK 170 MHz from {=str}",
+            match clock {
+                clocks::ClockSource::Hse => "the HSE crystal",
+                clocks::ClockSource::HsiFallback => "HSI16 (the crystal did not start)",
+            }
+        );
 
-        protection::freeze_on_debug_halt(&dp.DBGMCU);
+        watchdog::freeze_on_debug_halt(&dp.DBGMCU);
         clocks::enable_peripherals(&dp.RCC);
         overcurrent::system_break(
             &dp.SYSCFG,
@@ -168,19 +201,49 @@ mod firmware {
         pwm::release_dead_battery_pins(&dp.PWR);
 
         pwm::init_tim1(&dp.TIM1);
-        adc::init_pins(&dp.GPIOA, &dp.GPIOB);
-        init_button(&dp.GPIOC);
-        adc::init_opamps(&dp.OPAMP);
+        adc::init_pins(&dp.GPIOA, &dp.GPIOB, &dp.GPIOC);
+        pwm::init_button(&dp.GPIOC);
+        adc::init_opamps(&dp.OPAMP, cpu);
 
         // Start the timer (outputs off: MOE = 0), find where its update lands, write BDTR
         // once (dead time, breaks, off-states, LOCK); only then the pins to the timer.
-        let pwm = pwm::start(dp.TIM1);
+        let pwm = ok(pwm::start(dp.TIM1, cpu));
+        defmt::info!(
+            "TIM1: {=u32} Hz centre-aligned, ARR {=u32}, dead time {=f32} ns (DTG {=u8:#x}, CKD {=u8}), update every period at the counter {=str}, a step every {=u32}, break filter {=f32} ns",
+            SETTINGS.pwm_hz,
+            SETTINGS.tim1_arr,
+            SETTINGS.dead_time.ns,
+            SETTINGS.dead_time.dtg,
+            SETTINGS.dead_time.ckd,
+            match pwm.sample_at() {
+                pwm::SampleAt::Peak => "peak",
+                pwm::SampleAt::Valley => "valley",
+            },
+            SETTINGS.pwm_per_step,
+            SETTINGS.break_filter_ns
+        );
         pwm::init_pins(&dp.GPIOA, &dp.GPIOB, &dp.GPIOC);
-        let (adc, comparator_inputs, ntc_raw) = adc::init(&dp.ADC12_COMMON, dp.ADC1, dp.ADC2);
-        let temp_c = NtcConfig::ESC1.temp_c(ntc_raw, SETTINGS.vref_v);
+        let (adc, start) = ok(adc::init(&dp.ADC12_COMMON, dp.ADC1, dp.ADC2, cpu));
+        let offsets = adc.offsets();
+        defmt::info!(
+            "current offsets U V W = {=f32} {=f32} {=f32} LSB, bus {=f32} V",
+            offsets[0],
+            offsets[1],
+            offsets[2],
+            start.v_bus
+        );
+        let comparator_inputs = start.comparator_inputs;
+        let temp_c = NtcConfig::ESC1.temp_c(start.ntc_raw, SETTINGS.vref_v);
         defmt::info!("power stage at {=f32} C (NTC, PB14)", temp_c);
         let i_trip_a = drive_config().limits.i_trip_a;
-        let hw_trip = overcurrent::init(&dp.RCC, &dp.DAC3, &dp.COMP, comparator_inputs, i_trip_a);
+        let hw_trip = ok(overcurrent::init(
+            &dp.RCC,
+            &dp.DAC3,
+            &dp.COMP,
+            comparator_inputs,
+            i_trip_a,
+            cpu,
+        ));
         defmt::info!(
             "hardware over-current trip (COMP1/2/4 -> TIM1 BRK2) at U {=f32} V {=f32} W {=f32} A (software trip {=f32} A); comparator inputs {=f32} {=f32} {=f32} V",
             hw_trip[0],
@@ -199,8 +262,8 @@ mod firmware {
         // not a fault.
         stage.clear_faults();
         // Before the first enable: the bootstrap capacitors charged through the low sides.
-        stage.precharge_bootstrap(SETTINGS.precharge_periods);
-        let watchdog = protection::Watchdog::start(dp.IWDG);
+        ok(stage.precharge_bootstrap(SETTINGS.precharge_periods, cpu));
+        let watchdog = ok(protection::Watchdog::start(dp.IWDG, cpu));
         // Drop any sequence that completed since the calibration, so the first step starts on
         // a fresh sample (a stale one could make the first step look like an overrun).
         stage.discard_samples();
@@ -277,12 +340,5 @@ mod firmware {
             // Woken by the next control interrupt at the latest.
             cortex_m::asm::wfi();
         }
-    }
-
-    /// The user button PC10 as a floating input (the board provides its level; NuttX
-    /// configures it floating too).
-    fn init_button(gpioc: &pac::GPIOC) {
-        gpioc.moder().modify(|_, w| w.moder10().input());
-        gpioc.pupdr().modify(|_, w| w.pupdr10().floating());
     }
 }

@@ -1,9 +1,11 @@
 //! The hardware over-current trip on its registers: DAC3's two thresholds and COMP1, COMP2,
 //! COMP4 (the values and the wiring: [`pmsm_b_g431b_esc1::ocp`]); TIM1 routes the
-//! comparators to its BRK2 (`pwm::start`), the system break sources to BRK here.
+//! comparators to its BRK2 (`pwm::start`), the system break sources to BRK here. Register
+//! blocks borrowed: the host tests run these on zeroed ones (`init_tests::analog`).
 
-use pmsm_b_g431b_esc1::config::SETTINGS;
-use pmsm_b_g431b_esc1::ocp;
+use crate::config::SETTINGS;
+use crate::hw::{Hw, InitError};
+use crate::ocp;
 use stm32g4::stm32g431 as pac;
 
 /// Comparator hysteresis code (20 mV, RM0440 COMPx_CSR.HYST).
@@ -13,15 +15,16 @@ const HYSTERESIS: u32 = 2;
 /// at `hw_trip_factor` × `i_trip_a`, then the three comparators, locked. COMP2 (V) and COMP4
 /// (W) share DAC3_CH2: its threshold is the higher of theirs (neither trips below its
 /// current). Returns the trip currents of U, V, W \[A]. A comparator whose output is high
-/// with no current (a threshold below its input: a wrong scale or a broken path) stops the
-/// firmware here.
+/// with no current (a threshold below its input: a wrong scale or a broken path) is an
+/// [`InitError::ComparatorHigh`].
 pub fn init(
-    rcc: &pac::RCC,
-    dac3: &pac::DAC3,
-    comp: &pac::COMP,
+    rcc: &pac::rcc::RegisterBlock,
+    dac3: &pac::dac1::RegisterBlock,
+    comp: &pac::comp::RegisterBlock,
     v0_v: [f32; 3],
     i_trip_a: f32,
-) -> [f32; 3] {
+    hw: &mut impl Hw,
+) -> Result<[f32; 3], InitError> {
     rcc.ahb2enr().modify(|_, w| w.dac3en().set_bit());
     let code_u = ocp::dac_code(&SETTINGS, v0_v[0], i_trip_a);
     let code_vw = ocp::dac_code(&SETTINGS, v0_v[1], i_trip_a)
@@ -34,7 +37,7 @@ pub fn init(
         dac3.cr().write(|w| w.bits(ocp::DAC3_CR));
     }
     // DAC wake-up (DS12589 t_WAKEUP, some µs) before a comparator looks at it.
-    cortex_m::asm::delay(SETTINGS.sysclk_hz / 50_000);
+    hw.delay_cycles(SETTINGS.sysclk_hz / 50_000);
     let csr = ocp::comp_csr(HYSTERESIS);
     // SAFETY: as above.
     unsafe {
@@ -43,30 +46,26 @@ pub fn init(
         comp.c4csr().write(|w| w.bits(csr));
     }
     // Comparator start-up (DS12589 t_START, some µs).
-    cortex_m::asm::delay(SETTINGS.sysclk_hz / 50_000);
-    for (phase, csr) in [
-        ("U", comp.c1csr()),
-        ("V", comp.c2csr()),
-        ("W", comp.c4csr()),
-    ] {
+    hw.delay_cycles(SETTINGS.sysclk_hz / 50_000);
+    for (phase, csr) in [comp.c1csr(), comp.c2csr(), comp.c4csr()]
+        .into_iter()
+        .enumerate()
+    {
         if csr.read().value().bit_is_set() {
-            defmt::panic!(
-                "over-current comparator {=str} trips with no current: check its threshold",
-                phase
-            );
+            return Err(InitError::ComparatorHigh(phase));
         }
     }
-    [
+    Ok([
         ocp::trip_current_a(&SETTINGS, v0_v[0], code_u),
         ocp::trip_current_a(&SETTINGS, v0_v[1], code_vw),
         ocp::trip_current_a(&SETTINGS, v0_v[2], code_vw),
-    ]
+    ])
 }
 
 /// The system break sources to TIM1's BRK (RM0440 SYSCFG_CFGR2: core lockup, SRAM parity
 /// error, flash ECC double error), locked until reset; the HSE clock security system (a
 /// clock failure is a system break too, and an NMI) when the HSE runs.
-pub fn system_break(syscfg: &pac::SYSCFG, rcc: &pac::RCC, hse: bool) {
+pub fn system_break(syscfg: &pac::syscfg::RegisterBlock, rcc: &pac::rcc::RegisterBlock, hse: bool) {
     syscfg
         .cfgr2()
         .modify(|_, w| w.cll().set_bit().spl().set_bit().eccl().set_bit());

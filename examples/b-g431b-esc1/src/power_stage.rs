@@ -1,17 +1,25 @@
 //! The board's power stage as the core sees it ([`PowerStage`]): the sample is the injected
 //! conversions ADC1/ADC2 made at TIM1's update, scaled, with a latched break reported by
-//! name; applying duties loads TIM1's compare registers and sets MOE (unless a break is
-//! latched), applying `None` clears MOE.
+//! name and, while the outputs are off, the terminal voltage of the phase-voltage dividers
+//! (`pmsm_b_g431b_esc1::bemf`: the drive's flying start); applying duties loads TIM1's
+//! compare registers and sets MOE (unless a break is latched), applying `None` clears MOE.
 
 use pmsm_sensorless::drive::DriveInput;
 use pmsm_sensorless::power_stage::{PowerStage, StageFault};
 use pmsm_sensorless::svpwm::Duties;
 
-use pmsm_b_g431b_esc1::config::SETTINGS;
-use pmsm_b_g431b_esc1::ntc::NtcConfig;
+use stm32g4::stm32g431 as pac;
 
-use crate::adc::Adc;
-use crate::pwm::Pwm;
+use pmsm_b_g431b_esc1::adc;
+use pmsm_b_g431b_esc1::config::SETTINGS;
+use pmsm_b_g431b_esc1::hw::{Hw, InitError};
+use pmsm_b_g431b_esc1::ntc::NtcConfig;
+use pmsm_b_g431b_esc1::pwm;
+
+/// TIM1 as the firmware owns it.
+pub type Pwm = pwm::Pwm<pac::TIM1>;
+/// ADC1 and ADC2 as the firmware owns them.
+pub type Adc = adc::Adc<pac::ADC1, pac::ADC2>;
 
 /// The board's NTC, its derating and trip.
 const NTC: NtcConfig = NtcConfig::ESC1;
@@ -81,8 +89,8 @@ impl Esc1 {
     }
 
     /// Bootstrap pre-charge before the first enable (see [`Pwm::precharge_bootstrap`]).
-    pub fn precharge_bootstrap(&mut self, periods: u32) {
-        self.pwm.precharge_bootstrap(periods);
+    pub fn precharge_bootstrap(&mut self, periods: u32, hw: &mut impl Hw) -> Result<(), InitError> {
+        self.pwm.precharge_bootstrap(periods, hw)
     }
 
     /// Called last in each step: another injected sequence completed while this step ran,
@@ -97,25 +105,33 @@ impl Esc1 {
 impl PowerStage for Esc1 {
     #[inline(always)]
     fn sample(&mut self) -> DriveInput {
-        let (i_abc, v_bus, raw_ntc) = self.adc.read();
-        self.temp_now_c = NTC.temp_c(raw_ntc, SETTINGS.vref_v);
+        let s = self.adc.read();
+        self.temp_now_c = NTC.temp_c(s.ntc_raw, SETTINGS.vref_v);
         self.temp_c += self.temp_gain * (self.temp_now_c - self.temp_c);
         if NTC.fault(self.temp_c) {
             self.hot = true;
         }
+        // First: a break found here also marks the outputs off.
+        let stage_fault = if self.pwm.break_latched() {
+            Some(StageFault::HardwareOvercurrent)
+        } else if self.hot {
+            Some(StageFault::OverTemperature)
+        } else {
+            None
+        };
         DriveInput {
-            i_abc,
-            v_bus,
-            // The board's back-EMF dividers are not read yet: an enable always aligns.
-            v_ab_terminal: None,
-            overrun: self.overrun,
-            stage_fault: if self.pwm.break_latched() {
-                Some(StageFault::HardwareOvercurrent)
-            } else if self.hot {
-                Some(StageFault::OverTemperature)
-            } else {
+            i_abc: s.i_abc,
+            v_bus: s.v_bus,
+            // With the outputs off the phase voltages are the motor's (its back-EMF): the
+            // drive catches a turning rotor with them. With the PWM on they are the PWM's,
+            // and nothing reads them.
+            v_ab_terminal: if self.pwm.outputs_are_on() {
                 None
+            } else {
+                Some(s.v_ab_terminal)
             },
+            overrun: self.overrun,
+            stage_fault,
         }
     }
 

@@ -17,8 +17,8 @@ use core::sync::atomic::{AtomicBool, Ordering};
 use cortex_m_rt::{exception, ExceptionFrame};
 use stm32g4::stm32g431 as pac;
 
-use crate::pwm;
-use pmsm_b_g431b_esc1::config::SETTINGS;
+use pmsm_b_g431b_esc1::hw::{Hw, InitError};
+use pmsm_b_g431b_esc1::{pwm, watchdog};
 
 /// The main loop has run since the last feed (set by it, taken by [`Watchdog::feed`]).
 pub static MAIN_ALIVE: AtomicBool = AtomicBool::new(false);
@@ -33,18 +33,11 @@ pub struct Watchdog {
 }
 
 impl Watchdog {
-    /// Independent watchdog (RM0440 IWDG chapter): prescaler and reload of
-    /// `SETTINGS.watchdog` (10 ms at the typical LSI); fed only by the control step.
-    pub fn start(iwdg: pac::IWDG) -> Self {
-        let w = SETTINGS.watchdog;
-        iwdg.kr().write(|w| w.key().start());
-        iwdg.kr().write(|w| w.key().unlock());
-        // SAFETY: PR is 0..6 and RL 0..4095 by construction (`Watchdog::for_timeout`).
-        iwdg.pr().write(|r| unsafe { r.pr().bits(w.pr) });
-        iwdg.rlr().write(|r| r.rl().set(w.rl));
-        while iwdg.sr().read().bits() != 0 {}
-        iwdg.kr().write(|w| w.key().feed());
-        Self { iwdg }
+    /// Independent watchdog ([`watchdog::start`]: `SETTINGS.watchdog`, 10 ms at the
+    /// typical LSI); fed only by the control step.
+    pub fn start(iwdg: pac::IWDG, hw: &mut impl Hw) -> Result<Self, InitError> {
+        watchdog::start(&iwdg, hw)?;
+        Ok(Self { iwdg })
     }
 
     /// Feeds the watchdog (from the control step: it has run) if the main loop and the
@@ -55,15 +48,9 @@ impl Watchdog {
         if MAIN_ALIVE.load(Ordering::Relaxed) && TICK_ALIVE.load(Ordering::Relaxed) {
             MAIN_ALIVE.store(false, Ordering::Relaxed);
             TICK_ALIVE.store(false, Ordering::Relaxed);
-            self.iwdg.kr().write(|w| w.key().feed());
+            watchdog::feed(&self.iwdg);
         }
     }
-}
-
-/// Debug halt: TIM1 stops with its outputs forced inactive (OSSI = 1), IWDG freezes.
-pub fn freeze_on_debug_halt(dbgmcu: &pac::DBGMCU) {
-    dbgmcu.apb2_fz().modify(|_, w| w.dbg_tim1_stop().set_bit());
-    dbgmcu.apb1l_fz().modify(|_, w| w.dbg_iwdg_stop().set_bit());
 }
 
 /// Every panic ends here (panic-probe: `udf`), as does any fault: switch the bridge off

@@ -1,12 +1,21 @@
 //! TIM1: centre-aligned complementary PWM with dead time on the three half-bridges, the
-//! update event that paces the control step, and duties → compare registers.
+//! update event that paces the control step, and duties → compare registers (RM0440 TIM1
+//! chapter; the register words: [`crate::tim1`]). The timer is any reference to TIM1's
+//! register block: the firmware's `pac::TIM1`, a zeroed block in the host tests
+//! (`init_tests::tim1`), which run every function here and assert what it wrote.
+
+use core::ops::Deref;
 
 use stm32g4::stm32g431 as pac;
 
 use pmsm_sensorless::svpwm::Duties;
 
-use pmsm_b_g431b_esc1::config::SETTINGS;
-use pmsm_b_g431b_esc1::tim1;
+use crate::config::SETTINGS;
+use crate::hw::{wait_for, Hw, InitError, Wait, POLLS_MAX};
+use crate::tim1;
+
+/// TIM1's register block.
+pub type Tim1Regs = pac::tim1::RegisterBlock;
 
 /// Half a PWM period in timer clocks (centre-aligned: one period is 2·ARR clocks).
 const PWM_ARR: u32 = SETTINGS.tim1_arr;
@@ -18,8 +27,8 @@ const DUTY_MAX: f32 = SETTINGS.duty_max;
 
 /// Where the update event (and so the current sample) falls in the PWM period; decides
 /// how duties map to compare values (see [`configure_pwm_edge`]).
-#[derive(Clone, Copy, defmt::Format)]
-enum SampleAt {
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SampleAt {
     /// Counter peak: PWM mode 1, CCR = d·ARR.
     Peak,
     /// Counter valley: PWM mode 2, CCR = (1 − d)·ARR.
@@ -27,8 +36,8 @@ enum SampleAt {
 }
 
 /// The running timer, owned by the control step.
-pub struct Pwm {
-    tim1: pac::TIM1,
+pub struct Pwm<T: Deref<Target = Tim1Regs>> {
+    tim1: T,
     sample_at: SampleAt,
     /// MOE set by the step (the outputs follow the compare registers).
     on: bool,
@@ -36,7 +45,19 @@ pub struct Pwm {
     tripped: bool,
 }
 
-impl Pwm {
+impl<T: Deref<Target = Tim1Regs>> Pwm<T> {
+    /// Where the update event falls (found by [`start`]).
+    pub fn sample_at(&self) -> SampleAt {
+        self.sample_at
+    }
+
+    /// Whether the step has set MOE (and no break has cleared it since, as far as
+    /// [`Pwm::break_latched`] has seen).
+    #[inline(always)]
+    pub fn outputs_are_on(&self) -> bool {
+        self.on
+    }
+
     /// Duties in [0, 1] → CCR1..3, preloaded: they take effect at the next update event, the
     /// next counter peak ([`pmsm_b_g431b_esc1::tim1`]).
     #[inline(always)]
@@ -112,17 +133,19 @@ impl Pwm {
     /// Bootstrap pre-charge: all three low sides on (compare 0: the high sides never on)
     /// for `periods` PWM periods, then every output off and the compare values back at
     /// half the period. Before the control interrupt is enabled.
-    pub fn precharge_bootstrap(&mut self, periods: u32) {
+    pub fn precharge_bootstrap(&mut self, periods: u32, hw: &mut impl Hw) -> Result<(), InitError> {
         for ccr in [self.tim1.ccr1(), self.tim1.ccr2(), self.tim1.ccr3()] {
             ccr.write(|w| w.ccr().set(self.off_compare()));
         }
         // The preloaded zeros take effect at the next update.
-        wait_updates(&self.tim1, 1);
-        self.outputs_on();
-        wait_updates(&self.tim1, periods);
-        // Off, the compare values back at half the period (loaded at the next update).
+        let on = wait_updates(&self.tim1, 1, hw).and_then(|()| {
+            self.outputs_on();
+            wait_updates(&self.tim1, periods, hw)
+        });
+        // Off, the compare values back at half the period (loaded at the next update), also
+        // when an update did not come.
         self.outputs_off();
-        wait_updates(&self.tim1, 1);
+        on.and_then(|()| wait_updates(&self.tim1, 1, hw))
     }
 
     /// The compare value that keeps the high side off for the whole period.
@@ -136,23 +159,20 @@ impl Pwm {
 
 /// MOE = 0: all six outputs to their idle (off) level at once (OSSI = 1, idle levels low).
 #[inline(always)]
-pub fn outputs_off(tim1: &pac::tim1::RegisterBlock) {
+pub fn outputs_off(tim1: &Tim1Regs) {
     tim1.bdtr().modify(|_, w| w.moe().clear_bit());
 }
 
-/// Waits for `n` update events (polling UIF; the update interrupt is not enabled).
-fn wait_updates(tim1: &pac::TIM1, n: u32) {
+/// Waits for `n` update events (polling UIF, cleared before each; the update interrupt is
+/// not enabled, so UIF may stay set after the last).
+fn wait_updates(tim1: &Tim1Regs, n: u32, hw: &mut impl Hw) -> Result<(), InitError> {
     for _ in 0..n {
         tim1.sr().write(|w| w.uif().clear());
-        let mut waited = 0u32;
-        while tim1.sr().read().uif().bit_is_clear() {
-            waited += 1;
-            if waited > 1_000_000 {
-                defmt::panic!("TIM1 produces no update event");
-            }
-        }
+        wait_for(hw, Wait::Tim1Update, POLLS_MAX, || {
+            tim1.sr().read().uif().bit_is_set()
+        })?;
     }
-    tim1.sr().write(|w| w.uif().clear());
+    Ok(())
 }
 
 /// TIM1: centre-aligned PWM with complementary outputs and dead time (RM0440 §28,
@@ -161,7 +181,7 @@ fn wait_updates(tim1: &pac::TIM1, n: u32) {
 /// [`pmsm_b_g431b_esc1::tim1`]). BDTR is not written here: [`start`] writes it once,
 /// complete, before the pins are switched to the timer.
 /// Polarities: active high on both CHx and CHxN, as the L6387 inputs need (NuttX port).
-pub fn init_tim1(tim1: &pac::TIM1) {
+pub fn init_tim1(tim1: &Tim1Regs) {
     // SAFETY (every `bits` below): the words of `pmsm_b_g431b_esc1::tim1`, each field within
     // its range (host-tested field by field).
     tim1.cr1()
@@ -191,9 +211,9 @@ pub fn init_tim1(tim1: &pac::TIM1) {
 /// off-states and LOCK level 3 (RM0440 TIMx_BDTR: the LOCK bits are written once after
 /// reset; level 3 freezes the dead time, the breaks, the off-states, the polarities and the
 /// output modes; MOE stays writable).
-pub fn start(tim1: pac::TIM1) -> Pwm {
+pub fn start<T: Deref<Target = Tim1Regs>>(tim1: T, hw: &mut impl Hw) -> Result<Pwm<T>, InitError> {
     tim1.cr1().modify(|_, w| w.cen().enabled());
-    let sample_at = configure_pwm_edge(&tim1);
+    let sample_at = configure_pwm_edge(&tim1, hw)?;
     // SAFETY: the words of `pmsm_b_g431b_esc1::tim1` (host-tested); AF1/AF2 before the lock.
     tim1.af1().write(|w| unsafe { w.bits(tim1::AF1) });
     tim1.af2().write(|w| unsafe { w.bits(tim1::AF2) });
@@ -202,23 +222,12 @@ pub fn start(tim1: pac::TIM1) -> Pwm {
     // SAFETY: as above (SR: clear by writing 0).
     tim1.sr()
         .write(|w| unsafe { w.bits(!tim1::SR_BREAK_FLAGS) });
-    defmt::info!(
-        "TIM1: {=u32} Hz centre-aligned, ARR {=u32}, dead time {=f32} ns (DTG {=u8:#x}, CKD {=u8}), update every period at the counter {}, a step every {=u32}, break filter {=f32} ns",
-        SETTINGS.pwm_hz,
-        PWM_ARR,
-        SETTINGS.dead_time.ns,
-        SETTINGS.dead_time.dtg,
-        SETTINGS.dead_time.ckd,
-        sample_at,
-        SETTINGS.pwm_per_step,
-        SETTINGS.break_filter_ns
-    );
-    Pwm {
+    Ok(Pwm {
         tim1,
         sample_at,
         on: false,
         tripped: false,
-    }
+    })
 }
 
 /// Waits for an update event and reads the counting direction: just after the peak the
@@ -226,8 +235,8 @@ pub fn start(tim1: pac::TIM1) -> Pwm {
 /// falls in the middle of the low-side conduction interval either way (PWM mode 1: high
 /// side on while CNT < CCR, off around the peak; PWM mode 2: the opposite, off around the
 /// valley; RM0440 §28, "PWM mode"). Before BDTR's LOCK (level 3 freezes the modes).
-fn configure_pwm_edge(tim1: &pac::TIM1) -> SampleAt {
-    wait_updates(tim1, 1);
+fn configure_pwm_edge(tim1: &Tim1Regs, hw: &mut impl Hw) -> Result<SampleAt, InitError> {
+    wait_updates(tim1, 1, hw)?;
     let at = if tim1.cr1().read().dir().is_down() {
         SampleAt::Peak
     } else {
@@ -240,18 +249,22 @@ fn configure_pwm_edge(tim1: &pac::TIM1) -> SampleAt {
         tim1.ccmr2_output()
             .write(|w| unsafe { w.bits(tim1::ccmr2(tim1::PWM_MODE_2)) });
     }
-    at
+    Ok(at)
 }
 
 /// USB-C dead-battery behaviour off (RM0440 PWR_CR3.UCPD1_DBDIS): its DBCC pins are
 /// PA9/PA10 (DS12589), the V and W high-side outputs here.
-pub fn release_dead_battery_pins(pwr: &pac::PWR) {
+pub fn release_dead_battery_pins(pwr: &pac::pwr::RegisterBlock) {
     pwr.cr3().modify(|_, w| w.ucpd1_dbdis().set_bit());
 }
 
 /// TIM1's six outputs to their alternate functions (UM2516 pin assignment, via the NuttX
 /// port; AF numbers from DS12589).
-pub fn init_pins(gpioa: &pac::GPIOA, gpiob: &pac::GPIOB, gpioc: &pac::GPIOC) {
+pub fn init_pins(
+    gpioa: &pac::gpioa::RegisterBlock,
+    gpiob: &pac::gpiob::RegisterBlock,
+    gpioc: &pac::gpioc::RegisterBlock,
+) {
     // Alternate function numbers before the mode switch.
     gpioa
         .afrh()
@@ -285,4 +298,11 @@ pub fn init_pins(gpioa: &pac::GPIOA, gpiob: &pac::GPIOB, gpioc: &pac::GPIOC) {
     });
     gpiob.moder().modify(|_, w| w.moder15().alternate());
     gpioc.moder().modify(|_, w| w.moder13().alternate());
+}
+
+/// The user button PC10 as a floating input (the board provides its level; NuttX
+/// configures it floating too).
+pub fn init_button(gpioc: &pac::gpioc::RegisterBlock) {
+    gpioc.moder().modify(|_, w| w.moder10().input());
+    gpioc.pupdr().modify(|_, w| w.pupdr10().floating());
 }
