@@ -51,8 +51,7 @@ pub const fn volts_per_lsb(vref_v: f32, ratio: f32) -> f32 {
 /// a number.
 #[inline(always)]
 pub fn terminal_v_ab(raw: [f32; 3], volts_per_lsb: f32) -> AlphaBeta {
-    // `!(x < CLIPPED)` is also true for a NaN.
-    if raw.iter().any(|&x| !(x < CLIPPED_LSB)) {
+    if raw.iter().any(|&x| x.is_nan() || x >= CLIPPED_LSB) {
         return AlphaBeta::new(f32::NAN, f32::NAN);
     }
     Abc::new(
@@ -77,6 +76,10 @@ mod tests {
             "ST's 5.54"
         );
         assert!((S.bemf_volts_per_lsb - 3.3 / 4096.0 * 12.2 / 2.2).abs() < 1e-9);
+        assert_eq!(
+            S.bemf_volts_per_lsb,
+            volts_per_lsb(S.vref_v, divider_ratio(10_000.0, 2_200.0))
+        );
         assert!((S.bemf_volts_per_lsb * 4095.0 - 18.30).abs() < 0.01);
     }
 

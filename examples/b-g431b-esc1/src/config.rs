@@ -259,10 +259,10 @@ impl BoardConfig {
             precharge_periods: (self.precharge_us as u64 * self.pwm_hz as u64).div_ceil(1_000_000)
                 as u32,
             bemf_smp: self.bemf_smp,
-            bemf_volts_per_lsb: crate::bemf::volts_per_lsb(
-                self.vref_v,
-                crate::bemf::divider_ratio(self.bemf_r_top_ohm, self.bemf_r_bottom_ohm),
-            ),
+            // As the bus divider's: Vref/4096 × (R_top + R_bottom)/R_bottom.
+            bemf_volts_per_lsb: self.vref_v / 4096.0
+                * (self.bemf_r_top_ohm + self.bemf_r_bottom_ohm)
+                / self.bemf_r_bottom_ohm,
             adc1_sequence_ns: adc1_half_cycles as f32 * 0.5e9 / adc_hz as f32,
             adc2_sequence_ns: adc2_half_cycles as f32 * 0.5e9 / adc_hz as f32,
         })

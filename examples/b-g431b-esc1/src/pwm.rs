@@ -89,6 +89,7 @@ impl<T: Deref<Target = Tim1Regs>> Pwm<T> {
         // look again, and take MOE back if one came.
         if self.break_seen() {
             outputs_off(&self.tim1);
+            self.on = false;
             self.tripped = true;
         }
     }
