@@ -182,7 +182,7 @@ pub fn init_opamps(opamp: &pac::opamp::RegisterBlock, hw: &mut impl Hw) {
     hw.delay_cycles(SYSCLK_HZ / 100_000);
 }
 
-/// Sets up and starts both converters ([`init_adcs`]), then measures the current offsets
+/// Sets up and starts both converters (`init_adcs`), then measures the current offsets
 /// with the bridge off and refuses to go on if one is implausible. Also returns the
 /// over-current comparators' inputs with no current (PA1, PA7, PB0 for U, V, W) \[V] and
 /// the NTC's reading \[LSB] and the bus voltage \[V].

@@ -42,7 +42,7 @@ pub type BoardDrive = Drive<Primary, Monitor>;
 /// Speed command while enabled [rpm, mechanical].
 pub const SPEED_CMD_RPM: f32 = 400.0;
 
-/// Bus over-voltage trip of this board [V]: a full 6S LiPo (UM2516: "up to 6S"; NuttX's
+/// Bus over-voltage trip of this board \[V]: a full 6S LiPo (UM2516: "up to 6S"; NuttX's
 /// board port gives 25 V as Vbus max). The drive's own default (1.25 × rated bus) is
 /// lowered to this if higher.
 pub const BOARD_BUS_MAX_V: f32 = 25.2;

@@ -23,9 +23,11 @@
 //! The library (`src/lib.rs`, host-tested): `config` computes every clock, timer, ADC and
 //! watchdog value from one configuration and what the drive is told (PWM frequency, dead
 //! time, control rate, largest duty); `drive_settings` holds the motor, the observers and
-//! the speed command. The firmware's modules write those values:
-//! `clocks` (170 MHz, peripheral clocks), `pwm` (TIM1: timing, dead time, duties), `adc`
-//! (OPAMPs, ADCs, offsets, scaling), `power_stage` (the core's `PowerStage` on those two),
+//! the speed command; its init functions write those values (run on zeroed register blocks
+//! in its tests): `clocks` (170 MHz, peripheral clocks), `pwm` (TIM1: timing, dead time,
+//! duties), `adc` (OPAMPs, ADCs, offsets, scaling, the phase-voltage dividers),
+//! `overcurrent` (DAC3, COMP1/2/4), `watchdog` (IWDG, debug halt). This crate's modules:
+//! `power_stage` (the core's `PowerStage` on TIM1 and the ADCs),
 //! `settings` (the drive built from the library's configuration),
 //! `control` (the core's shared control loop on this board: the step's interrupt, the 1 kHz
 //! task's interrupt below it, the commands), `protection` (watchdog, HardFault, debug halt, the
@@ -54,6 +56,8 @@
 //! | Shunt V (+ / −), output  | PA7 / PA5, PA6 | OPAMP2 VINP0 / VINM0, VOUT = ADC2_IN3 |
 //! | Shunt W (+ / −), output  | PB0 / PB2, PB1 | OPAMP3 VINP0 / VINM0, VOUT = ADC1_IN12 |
 //! | Bus voltage divider      | PA0  | ADC1_IN1                                    |
+//! | Phase voltages U, V, W (BEMF1..3) | PA4, PC4, PB11 | ADC2_IN17, ADC2_IN5, ADC2_IN14 |
+//! | GPIO_BEMF (dividers on when low) | PB5 | GPIO output, low                  |
 //! | User button              | PC10 | GPIO input                                  |
 //!
 //! Timing: TIM1 centre-aligned at 20 kHz, the repetition counter makes one update event
@@ -66,8 +70,10 @@
 //! (`control`). PWM outputs stay off (MOE = 0) until the drive returns duties, and MOE is
 //! cleared in the same step in which it returns `None`.
 //!
-//! Safety nets: see `protection` (software trip only; watchdog fed by the control interrupt;
-//! MOE cleared on HardFault and panic; outputs inactive on debug halt).
+//! Safety nets: see `protection` (the software trip on every sample, the hardware trip into
+//! BRK2; watchdog fed by the control interrupt when the main loop and the 1 kHz task have
+//! run; MOE cleared on HardFault, NMI, panic and any unexpected interrupt; outputs inactive
+//! on debug halt).
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
 #[cfg(not(target_os = "none"))]

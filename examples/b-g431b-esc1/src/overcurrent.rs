@@ -1,5 +1,5 @@
 //! The hardware over-current trip on its registers: DAC3's two thresholds and COMP1, COMP2,
-//! COMP4 (the values and the wiring: [`pmsm_b_g431b_esc1::ocp`]); TIM1 routes the
+//! COMP4 (the values and the wiring: [`crate::ocp`]); TIM1 routes the
 //! comparators to its BRK2 (`pwm::start`), the system break sources to BRK here. Register
 //! blocks borrowed: the host tests run these on zeroed ones (`init_tests::analog`).
 

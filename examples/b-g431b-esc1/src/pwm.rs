@@ -26,7 +26,7 @@ const PWM_ARR: u32 = SETTINGS.tim1_arr;
 const DUTY_MAX: f32 = SETTINGS.duty_max;
 
 /// Where the update event (and so the current sample) falls in the PWM period; decides
-/// how duties map to compare values (see [`configure_pwm_edge`]).
+/// how duties map to compare values (see `configure_pwm_edge`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SampleAt {
     /// Counter peak: PWM mode 1, CCR = d·ARR.
@@ -59,7 +59,7 @@ impl<T: Deref<Target = Tim1Regs>> Pwm<T> {
     }
 
     /// Duties in [0, 1] → CCR1..3, preloaded: they take effect at the next update event, the
-    /// next counter peak ([`pmsm_b_g431b_esc1::tim1`]).
+    /// next counter peak ([`crate::tim1`]).
     #[inline(always)]
     pub fn load(&self, d: Duties) {
         let ccr = |x: f32| {
@@ -179,7 +179,7 @@ fn wait_updates(tim1: &Tim1Regs, n: u32, hw: &mut impl Hw) -> Result<(), InitErr
 /// TIM1: centre-aligned PWM with complementary outputs and dead time (RM0440 §28,
 /// "Complementary outputs and dead-time insertion"), TRGO = update event for the ADCs,
 /// repetition counter for an update every PWM period, compare preload on (the words of
-/// [`pmsm_b_g431b_esc1::tim1`]). BDTR is not written here: [`start`] writes it once,
+/// [`crate::tim1`]). BDTR is not written here: [`start`] writes it once,
 /// complete, before the pins are switched to the timer.
 /// Polarities: active high on both CHx and CHxN, as the L6387 inputs need (NuttX port).
 pub fn init_tim1(tim1: &Tim1Regs) {
