@@ -9,12 +9,45 @@
 //! ```
 //!
 //! Horng & Chin's motor constant `K` \[V·s/rad] and Ortega's rotor flux `Φ` \[Wb] are the same
-//! quantity, the permanent-magnet flux linkage, here `flux_wb`. The torque is `N ψ_f i_q` as
-//! printed in both papers (no 3/2 factor: their αβ model is the machine).
+//! quantity, the permanent-magnet flux linkage, here `flux_wb`.
+//!
+//! Torque: both papers print `τ = N ψ_f i_q` (their αβ model is the machine). A three-phase
+//! machine described by the amplitude-invariant Clarke transform (the one used here: `i_αβ`
+//! has the phase current's peak amplitude) makes `τ = (3/2) N ψ_f i_q` (Krause, Wasynczuk,
+//! Sudhoff, Pekarek, *Analysis of Electric Machinery and Drive Systems*, 3rd ed., Wiley 2013,
+//! the permanent-magnet ac machine's `T_e = (3/2)(P/2) λ'_m i_qs`; the 3/2 is three phases'
+//! power seen through a transform that keeps amplitudes).
+//! [`TorqueConvention`] says which one a motor's N·m are in: the papers' presets keep their
+//! printed convention ([`TorqueConvention::Papers`]); a motor file and every motor a user
+//! writes is physical ([`TorqueConvention::ThreePhase`]). The two are the same dynamics with
+//! `J`, `B` and every torque divided by 3/2 ([`MotorParams::papers_model`]), so a block
+//! written in the papers' model (the sliding observer) runs on that equivalent.
 
 use crate::math::INV_SQRT3;
 use crate::param::{Allowed, Checks, ParamError};
 use crate::units::RAD_S_PER_RPM;
+
+/// Which torque per amp a motor's N·m (its `J`, `B`, rated torque, load torques and the
+/// drive's torque estimates) are in (module doc).
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum TorqueConvention {
+    /// `τ = (3/2) N ψ_f i_q`: a three-phase machine, physical N·m (the default).
+    #[default]
+    ThreePhase,
+    /// `τ = N ψ_f i_q` as printed in both papers; their experiments' figures are in it.
+    Papers,
+}
+
+impl TorqueConvention {
+    /// The factor `c` in `τ = c N ψ_f i_q`: 3/2 or 1.
+    pub const fn factor(self) -> f32 {
+        match self {
+            Self::ThreePhase => 1.5,
+            Self::Papers => 1.0,
+        }
+    }
+}
 
 /// Electrical and mechanical parameters of a surface-mounted PMSM (SI units).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -31,6 +64,8 @@ pub struct MotorParams {
     pub j_kgm2: f32,
     /// Viscous friction `B` = `f` \[N·m·s/rad], ≥ 0.
     pub b_nms: f32,
+    /// Which torque per amp `j_kgm2`, `b_nms` and every torque of this motor are in.
+    pub torque: TorqueConvention,
 }
 
 impl MotorParams {
@@ -47,7 +82,9 @@ impl MotorParams {
     /// Viscous friction accepted \[N·m·s/rad]: 0 to 10³.
     pub const B_NMS: Allowed = Allowed::between(0.0, 1e3);
 
-    /// Validated parameters; the error names the first bad field, its value and its range.
+    /// Validated parameters of a three-phase motor in physical N·m
+    /// ([`TorqueConvention::ThreePhase`]; [`MotorParams::with_torque`] for the papers'); the
+    /// error names the first bad field, its value and its range.
     pub fn new(
         pole_pairs: u32,
         r_ohm: f32,
@@ -71,19 +108,40 @@ impl MotorParams {
             flux_wb,
             j_kgm2,
             b_nms,
+            torque: TorqueConvention::ThreePhase,
         })
+    }
+
+    /// The same parameters with their N·m in `torque`'s convention.
+    pub const fn with_torque(self, torque: TorqueConvention) -> Self {
+        Self { torque, ..self }
     }
 
     /// Re-checks a value built field by field (e.g. after scaling).
     pub fn validate(self) -> Result<Self, ParamError> {
-        Self::new(
+        Ok(Self::new(
             self.pole_pairs,
             self.r_ohm,
             self.l_h,
             self.flux_wb,
             self.j_kgm2,
             self.b_nms,
-        )
+        )?
+        .with_torque(self.torque))
+    }
+
+    /// The papers' model of this motor, `τ = N ψ_f i_q`: the same electrical part, `J` and `B`
+    /// divided by the torque factor `c`, so that `(J/c) dω_m/dt = N ψ_f i_q − (B/c) ω_m − τ_L/c`
+    /// is this motor's mechanical equation divided by `c`. A block written in the papers'
+    /// model runs on it and multiplies its torques by `c` ([`TorqueConvention::factor`]).
+    pub fn papers_model(&self) -> Self {
+        let c = self.torque.factor();
+        Self {
+            j_kgm2: self.j_kgm2 / c,
+            b_nms: self.b_nms / c,
+            torque: TorqueConvention::Papers,
+            ..*self
+        }
     }
 
     /// Pole pairs as f32.
@@ -91,15 +149,20 @@ impl MotorParams {
         self.pole_pairs as f32
     }
 
-    /// Torque constant of the papers' model, `N ψ_f` \[N·m/A]: `τ = N ψ_f i_q`.
-    pub fn torque_constant(&self) -> f32 {
+    /// Back-EMF constant `N ψ_f` [V·s/rad]: the phase back-EMF's peak is `N ψ_f ω_m`.
+    pub fn emf_constant(&self) -> f32 {
         self.n() * self.flux_wb
+    }
+
+    /// Torque constant `c N ψ_f` \[N·m/A]: `τ = c N ψ_f i_q`, `c` of [`Self::torque`].
+    pub fn torque_constant(&self) -> f32 {
+        self.torque.factor() * self.emf_constant()
     }
 
     /// The speed \[rpm, mechanical] whose back-EMF `N ψ_f ω_m` is the largest phase voltage
     /// SVPWM makes from `bus_v` \[V], `bus_v/√3`: the most that bus drives without current.
     pub fn bus_limited_rpm(&self, bus_v: f32) -> f32 {
-        bus_v * INV_SQRT3 / self.torque_constant() / RAD_S_PER_RPM
+        bus_v * INV_SQRT3 / self.emf_constant() / RAD_S_PER_RPM
     }
 }
 
@@ -154,12 +217,13 @@ pub struct Motor {
 
 impl Motor {
     /// Parameters and ratings validated, and the ratings checked against the parameters (each
-    /// bound in the papers' model, `τ = N ψ_f i`, peak phase amplitudes):
-    /// - the rated torque is what the rated current makes, `N ψ_f I`, within −50 %..+10 %
-    ///   (a datasheet's rms current or a 3/2 torque convention is off by √2 or 3/2);
+    /// bound with the motor's torque constant `K_t = c N ψ_f`, peak phase amplitudes):
+    /// - the rated torque is what the rated current makes, `K_t I`, within −50 %..+10 %
+    ///   (a datasheet's rms current, or a torque in the other convention, is off by √2 or
+    ///   3/2);
     /// - the bus drives the rated speed: back-EMF `N ψ_f ω_m ≤ V_bus/√3` (the largest phase
     ///   voltage of SVPWM);
-    /// - the bus drives the rated torque's current at standstill: `R τ/(N ψ_f) ≤ V_bus/√3`;
+    /// - the bus drives the rated torque's current at standstill: `R τ/K_t ≤ V_bus/√3`;
     /// - the rated power is rated torque times rated speed within a factor 1.5.
     pub fn validate(self) -> Result<Self, ParamError> {
         let p = self.params.validate()?;
@@ -168,13 +232,13 @@ impl Motor {
         let v_max = r.bus_v * INV_SQRT3;
         let torque_of_current = kt * r.current_a;
         Allowed::between(0.5 * torque_of_current, 1.1 * torque_of_current)
-            .because("0.5 to 1.1 x pole_pairs*flux_wb*current_a, the torque of the rated current")
+            .because("0.5 to 1.1 x the torque of the rated current, c*pole_pairs*flux_wb*current_a (c = 1.5 three-phase, 1 papers)")
             .check("ratings.torque_nm", r.torque_nm)?;
         Allowed::above_up_to(0.0, p.bus_limited_rpm(r.bus_v))
             .because("back-EMF pole_pairs*flux_wb*omega_m within bus_v/sqrt(3)")
             .check("ratings.speed_rpm", r.speed_rpm)?;
         Allowed::above_up_to(0.0, v_max / p.r_ohm * kt)
-            .because("r_ohm*torque/(pole_pairs*flux_wb) within bus_v/sqrt(3) at standstill")
+            .because("r_ohm*torque/(c*pole_pairs*flux_wb) within bus_v/sqrt(3) at standstill")
             .check("ratings.torque_nm", r.torque_nm)?;
         let mech_power = r.torque_nm * r.speed_rpm * RAD_S_PER_RPM;
         Allowed::between(mech_power / 1.5, 1.5 * mech_power)
@@ -183,7 +247,7 @@ impl Motor {
         Ok(self)
     }
 
-    /// The `i_q` that makes rated torque in the papers' model, `τ_rated/(N ψ_f)` \[A]: the
+    /// The `i_q` that makes rated torque, `τ_rated/K_t` \[A]: the
     /// current limit of the speed loop.
     pub fn rated_torque_current_a(&self) -> f32 {
         self.ratings.torque_nm / self.params.torque_constant()
@@ -205,6 +269,7 @@ pub const HORNG_SINANO: Motor = Motor {
         flux_wb: 5.795e-2,
         j_kgm2: 6.45e-5,
         b_nms: 8.06e-5,
+        torque: TorqueConvention::Papers,
     },
     ratings: Ratings {
         bus_v: 48.0,
@@ -232,6 +297,7 @@ pub const ORTEGA_SIM_40KW: Motor = Motor {
         flux_wb: 0.146,
         j_kgm2: 0.1,
         b_nms: 0.01,
+        torque: TorqueConvention::Papers,
     },
     ratings: Ratings {
         bus_v: 240.0,
@@ -260,6 +326,7 @@ pub const ORTEGA_TEST_0P3KW: Motor = Motor {
         flux_wb: 0.11,
         j_kgm2: 1.0e-3,
         b_nms: 1.0e-3,
+        torque: TorqueConvention::Papers,
     },
     ratings: Ratings {
         bus_v: 200.0,
@@ -284,6 +351,7 @@ pub const ORTEGA_DYNAMO_1KW: Motor = Motor {
         flux_wb: 0.099,
         j_kgm2: 1.0e-3,
         b_nms: 1.0e-3,
+        torque: TorqueConvention::Papers,
     },
     ratings: Ratings {
         bus_v: 200.0,

@@ -1,5 +1,5 @@
-//! Motors from TOML files (`--motor-file FILE.toml`), validated by the core, in the papers'
-//! model's terms or straight from a datasheet.
+//! Motors from TOML files (`--motor-file FILE.toml`), validated by the core, straight from a
+//! datasheet, in physical units.
 //!
 //! ```toml
 //! name = "my-motor"
@@ -7,29 +7,35 @@
 //! r_ohm = 2.5            # phase (wye) resistance, or r_ohm_ll = 5.0 line-to-line
 //! l_h = 5.97e-3          # phase inductance, or l_h_ll = 11.94e-3 line-to-line
 //! flux_wb = 5.795e-2     # Horng's K = Ortega's Φ; or kv_rpm_per_v, or ke_v_per_krpm, with
-//! # ke_form = "ll-peak" | "ll-rms": which voltage the datasheet's Kv or Ke is of
+//! # ke_form = "ll-peak" (the default) | "ll-rms": which voltage the datasheet's Kv or Ke is of
 //! j_kgm2 = 6.45e-5
 //! b_nms = 8.06e-5        # may be 0; 0 when left out
+//! # torque_convention = "three-phase" (the default) | "papers"
 //! [ratings]
 //! bus_v = 48.0
-//! current_a = 3.0        # peak phase current of the papers' model (current_a_rms: × √2)
-//! torque_nm = 0.695      # default: the model's torque at current_a, pole_pairs·flux_wb·current_a
+//! current_a = 3.0        # peak phase current (current_a_rms: × √2)
+//! torque_nm = 1.04       # default: the torque at current_a, 1.5·pole_pairs·flux_wb·current_a
 //! speed_rpm = 1000.0     # default: 80 % of the speed whose back-EMF is bus_v/√3
-//! power_w = 73.0         # default: torque_nm × speed
+//! power_w = 109.0        # default: torque_nm × speed
 //! ```
 //!
-//! Conversions (a wye-connected, non-salient motor; the papers' amplitude-invariant αβ model,
+//! Conversions (a wye-connected, non-salient motor; the amplitude-invariant αβ model,
 //! phase-peak back-EMF `N ψ_f ω_m`):
 //! - `ψ_f = K_e,ll,peak / (√3 N)`, with `K_e,ll,peak` \[V·s/rad] = `60/(2π Kv)` for Kv in rpm/V
 //!   and = `Ke·60/(2π·1000)` for Ke in V/krpm; an rms Kv or Ke is first made peak (× √2 on
-//!   the voltage: `K_e,peak = √2 K_e,rms`).
+//!   the voltage: `K_e,peak = √2 K_e,rms`). Without `ke_form` a Kv or Ke is line-to-line peak,
+//!   the hobby convention (a motor spun open-circuit, its peak line voltage per rpm; ODrive's
+//!   `torque_constant = 8.27/Kv` assumes it: 8.27 = (3/2)·60/(2π√3), the torque constant
+//!   `(3/2) N ψ_f` of a Kv of 1 rpm/V line-to-line peak). Write `ke_form = "ll-rms"` when
+//!   the datasheet names rms.
 //! - `R = R_ll/2`, `L = L_ll/2`.
-//! - Torque: the papers' model is `τ = N ψ_f i` (no 3/2), `i` the phase-peak current: a real
-//!   three-phase motor makes 3/2 of that torque per amp, so a datasheet's rated torque needs
-//!   1.5× its peak current in the model.
+//! - Torque (`pmsm_sensorless::motor::TorqueConvention`): physical N·m, `τ = (3/2) N ψ_f i_q`
+//!   with `i_q` the phase-peak current, for J, B, the ratings and every load torque;
+//!   `torque_convention = "papers"` reads them in the papers' `τ = N ψ_f i_q` instead (the
+//!   papers' presets and the made-up motors written in it).
 
 use crate::number;
-use pmsm_sensorless::motor::{Motor, MotorParams, Ratings};
+use pmsm_sensorless::motor::{Motor, MotorParams, Ratings, TorqueConvention};
 use pmsm_sensorless::param::{Allowed, ParamError};
 use serde::Deserialize;
 use std::f64::consts::{PI, SQRT_2};
@@ -51,6 +57,7 @@ struct MotorFile {
     ke_form: Option<String>,
     j_kgm2: f64,
     b_nms: Option<f64>,
+    torque_convention: Option<String>,
     ratings: RatingsFile,
 }
 
@@ -134,6 +141,13 @@ pub fn parse(text: &str) -> anyhow::Result<(String, Motor)> {
         ("j_kgm2", ("j_kgm2", f.j_kgm2, f.j_kgm2)),
         ("b_nms", ("b_nms", b_nms, b_nms)),
     ];
+    let torque = match f.torque_convention.as_deref() {
+        None | Some("three-phase") => TorqueConvention::ThreePhase,
+        Some("papers") => TorqueConvention::Papers,
+        Some(other) => {
+            anyhow::bail!("torque_convention = \"{other}\": allowed \"three-phase\" or \"papers\"")
+        }
+    };
     let params = MotorParams::new(
         pole_pairs,
         r.2 as f32,
@@ -142,7 +156,8 @@ pub fn parse(text: &str) -> anyhow::Result<(String, Motor)> {
         f.j_kgm2 as f32,
         b_nms as f32,
     )
-    .map_err(|e| in_file_terms(e, &given))?;
+    .map_err(|e| in_file_terms(e, &given))?
+    .with_torque(torque);
     let rf = &f.ratings;
     let current = one_of(
         ("ratings.current_a", rf.current_a),
@@ -199,12 +214,9 @@ fn flux_wb(f: &MotorFile, pole_pairs: u32) -> anyhow::Result<Given> {
         return Ok(("flux_wb", v, v));
     }
     let peak = match f.ke_form.as_deref() {
-        Some("ll-peak") => 1.0,
+        None | Some("ll-peak") => 1.0,
         Some("ll-rms") => SQRT_2,
         Some(other) => anyhow::bail!("ke_form = \"{other}\": allowed \"ll-peak\" or \"ll-rms\""),
-        None => anyhow::bail!(
-            "{key} needs ke_form = \"ll-peak\" or \"ll-rms\": which line-to-line voltage the datasheet means"
-        ),
     };
     Allowed::POSITIVE
         .check(key, v as f32)

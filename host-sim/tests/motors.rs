@@ -154,10 +154,22 @@ fn datasheet_keys_convert_and_conflicts_are_named() {
     );
     let c = json(&motor_file("ke", &ke));
     assert!((a[0]["value"].as_f64().unwrap() - c[0]["value"].as_f64().unwrap()).abs() < 1e-6);
+    // A Kv without ke_form is line-to-line peak, the hobby convention (motor_file's doc).
+    let kv_bare = json(&motor_file(
+        "kv-bare",
+        &ds.replace("\nke_form = \"ll-peak\"", ""),
+    ));
+    assert_eq!(kv_bare, b);
     let cases: [(&str, &[&str]); 4] = [
         (
-            &MODEL.replace("flux_wb = 5.795e-2", "kv_rpm_per_v = 95.0"),
-            &["kv_rpm_per_v needs ke_form"],
+            &MODEL.replace(
+                "b_nms = 0.0",
+                "b_nms = 0.0\ntorque_convention = \"two-phase\"",
+            ),
+            &[
+                "torque_convention = \"two-phase\"",
+                "\"three-phase\" or \"papers\"",
+            ],
         ),
         (
             &MODEL.replace("r_ohm = 2.5", "r_ohm = 2.5\nr_ohm_ll = 5.0"),
@@ -182,6 +194,39 @@ fn datasheet_keys_convert_and_conflicts_are_named() {
             needles,
         );
     }
+}
+
+/// Issue #26's datasheet: Kv 100 rpm/V (line-to-line peak), 4 A peak, 0.3 N·m. Physically
+/// consistent, `(3/2) N ψ_f I` = 0.33 N·m = 8.27/Kv · I: accepted, in physical N·m (the
+/// papers' `N ψ_f I` = 0.22 N·m would refuse it); with `torque_convention = "papers"` the
+/// same file is refused naming the bound.
+#[test]
+fn a_physically_consistent_datasheet_is_accepted_in_physical_torque_units() {
+    let text =
+        "name = \"kv100\"\npoles = 14\nkv_rpm_per_v = 100.0\nr_ohm_ll = 0.2\nl_h_ll = 1e-4\n\
+                j_kgm2 = 1e-4\n[ratings]\nbus_v = 24.0\ncurrent_a = 4.0\ntorque_nm = 0.3\n";
+    let out = sim(&[
+        "gains",
+        "--motor-file",
+        motor_file("kv100", text).to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let papers = text.replace(
+        "j_kgm2 = 1e-4",
+        "j_kgm2 = 1e-4\ntorque_convention = \"papers\"",
+    );
+    refused(
+        &sim(&[
+            "gains",
+            "--motor-file",
+            motor_file("kv100p", &papers).to_str().unwrap(),
+        ]),
+        &["ratings.torque_nm = 0.3", "c*pole_pairs*flux_wb*current_a"],
+    );
 }
 
 #[test]

@@ -507,8 +507,8 @@ impl DriveConfig {
                 flux_max_r_share: FLUX_ADAPT_MAX_R_SHARE,
             },
             catch: catch::Settings {
-                v_min: m.torque_constant() * s.handback_rpm * RAD_S_PER_RPM,
-                omega_m_per_v: 1.0 / m.torque_constant(),
+                v_min: m.emf_constant() * s.handback_rpm * RAD_S_PER_RPM,
+                omega_m_per_v: 1.0 / m.emf_constant(),
                 half_n_ts: 0.5 * m.n() * ts,
                 timeout_checks: 5 * slot_cycles(h.lock_time_s).max(1),
             },
@@ -516,6 +516,7 @@ impl DriveConfig {
             identify: identify::Settings::new(
                 &self.ratings,
                 m.n(),
+                m.torque,
                 rate,
                 self.current_bandwidth_hz,
                 &self.identify,
@@ -526,7 +527,7 @@ impl DriveConfig {
                 sixteenth: steps(s.align_time_s).div_ceil(16).max(1),
                 rest_vq2: {
                     let rest_speed = align::REST_SPEED * self.ratings.speed_rpm * RAD_S_PER_RPM;
-                    let emf_v = m.torque_constant() * rest_speed;
+                    let emf_v = m.emf_constant() * rest_speed;
                     emf_v * emf_v
                 },
             },

@@ -112,7 +112,7 @@ impl DriveConfig {
         let eps = sliding.epsilon_a;
         let rpm = |omega_m: f32| omega_m / RAD_S_PER_RPM;
         // (K_s,max)_E2 = K_s solved for the speed.
-        let ks_e2_speed_rpm = rpm((ks * m.l_h + m.r_ohm * eps) / (SQRT_2 * kt));
+        let ks_e2_speed_rpm = rpm((ks * m.l_h + m.r_ohm * eps) / (SQRT_2 * m.emf_constant()));
         let pll = self.pll_config();
         let (pll_kp, pll_ki) = pll.gains();
         let i_rated = self.ratings.torque_nm / kt;

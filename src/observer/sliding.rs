@@ -47,7 +47,8 @@ pub enum SlidingGain {
 /// Settings of a sliding observer (SI units, eigenvalues in Hz as the paper quotes them).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SlidingConfig {
-    /// Motor model (K = `flux_wb`, H = `j_kgm2`).
+    /// Motor model (K = `flux_wb`, H = `j_kgm2`); a three-phase motor's is turned into the
+    /// paper's (`MotorParams::papers_model`: H and B over 3/2) and τ̂_L back.
     pub motor: MotorParams,
     /// Update rate \[Hz] (4 kHz in the paper).
     pub rate_hz: f32,
@@ -99,7 +100,9 @@ impl SlidingConfig {
 
     /// Validates and precomputes the per-step coefficients.
     pub fn build(&self) -> Result<SlidingObserver, ParamError> {
-        let m = self.motor.validate()?;
+        let motor = self.motor.validate()?;
+        // The paper's model, τ = K N i_q: the equations below as printed; τ̂_L times `c`.
+        let m = motor.papers_model();
         let mut c = Checks::new();
         c.check("rate_hz", self.rate_hz, Allowed::POSITIVE);
         c.check("lambda_theta_hz", self.lambda_theta_hz, Allowed::POSITIVE);
@@ -153,6 +156,7 @@ impl SlidingConfig {
             min_speed: self.min_speed_rad_s,
             emf_residual_scale: m.l_h / (kn * 2.0 * libm::sinf(core::f32::consts::PI / 8.0)),
             emf_advance_s: self.emf_advance_periods * ts * n,
+            torque_factor: motor.torque.factor(),
         })
     }
 }
@@ -171,6 +175,9 @@ pub struct SlidingObserver {
     omega_low: f32,
     /// See [`SlidingConfig::min_speed_rad_s`].
     min_speed: f32,
+    /// The motor's `c` in `τ = c K N i_q`: the paper's τ̂_L (in `SlidingState`) times it is
+    /// the motor's load torque \[N·m].
+    torque_factor: f32,
     /// `L/(K N · 2 sin(22.5°))` \[s/A·rad/s]: turns `|w|/|ω̂|` into the residual (see
     /// `Observer::residual`).
     emf_residual_scale: f32,
@@ -266,7 +273,8 @@ pub struct SlidingState {
     pub theta_e: f32,
     /// Mechanical speed estimate ω̂ \[rad/s].
     pub omega_m: f32,
-    /// Load torque estimate τ̂_L \[N·m] (0 for the velocity observer).
+    /// Load torque estimate τ̂_L of the paper's model \[N·m] (0 for the velocity observer):
+    /// the motor's divided by its torque factor `c` (`MotorParams::papers_model`).
     pub load_nm: f32,
     /// Innovation `w = K_s sat(S/ε)` of the last sample \[A/s].
     pub w: AlphaBeta,
@@ -510,7 +518,7 @@ impl Observer for SlidingObserver {
     /// τ̂_L of the torque observer; `None` for the velocity observer (λτ = 0).
     #[inline(always)]
     fn load_nm(&self, st: &SlidingState) -> Option<f32> {
-        (self.factors.k3 > 0.0).then_some(st.load_nm)
+        (self.factors.k3 > 0.0).then_some(st.load_nm * self.torque_factor)
     }
 
     /// [`SlidingObserver::reset`] at the rotor's angle and speed, τ̂_L at its load for the
@@ -518,7 +526,7 @@ impl Observer for SlidingObserver {
     fn seed(&self, st: &mut SlidingState, i_ab: AlphaBeta, rotor: Rotor) {
         self.reset(st, i_ab, rotor.theta_e, rotor.omega_m);
         if self.factors.k3 > 0.0 {
-            st.load_nm = rotor.load_nm;
+            st.load_nm = rotor.load_nm / self.torque_factor;
         }
     }
 }

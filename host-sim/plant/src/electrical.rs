@@ -15,6 +15,10 @@ pub struct Pmsm {
     pub l: f64,
     /// Flux linkage ψ \[Wb].
     pub flux: f64,
+    /// `c` of the torque `c ψN i_q` and of the power `c v·i`: 3/2 for a three-phase machine
+    /// seen through the amplitude-invariant transform, 1 for the papers' model (its αβ
+    /// model is the machine); `pmsm_sensorless::motor::TorqueConvention`.
+    pub c: f64,
 }
 
 /// `(sin Nθ, cos Nθ)`.
@@ -38,15 +42,20 @@ impl Pmsm {
         )
     }
 
-    /// Electromagnetic torque `−ψN (i_α sin Nθ − i_β cos Nθ)` \[N·m] (the first term of eq
-    /// (19) times J), `sc` from [`Pmsm::back_emf`].
+    /// Electromagnetic torque `−c ψN (i_α sin Nθ − i_β cos Nθ)` \[N·m] (the first term of eq
+    /// (19) times J, c = 1 in the papers), `sc` from [`Pmsm::back_emf`].
     pub fn torque(&self, i: (f64, f64), sc: SinCos) -> f64 {
         let kn = self.flux * self.n;
-        -kn * (i.0 * sc.0 - i.1 * sc.1)
+        -self.c * kn * (i.0 * sc.0 - i.1 * sc.1)
     }
 
-    /// Copper loss `R |i|²` \[W].
+    /// Power into the windings `c v·i` \[W].
+    pub fn power(&self, v: (f64, f64), i: (f64, f64)) -> f64 {
+        self.c * (v.0 * i.0 + v.1 * i.1)
+    }
+
+    /// Copper loss `c R |i|²` \[W].
     pub fn copper_loss(&self, i: (f64, f64)) -> f64 {
-        self.r * (i.0 * i.0 + i.1 * i.1)
+        self.c * self.r * (i.0 * i.0 + i.1 * i.1)
     }
 }

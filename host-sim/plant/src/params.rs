@@ -20,6 +20,8 @@ pub struct PlantParams {
     pub j: f64,
     /// Viscous friction \[N·m·s/rad].
     pub b: f64,
+    /// Torque and power factor `c` ([`Pmsm::c`]).
+    pub c: f64,
 }
 
 impl From<&MotorParams> for PlantParams {
@@ -31,6 +33,7 @@ impl From<&MotorParams> for PlantParams {
             flux: m.flux_wb as f64,
             j: m.j_kgm2 as f64,
             b: m.b_nms as f64,
+            c: m.torque.factor() as f64,
         }
     }
 }
@@ -43,6 +46,7 @@ impl PlantParams {
             r: self.r,
             l: self.l,
             flux: self.flux,
+            c: self.c,
         }
     }
 

@@ -46,7 +46,7 @@ impl Parts {
         let di = self.pmsm.di_dt(i, e, v); // (16), (17)
         let torque = self.pmsm.torque(i, sc);
         let (dtheta, domega) = self.rotor.derivative(omega, torque, tau_l); // (18), (19)
-        let p_stator = v.0 * i.0 + v.1 * i.1;
+        let p_stator = self.pmsm.power(v, i);
         let dx = [
             di.0,
             di.1,

@@ -32,13 +32,14 @@ pub struct OperatingPoint {
 
 impl OperatingPoint {
     /// The paper's tuning (λθ = 10 Hz, λω = 60 Hz, λτ = 2 Hz or 0, ε = 1 A) for `motor` at
-    /// `omega` [rad/s mechanical] and `load_nm`.
+    /// `omega` [rad/s mechanical] and `load_nm`, in the paper's model of the motor
+    /// (`MotorParams::papers_model`: J, B and the load over the torque factor).
     pub fn paper(motor: &MotorParams, omega: f64, load_nm: f64, torque_observer: bool) -> Self {
         let l_tau = if torque_observer { 2.0 } else { 0.0 };
         Self {
-            motor: PlantParams::from(motor),
+            motor: PlantParams::from(&motor.papers_model()),
             omega,
-            load_nm,
+            load_nm: load_nm / f64::from(motor.torque.factor()),
             theta_e: 0.3,
             lambdas: [10.0 * TAU, 60.0 * TAU, l_tau * TAU],
             epsilon: 1.0,
@@ -74,6 +75,7 @@ impl OperatingPoint {
             flux: k,
             j: h,
             b,
+            ..
         } = self.motor;
         let (w, eps) = (self.omega, self.epsilon);
         let (k1, k2, k3) = self.k123();
@@ -123,6 +125,7 @@ impl OperatingPoint {
             flux: k,
             j: h,
             b,
+            ..
         } = self.motor;
         let (w, eps) = (self.omega, self.epsilon);
         let (k1, k2, k3) = self.k123();

@@ -68,7 +68,7 @@ const SUBSTEPS: usize = 25;
 /// the placeholder motor of its pole pairs and ratings (`identify::placeholder`), with the
 /// board's PWM, dead time and current sensing.
 pub fn drive_config(motor: &Motor, board: &SimBoard) -> DriveConfig {
-    let user = placeholder(motor.params.pole_pairs, motor.ratings);
+    let user = placeholder(motor.params.pole_pairs, motor.ratings, motor.params.torque);
     let mut dc = DriveConfig::new(&user);
     board.configure_drive(&mut dc);
     if let Some(r) = board.sense_range_a {

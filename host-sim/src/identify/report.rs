@@ -4,7 +4,7 @@
 use super::IdentifyOutcome;
 use crate::names::fault_name;
 use pmsm_sensorless::drive::Identified;
-use pmsm_sensorless::motor::{Motor, MotorParams};
+use pmsm_sensorless::motor::{Motor, MotorParams, TorqueConvention};
 use serde_json::json;
 
 /// The identified motor with the user's pole pairs and ratings, validated by the core.
@@ -13,7 +13,7 @@ pub fn identified_motor(o: &IdentifyOutcome) -> anyhow::Result<Option<Motor>> {
         return Ok(None);
     };
     let params = id
-        .params(o.truth.params.pole_pairs)
+        .params(o.truth.params.pole_pairs, o.truth.params.torque)
         .map_err(|e| anyhow::anyhow!("identified motor: {e}"))?;
     Ok(Some(Motor { params, ..o.truth }))
 }
@@ -24,7 +24,7 @@ pub fn motor_toml(name: &str, m: &MotorParams, o: &IdentifyOutcome, id: &Identif
     format!(
         "# Identified by `pmsm-sim identify` (l_d_h = {:e}, l_q_h = {:e}; l_h is their mean).\n\
          name = \"{name}\"\npole_pairs = {}\nr_ohm = {:e}\nl_h = {:e}\nflux_wb = {:e}\n\
-         j_kgm2 = {:e}\nb_nms = {:e}\n\n[ratings]\nbus_v = {}\ncurrent_a = {}\ntorque_nm = {}\n\
+         j_kgm2 = {:e}\nb_nms = {:e}\n{}\n[ratings]\nbus_v = {}\ncurrent_a = {}\ntorque_nm = {}\n\
          speed_rpm = {}\npower_w = {}\n",
         id.l_d_h,
         id.l_q_h,
@@ -34,6 +34,10 @@ pub fn motor_toml(name: &str, m: &MotorParams, o: &IdentifyOutcome, id: &Identif
         m.flux_wb,
         m.j_kgm2,
         m.b_nms,
+        match m.torque {
+            TorqueConvention::ThreePhase => "",
+            TorqueConvention::Papers => "torque_convention = \"papers\"\n",
+        },
         r.bus_v,
         r.current_a,
         r.torque_nm,

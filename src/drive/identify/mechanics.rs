@@ -236,7 +236,7 @@ impl Mechanics {
             return Progress::Stay;
         }
         let (a_up, w_up, iq_up) = self.up_result;
-        let kt = s.n * result.flux_wb;
+        let kt = s.torque_factor * s.n * result.flux_wb;
         let (t_up, t_dn) = (kt * iq_up, kt * iq_mean);
         let det = a_up * w_mean - slope * w_up;
         let j_kgm2 = (t_up * w_mean - t_dn * w_up) / det;

@@ -45,7 +45,7 @@ pub(super) mod resistance;
 
 use crate::foc::Foc;
 use crate::frames::AlphaBeta;
-use crate::motor::{MotorParams, Ratings};
+use crate::motor::{MotorParams, Ratings, TorqueConvention};
 use crate::param::{Allowed, ParamError};
 use core::f32::consts::TAU;
 use flux::FluxSpin;
@@ -96,8 +96,8 @@ pub enum IdentifyPhase {
     Mechanics,
 }
 
-/// The identified motor (SI units, the papers' model: `τ = N ψ_f i_q`, amplitude-invariant
-/// αβ).
+/// The identified motor (SI units, amplitude-invariant αβ; `j_kgm2` and `b_nms` in the torque
+/// convention of the drive's motor, [`MotorParams::torque`]).
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Identified {
@@ -121,16 +121,22 @@ impl Identified {
         0.5 * (self.l_d_h + self.l_q_h)
     }
 
-    /// The motor parameters with the user's `pole_pairs`, validated.
-    pub fn params(&self, pole_pairs: u32) -> Result<MotorParams, ParamError> {
-        MotorParams::new(
+    /// The motor parameters with the user's `pole_pairs`, validated, in the convention
+    /// `torque` the identification ran in.
+    pub fn params(
+        &self,
+        pole_pairs: u32,
+        torque: TorqueConvention,
+    ) -> Result<MotorParams, ParamError> {
+        Ok(MotorParams::new(
             pole_pairs,
             self.r_ohm,
             self.l_h(),
             self.flux_wb,
             self.j_kgm2,
             self.b_nms,
-        )
+        )?
+        .with_torque(torque))
     }
 }
 
@@ -153,12 +159,17 @@ impl IdentifyConfig {
     }
 }
 
-/// A placeholder motor for a drive that is to identify its motor: the user's pole pairs and
-/// ratings, a flux linkage whose torque at `current_a` is the rated torque, a resistance whose
+/// A placeholder motor for a drive that is to identify its motor: the user's pole pairs,
+/// ratings and torque convention, a flux linkage whose torque at `current_a` is the rated
+/// torque, a resistance whose
 /// rated current takes a tenth of the bus's phase voltage and a 1 ms electrical time constant.
 /// Only the limits and the observers' construction use it; the identification's measurements
 /// do not (module doc).
-pub fn placeholder(pole_pairs: u32, ratings: Ratings) -> crate::motor::Motor {
+pub fn placeholder(
+    pole_pairs: u32,
+    ratings: Ratings,
+    torque: TorqueConvention,
+) -> crate::motor::Motor {
     let n = pole_pairs.max(1) as f32;
     let r_ohm = 0.1 * ratings.bus_v * crate::math::INV_SQRT3 / ratings.current_a;
     crate::motor::Motor {
@@ -167,9 +178,10 @@ pub fn placeholder(pole_pairs: u32, ratings: Ratings) -> crate::motor::Motor {
             pole_pairs,
             r_ohm,
             l_h: 1e-3 * r_ohm,
-            flux_wb: ratings.torque_nm / (n * ratings.current_a),
+            flux_wb: ratings.torque_nm / (torque.factor() * n * ratings.current_a),
             j_kgm2: 1e-3,
             b_nms: 0.0,
+            torque,
         },
         ratings,
     }
@@ -191,6 +203,8 @@ pub(super) struct Settings {
     pub(super) w_c_ts: f32,
     /// Pole pairs N.
     pub(super) n: f32,
+    /// `c` of the motor's torque convention, `τ = c N ψ_f i_q`.
+    pub(super) torque_factor: f32,
     /// N T \[s]: the frame's advance per step per rad/s of mechanical speed.
     pub(super) n_ts: f32,
     /// Spin speed for the flux linkage, the lower speed of the torque steps [rad/s,
@@ -207,6 +221,7 @@ impl Settings {
     pub(super) fn new(
         ratings: &Ratings,
         pole_pairs: f32,
+        torque: TorqueConvention,
         rate_hz: f32,
         current_bandwidth_hz: f32,
         cfg: &IdentifyConfig,
@@ -223,6 +238,7 @@ impl Settings {
             w_c,
             w_c_ts: w_c * ts,
             n: pole_pairs,
+            torque_factor: torque.factor(),
             n_ts: pole_pairs * ts,
             omega_low_m: 0.3 * rated_m,
             omega_high_m: 0.6 * rated_m,

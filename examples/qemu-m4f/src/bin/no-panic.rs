@@ -18,7 +18,7 @@ mod firmware {
     use pmsm_sensorless::control::{Commands, Control, TickCopy};
     use pmsm_sensorless::drive::{Drive, DriveConfig, DriveInput, StateOf};
     use pmsm_sensorless::frames::{Abc, AlphaBeta};
-    use pmsm_sensorless::motor::{Motor, MotorParams, Ratings};
+    use pmsm_sensorless::motor::{Motor, MotorParams, Ratings, TorqueConvention};
     use pmsm_sensorless::observer::flux_speed::FluxIi;
     use pmsm_sensorless::observer::ii::IiConfig;
     use pmsm_sensorless::observer::{Observer, Rotor};
@@ -71,6 +71,7 @@ mod firmware {
                 flux_wb: x[2],
                 j_kgm2: x[3],
                 b_nms: x[4],
+                torque: TorqueConvention::ThreePhase,
             },
             ratings: Ratings {
                 bus_v: x[5],
