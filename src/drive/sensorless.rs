@@ -250,6 +250,19 @@ impl Settings {
             }
             Verdict::NoLock | Verdict::Contradiction => return Next::Fault(Fault::ObserverLoss),
         }
+        // Through zero speed: the speed reference on its way to a command on the other side of
+        // zero (a reversal, not a load pushing the rotor back), the rotor and the reference
+        // inside the hand-back band. No back-EMF observer holds the angle through zero speed
+        // (Ortega et al. Sec III: the flux observer needs ω ≠ 0; Horng & Chin Sec 4: K_s's
+        // window closes as ω → 0), so the I/f open loop carries the rotor through from the
+        // driving observer's frame and speed and hands over again on the other side.
+        let through_zero = cmd_rpm * s.speed_ref_rpm < 0.0;
+        if through_zero && s.speed_ref_rpm.abs() < handback && speed_rpm.abs() < handback {
+            return Next::OpenLoop {
+                frame: d.frame,
+                omega_m,
+            };
+        }
         // A locked observer's speed beyond the bound, persistently: a rotor the drive no
         // longer holds.
         s.overspeed = consecutive(s.overspeed, speed_rpm.abs() > self.overspeed_rpm);

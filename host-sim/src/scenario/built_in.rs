@@ -6,7 +6,7 @@ use super::Scenario;
 use anyhow::Context;
 
 /// The built-in scenario files, in listing order.
-const BUILT_IN: [(&str, &str); 28] = [
+const BUILT_IN: [(&str, &str); 33] = [
     (
         "horng-ramp-brake",
         include_str!("../../scenarios/horng-ramp-brake.toml"),
@@ -106,6 +106,26 @@ const BUILT_IN: [(&str, &str); 28] = [
     (
         "warm-winding",
         include_str!("../../scenarios/warm-winding.toml"),
+    ),
+    (
+        "warm-winding-150",
+        include_str!("../../scenarios/warm-winding-150.toml"),
+    ),
+    (
+        "profile-slow-ramp-3",
+        include_str!("../../scenarios/profile-slow-ramp-3.toml"),
+    ),
+    (
+        "profile-step-3",
+        include_str!("../../scenarios/profile-step-3.toml"),
+    ),
+    (
+        "profile-catch-neg50-pos30",
+        include_str!("../../scenarios/profile-catch-neg50-pos30.toml"),
+    ),
+    (
+        "profile-reversal",
+        include_str!("../../scenarios/profile-reversal.toml"),
     ),
     (
         "stop-regen",

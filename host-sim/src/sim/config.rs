@@ -99,6 +99,10 @@ pub struct SimConfig {
     pub cold_start: bool,
     /// Flux-observer γ replacing the recommended one \[1/(Wb²·s)].
     pub gamma: Option<f32>,
+    /// The drive's motor model from an identification of the plant's motor on the same board
+    /// first (`crate::identify`: the user's pole pairs, ratings and torque convention only),
+    /// replacing `mismatch`: identify, then drive with the identified motor (issue #26).
+    pub identify_first: bool,
 }
 
 impl SimConfig {
@@ -123,6 +127,7 @@ impl SimConfig {
             sensorless_from_rpm: None,
             cold_start: false,
             gamma: None,
+            identify_first: false,
         }
     }
 }

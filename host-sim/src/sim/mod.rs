@@ -14,6 +14,7 @@ pub use config::{Mismatch, SimConfig};
 pub use row::{wrap_deg, wrap_rad, Row, RowHealth};
 
 use crate::board::{BoardPlant, BoardStage};
+use crate::identify;
 use crate::names::fault_name;
 use crate::scenario::Injection;
 use crate::RAD_S_PER_RPM;
@@ -298,9 +299,35 @@ impl Sim {
     }
 }
 
-/// Runs the closed loop for the scenario's duration (after the board's idle time).
+/// The drive's model from an identification of the scenario's motor on the run's board
+/// ([`SimConfig::identify_first`]); an identification that ends in a fault is the run's error,
+/// named.
+fn identified(mut config: SimConfig) -> anyhow::Result<SimConfig> {
+    let truth = config.scenario.motor;
+    let outcome = identify::run(&identify::IdentifyRun {
+        board: config.board.clone(),
+        ..identify::IdentifyRun::board_defaults(truth)
+    })?;
+    let Some(m) = identify::identified_motor(&outcome)? else {
+        anyhow::bail!(
+            "identification ended in {} after {:.2} s",
+            outcome.fault.map_or("no result", fault_name),
+            outcome.duration_s
+        );
+    };
+    config.mismatch = Mismatch::between(&truth.params, &m.params);
+    Ok(config)
+}
+
+/// Runs the closed loop for the scenario's duration (after the board's idle time), after an
+/// identification where the configuration asks for one.
 pub fn run(config: SimConfig) -> anyhow::Result<Run> {
     let wall = std::time::Instant::now();
+    let config = if config.identify_first {
+        identified(config)?
+    } else {
+        config
+    };
     let mut sim = Sim::new(config)?;
     let idle_steps = sim.config.board.idle_steps(sim.config.rate_hz);
     sim.controller.idle(&mut sim.stage, idle_steps);

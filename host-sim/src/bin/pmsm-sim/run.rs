@@ -52,6 +52,12 @@ pub struct RunArgs {
     /// the plant staying the --motor / --motor-file one (instead of --mismatch).
     #[arg(long, value_name = "FILE.toml", conflicts_with = "mismatch")]
     drive_motor_file: Option<PathBuf>,
+    /// Identify the motor on the same board first (`pmsm-sim identify`: its pole pairs,
+    /// ratings and torque convention only) and drive with the identified parameters
+    /// (instead of --mismatch or --drive-motor-file); an identification that fails fails the
+    /// run, named.
+    #[arg(long, conflicts_with_all = ["mismatch", "drive_motor_file"])]
+    identified: bool,
     /// The load's kind, replacing the scenario's `load_kind`: a brake opposes the motion,
     /// an active load is a signed torque (a hanging mass).
     #[arg(long, value_enum)]
@@ -140,6 +146,7 @@ pub fn prepare(args: &RunArgs) -> anyhow::Result<SimConfig> {
         );
         cfg.mismatch = Mismatch::between(&m.params, &d.params);
     }
+    cfg.identify_first = args.identified;
     anyhow::ensure!(
         args.rate_hz.is_finite() && (1000.0..=100_000.0).contains(&args.rate_hz),
         "--rate-hz must be between 1000 and 100000"
