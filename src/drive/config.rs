@@ -547,7 +547,7 @@ impl DriveConfig {
                 ramp,
                 load_observer: self.load_observer_config().build()?,
                 field_weakening: sensorless::FieldWeakening {
-                    margin: 0.95,
+                    margin: super::derating::FIELD_WEAKENING_MARGIN,
                     gain_a_per_v: 0.2 / (m.n() * self.ratings.speed_rpm * RAD_S_PER_RPM * m.l_h),
                     i_max_a: l.i_max_a,
                 },

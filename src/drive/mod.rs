@@ -40,6 +40,7 @@ mod align;
 mod applied;
 mod catch;
 mod config;
+mod derating;
 pub mod identify;
 mod io;
 mod mode;

@@ -77,7 +77,8 @@ pub struct Derived {
     pub v_max_v: f32,
     /// The voltage rated torque at rated speed needs, `|R i + jω_e(L i) + ω_e ψ_f|` \[V].
     pub v_rated_point_v: f32,
-    /// The speed up to which the rated bus drives rated torque \[rpm].
+    /// The speed up to which the rated bus drives rated torque, field weakening included
+    /// (`DriveConfig::torque_speed_limit_rpm`) \[rpm]: below rated speed, the derating.
     pub rated_torque_speed_rpm: f32,
     /// What will struggle, each once.
     pub warnings: [Option<Warning>; 3],
@@ -120,7 +121,8 @@ impl DriveConfig {
         let v_max = self.ratings.bus_v * dead_time.v_max_per_bus();
         let speed_rated = self.ratings.speed_rpm * RAD_S_PER_RPM;
         let v_rated_point = voltage(&m, i_rated, speed_rated);
-        let rated_torque_speed_rpm = rpm(speed_for_voltage(&m, i_rated, v_max));
+        let rated_torque_speed_rpm =
+            self.torque_speed_limit_rpm(self.ratings.torque_nm, self.ratings.bus_v);
         let warnings = [
             (s.handover_rpm < ks_e2_speed_rpm).then_some(Warning {
                 field: "start.handover_rpm",
@@ -146,9 +148,9 @@ impl DriveConfig {
                 field: "ratings.speed_rpm",
                 value: self.ratings.speed_rpm,
                 limit: rated_torque_speed_rpm,
-                what: "above this speed rated torque needs more than the largest phase voltage \
-                       (bus_v/sqrt(3) less the dead time's): the current loop saturates under \
-                       full load",
+                what: "derated: above this speed rated torque does not fit the largest phase \
+                       voltage (bus_v/sqrt(3) less the dead time's) even with field weakening \
+                       within i_max; the drive holds less torque there (telemetry `derated`)",
             }),
         ];
         Ok(Derived {
@@ -374,7 +376,7 @@ impl Derived {
                 "rated torque up to",
                 self.rated_torque_speed_rpm,
                 "rpm",
-                "where that voltage reaches the largest phase voltage",
+                "where it needs more than 0.95 x that voltage, i_d down to -sqrt(i_max^2 - i_q^2)",
             ),
         ]
     }
@@ -387,14 +389,4 @@ fn voltage(m: &crate::motor::MotorParams, i_q: f32, omega_m: f32) -> f32 {
     let v_d = -w_e * m.l_h * i_q;
     let v_q = m.r_ohm * i_q + w_e * m.flux_wb;
     libm::sqrtf(v_d * v_d + v_q * v_q)
-}
-
-/// The mechanical speed \[rad/s] at which [`voltage`] reaches `v` \[V] (0 when `R i_q` alone
-/// exceeds it): the positive root of `ω_e²(ψ² + L²i²) + 2 R i ψ ω_e + R²i² − v² = 0`.
-fn speed_for_voltage(m: &crate::motor::MotorParams, i_q: f32, v: f32) -> f32 {
-    let a = m.flux_wb * m.flux_wb + (m.l_h * i_q) * (m.l_h * i_q);
-    let b = m.r_ohm * i_q * m.flux_wb;
-    let c = (m.r_ohm * i_q) * (m.r_ohm * i_q) - v * v;
-    let w_e = (-b + libm::sqrtf((b * b - a * c).max(0.0))) / a;
-    w_e.max(0.0) / m.n()
 }

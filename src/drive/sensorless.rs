@@ -217,10 +217,21 @@ impl Settings {
         }
     }
 
+    /// Derated by the bus (`derating.rs`): the field weakening acting and the current at the
+    /// limit it shares with the torque (`|i_dq ref| ≥ 0.99 i_max`), the rotor at `omega_m`
+    /// \[rad/s] short of the speed reference: the load's torque does not fit at the reference
+    /// on this bus.
+    pub(super) fn derated(&self, s: &Sensorless, omega_m: f32) -> bool {
+        let i_max = 0.99 * self.field_weakening.i_max_a;
+        let i2 = s.i_d_ref * s.i_d_ref + s.i_q_ref * s.i_q_ref;
+        let short = (omega_m * RPM_PER_RAD_S).abs() < s.speed_ref_rpm.abs();
+        s.i_d_fw < 0.0 && i2 >= i_max * i_max && short
+    }
+
     /// Sensorless control's 1 kHz work ([`Drive::tick`](super::Drive::tick)), after the
     /// health check (its `verdict`, and `note` when the driving observer changed; `d` the
     /// driving observer's estimate now): the hand-back where no observer is healthy at low
-    /// speed, observer loss, over-speed, the stop at zero, the output lead at the new speed,
+    /// speed or where the reference passes through zero, observer loss, over-speed, the stop at zero, the output lead at the new speed,
     /// the speed loop toward the user's `cmd_rpm` with the load torque fed forward, the stall
     /// check.
     /// `applied`: what the current loop applied over the last millisecond.
@@ -251,12 +262,13 @@ impl Settings {
             Verdict::NoLock | Verdict::Contradiction => return Next::Fault(Fault::ObserverLoss),
         }
         // Through zero speed: the speed reference on its way to a command on the other side of
-        // zero (a reversal, not a load pushing the rotor back), the rotor and the reference
-        // inside the hand-back band. No back-EMF observer holds the angle through zero speed
+        // zero (a reversal, not a load pushing the rotor back; the reference beyond the stop
+        // speed, not one seeded at a standing rotor), the rotor and the reference inside the
+        // hand-back band. No back-EMF observer holds the angle through zero speed
         // (Ortega et al. Sec III: the flux observer needs ω ≠ 0; Horng & Chin Sec 4: K_s's
         // window closes as ω → 0), so the I/f open loop carries the rotor through from the
         // driving observer's frame and speed and hands over again on the other side.
-        let through_zero = cmd_rpm * s.speed_ref_rpm < 0.0;
+        let through_zero = cmd_rpm * s.speed_ref_rpm < 0.0 && s.speed_ref_rpm.abs() > self.stop_rpm;
         if through_zero && s.speed_ref_rpm.abs() < handback && speed_rpm.abs() < handback {
             return Next::OpenLoop {
                 frame: d.frame,

@@ -83,6 +83,10 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             }
             ModeState::Sensorless(s) => (theta_d, omega_d, s.speed_ref_rpm()),
         };
+        let derated = match &st.mode {
+            ModeState::Sensorless(s) => self.sensorless.derated(s, omega_d),
+            _ => false,
+        };
         let i_dq = st.i_ab_last.to_dq(SinCos::of(theta));
         Telemetry {
             speed_ref_rpm,
@@ -97,6 +101,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 .load_nm(&ps)
                 .map(|t| model.torque_from_observer(t)),
             voltage_limited: st.last.limited(),
+            derated,
             driving,
             residual_primary,
             residual_monitor,

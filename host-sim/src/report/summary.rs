@@ -9,7 +9,7 @@
 use crate::names::fault_name;
 use crate::sim::{Row, Run};
 use indexmap::IndexMap;
-use pmsm_sensorless::drive::{Fault, Mode, Reason};
+use pmsm_sensorless::drive::{DriveConfig, Fault, Mode, Reason};
 use serde::Serialize;
 
 /// Angle error beyond which the controller's `i_q` no longer produces torque in the intended
@@ -43,6 +43,12 @@ pub struct WindowMetrics {
     pub torque_hat_mean_nm: Option<f64>,
     /// Largest K_s,min of Horng & Chin eq (28) \[A/s], `null` for non-sliding observers.
     pub ks_min_max: Option<f64>,
+    /// Derated by the bus (issue #26): the drive reported itself derated through most of the
+    /// window, and the window is scored against the speed up to which the window's load
+    /// torque fits the bus \[rpm] (`DriveConfig::torque_speed_limit_rpm` of the plant's motor
+    /// on the window's mean bus), where that is below the command. Absent otherwise.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub derated_to_rpm: Option<f64>,
 }
 
 /// The summary object.
@@ -150,7 +156,37 @@ pub fn window_metrics(rows: &[Row], t0: f64, t1: f64) -> Option<WindowMetrics> {
         theta_err_max_abs_deg_e: max_abs(&|r| r.theta_err_deg()),
         torque_hat_mean_nm,
         ks_min_max,
+        derated_to_rpm: None,
     })
+}
+
+/// The speed \[rpm] the bus holds the window's load at, when the drive reported itself
+/// derated through at least half of the window's rows and that speed is below the command's:
+/// the plant's motor and the board's limits, the window's mean load torque plus the plant's
+/// friction at the window's speed, on the window's mean bus.
+fn derated_reference(run: &Run, m: &WindowMetrics) -> Option<f64> {
+    let w: Vec<&Row> = run
+        .rows
+        .iter()
+        .filter(|r| r.t >= m.t0 && r.t < m.t1)
+        .collect();
+    let derated = w
+        .iter()
+        .filter(|r| r.health.is_some_and(|h| h.derated))
+        .count();
+    if w.is_empty() || 2 * derated < w.len() {
+        return None;
+    }
+    let n = w.len() as f64;
+    let motor = run.config.scenario.motor;
+    let speed_rpm = w.iter().map(|r| r.speed_rpm.abs()).sum::<f64>() / n;
+    let friction_nm = f64::from(motor.params.b_nms) * speed_rpm * crate::RAD_S_PER_RPM;
+    let load_nm = (w.iter().map(|r| r.load_nm).sum::<f64>() / n).abs() + friction_nm;
+    let bus_v = w.iter().map(|r| r.v_bus).sum::<f64>() / n;
+    let mut cfg = DriveConfig::new(&motor);
+    run.config.board.configure_drive(&mut cfg);
+    let limit = f64::from(cfg.torque_speed_limit_rpm(load_nm as f32, bus_v as f32));
+    (limit < m.speed_cmd_mean_rpm.abs()).then_some(limit)
 }
 
 impl Summary {
@@ -287,14 +323,23 @@ impl Windows {
         let mut windows = IndexMap::new();
         let (mut worst_pct, mut theta_max) = (None::<f64>, None::<f64>);
         for w in &sc.windows {
-            let m = window_metrics(&run.rows, w.t0, w.t1);
+            let mut m = window_metrics(&run.rows, w.t0, w.t1);
+            if let Some(m) = &mut m {
+                m.derated_to_rpm = derated_reference(run, m);
+            }
             match &m {
                 Some(m) => {
-                    let scale = m
-                        .speed_cmd_mean_rpm
-                        .abs()
-                        .max(SPEED_ERROR_FLOOR * rated_rpm);
-                    let pct = 100.0 * m.speed_err_mean_rpm.abs() / scale;
+                    // Against the command, or the speed the bus holds the load at (derated).
+                    let (reference, err) = match m.derated_to_rpm {
+                        Some(limit) => {
+                            let cmd = m.speed_cmd_mean_rpm;
+                            let speed_along_cmd = (cmd + m.speed_err_mean_rpm) * cmd.signum();
+                            (limit, speed_along_cmd - limit)
+                        }
+                        None => (m.speed_cmd_mean_rpm.abs(), m.speed_err_mean_rpm),
+                    };
+                    let scale = reference.max(SPEED_ERROR_FLOOR * rated_rpm);
+                    let pct = 100.0 * err.abs() / scale;
                     // NaN propagates: a window of non-finite speeds is the worst.
                     worst_pct =
                         Some(
@@ -305,14 +350,13 @@ impl Windows {
                     }));
                     // NaN fails too.
                     let within = pct <= 100.0 * sc.speed_tolerance;
+                    let derated = m.derated_to_rpm.map_or(String::new(), |x| {
+                        format!(" (derated by the bus to {x:.1} rpm)")
+                    });
                     if !within {
                         reasons.push(format!(
-                            "window {}: mean speed error {:+.3} rpm is {:.2} % of {:.1} rpm (limit {} %)",
-                            w.name,
-                            m.speed_err_mean_rpm,
-                            pct,
-                            scale,
-                            100.0 * sc.speed_tolerance
+                            "window {}: mean speed error {:+.3} rpm is {:.2} % of {:.1} rpm (limit {} %){derated}",
+                            w.name, err, pct, scale, 100.0 * sc.speed_tolerance
                         ));
                     }
                 }

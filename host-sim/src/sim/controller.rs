@@ -276,6 +276,7 @@ impl Controller {
                     r_ohm: tel.r_ohm as f64,
                     flux_wb: tel.flux_wb as f64,
                     voltage_limited: tel.voltage_limited,
+                    derated: tel.derated,
                 };
                 // The angle the controller runs on: the driving observer's while sensorless.
                 let sensorless = tel.mode == Mode::Sensorless;

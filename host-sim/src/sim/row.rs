@@ -68,6 +68,8 @@ pub struct RowHealth {
     pub flux_wb: f64,
     /// The current loop's voltage was at its limit in the last millisecond.
     pub voltage_limited: bool,
+    /// The drive derated by the bus (`Telemetry::derated`).
+    pub derated: bool,
 }
 
 impl Row {

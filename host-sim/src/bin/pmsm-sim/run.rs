@@ -235,6 +235,15 @@ pub fn run(args: RunArgs) -> anyhow::Result<(String, bool)> {
         };
     }
     outln!(out, "{windows}");
+    for (name, m) in &summary.windows {
+        if let Some(x) = m.as_ref().and_then(|m| m.derated_to_rpm) {
+            outln!(
+                out,
+                "window {name}: derated by the bus to {x:.1} rpm (its load torque does not fit \
+                 at the command: `pmsm-sim gains`, rated torque up to), scored against it"
+            );
+        }
+    }
     for tr in &summary.transitions {
         outln!(
             out,
