@@ -6,7 +6,7 @@ use super::Scenario;
 use anyhow::Context;
 
 /// The built-in scenario files, in listing order.
-const BUILT_IN: [(&str, &str); 28] = [
+const BUILT_IN: [(&str, &str); 31] = [
     (
         "horng-ramp-brake",
         include_str!("../../scenarios/horng-ramp-brake.toml"),
@@ -118,6 +118,18 @@ const BUILT_IN: [(&str, &str); 28] = [
     (
         "fault-overspeed",
         include_str!("../../scenarios/fault-overspeed.toml"),
+    ),
+    (
+        "fault-sensor-stuck",
+        include_str!("../../scenarios/fault-sensor-stuck.toml"),
+    ),
+    (
+        "fault-sensor-zero",
+        include_str!("../../scenarios/fault-sensor-zero.toml"),
+    ),
+    (
+        "fault-sensor-gain",
+        include_str!("../../scenarios/fault-sensor-gain.toml"),
     ),
 ];
 
