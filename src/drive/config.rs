@@ -488,7 +488,7 @@ impl DriveConfig {
             monitor,
             foc,
             limits: l,
-            sensing: plausibility::Settings::new(l.i_max_a, l.i_trip_a, l.i_sense_max_a),
+            sensing: plausibility::Settings::new(self.ratings.current_a, self.identify.sense_lsb_a),
             adaptation: adaptation::Settings {
                 r0_ohm: m.r_ohm,
                 flux0_wb: m.flux_wb,

@@ -79,7 +79,7 @@ pub enum Fault {
     /// current limit can brake.
     Overspeed,
     /// The three phase-current samples do not sum to zero: their sum beyond `i_sum_max_a` =
-    /// max((`i_trip_a` − `i_max_a`)/2, `i_sense_max_a`/20) on 4 more samples than within it
+    /// 12.4 % of the rated current (+ 1.5 ADC steps) on 4 more samples than within it
     /// (`plausibility.rs`). A current sensor stuck, reading zero or off by a gain while current
     /// flows (its error is the sum), or a broken sensing path.
     CurrentSensor,

@@ -10,31 +10,39 @@
 //! whenever current flows, whatever the failure; a healthy board's residual is the sensors'
 //! noise and what is left of their offsets.
 //!
-//! The threshold `i_sum_max_a` = max((`i_trip_a` − `i_max_a`)/2, `i_sense_max_a`/20):
-//! - half the gap between the current limit and the trip: a single-sensor error the check lets
-//!   through is below it, so no phase carries more than its reading plus half that gap (the
-//!   current loop keeps the readings at `i_max_a`, so the true current stays half way to the
-//!   trip), and a failed sensor is found once its phase's true current passes it, well before
-//!   the trip;
-//! - at least a twentieth of the sensing range, the largest offset the drive accepts from a
-//!   sensing path (`Fault::AdcOffset`), for limits set with a narrow gap.
+//! The threshold, from the board's sensing as `DESIGN.md` states it (1 % of the rated current
+//! `I_rated` of Gaussian noise per phase, σ each, and an offset of 2 % of it on a phase where
+//! the board does not take it off) and the ADC's step `sense_lsb_a` (three roundings):
 //!
-//! At the defaults (`DriveConfig::new`: `i_max` = 1.5 `i_rated`, `i_trip` = 1.5 `i_max`,
-//! `i_sense_max` = 2 `i_trip`) it is 0.375 `i_rated`. A board's sensing (`DESIGN.md`): 1 % of the rated
-//! current of Gaussian noise per phase, σ_Σ = √3 · 1 % = 1.7 % of it on the sum, and a 2 %
-//! offset on one phase where the board does not take it off: a healthy residual beyond
-//! 2 % + 6 σ_Σ = 12.4 % of the rated current has a probability below 10⁻⁸ per sample; the
-//! threshold is 21 σ_Σ above the offset.
+//! `i_sum_max_a` = (2 % + 6 · √3 · 1 %) · `I_rated` + 1.5 · `sense_lsb_a` = 12.4 % of
+//! `I_rated` (+ 1.5 LSB):
+//!
+//! the offset plus six standard deviations of the sum's noise (σ_Σ = √3 σ): a healthy sample
+//! beyond it has a probability below 10⁻⁸. At the defaults (`DriveConfig::new`: `i_max` = 1.5
+//! `I_rated`, `i_trip` = 1.5 `i_max`, `i_sense_max` = 2 `i_trip`) it is a sixth of the gap
+//! between the current limit and the trip (0.75 `I_rated`) and 2.8 % of the sensing range: a
+//! single-sensor error the check lets through is below it, so no phase carries more than its
+//! reading plus a sixth of that gap, and a stuck or zeroed sensor is found once its phase's
+//! true current passes 12.4 % of the rated current, long before the trip. A gain error
+//! `g` is found where `|g − 1|` times the phase current's peak passes it (10 % low at the
+//! current limit: 15 % of `I_rated`).
 //!
 //! Persistence: an up/down count of the samples beyond the threshold (up by one beyond it,
 //! down by one, to zero, within it) faults at [`SUM_COUNT_MAX`] (4 samples, one millisecond
-//! at the 4 kHz step): a single corrupt sample does not fault, and a failed sensor's residual
-//! (a sinusoid of the phase's current, beyond the threshold over more than half of each
-//! electrical period once the amplitude passes √2 times it) faults within the first half
-//! period beyond it. Checked in the modes that run the inverter or catch a rotor (`Catch`,
-//! `Align`, `OpenLoop`, `Sensorless`); PWM off in the same step (`Fault::CurrentSensor`).
+//! at the 4 kHz step): a single corrupt sample does not fault; a failed sensor's residual, a
+//! sinusoid of its phase's current, faults within the first stretch of 4 samples beyond the
+//! threshold (at rated speed, 60 samples an electrical period on the drive motors, a peak
+//! 1.2 times the threshold stays beyond it for 11). Checked in the modes that run the
+//! inverter or catch a rotor (`Catch`, `Align`, `OpenLoop`, `Sensorless`); PWM off in the
+//! same step (`Fault::CurrentSensor`).
 
 use crate::frames::Abc;
+use crate::math::INV_SQRT3;
+
+/// The offset a board may leave on a phase, a fraction of the rated current: 2 %.
+const OFFSET: f32 = 0.02;
+/// The standard deviation of a board's noise per phase, a fraction of the rated current: 1 %.
+const NOISE: f32 = 0.01;
 
 /// The count of samples beyond the threshold at which the drive faults: 4.
 pub(super) const SUM_COUNT_MAX: u8 = 4;
@@ -47,11 +55,11 @@ pub(super) struct Settings {
 }
 
 impl Settings {
-    /// From the limits (`Limits`: the current limit, the trip and the sensing range \[A];
-    /// see the module doc).
-    pub(super) fn new(i_max_a: f32, i_trip_a: f32, i_sense_max_a: f32) -> Self {
+    /// From the rated current `i_rated_a` (the motor's nameplate, `Ratings::current_a`) and
+    /// the ADC's step `sense_lsb_a` (0: none) \[A]; see the module doc.
+    pub(super) fn new(i_rated_a: f32, sense_lsb_a: f32) -> Self {
         Self {
-            i_sum_max_a: (0.5 * (i_trip_a - i_max_a)).max(i_sense_max_a / 20.0),
+            i_sum_max_a: (OFFSET + 6.0 * NOISE / INV_SQRT3) * i_rated_a + 1.5 * sense_lsb_a,
         }
     }
 
