@@ -83,8 +83,6 @@ pub struct Drive<P, M> {
     monitor: M,
     foc: Foc,
     limits: Limits,
-    /// The current sensors' phase-sum check.
-    sensing: plausibility::Settings,
     /// The motor model's adaptation (R, ψ_f).
     adaptation: adaptation::Settings,
     catch: catch::Settings,
@@ -92,6 +90,9 @@ pub struct Drive<P, M> {
     open_loop: open_loop::Settings,
     sensorless: sensorless::Settings,
     supervision: supervision::Settings,
+    /// The current sensors' phase-sum check (after the settings that were here before it:
+    /// their offsets from `self` stay as they were).
+    sensing: plausibility::Settings,
     /// The identification's coefficients (`identify/`); last, after everything the running
     /// drive's step reads (their offsets from `self` stay as they were).
     #[cfg(feature = "identify")]
