@@ -4,7 +4,7 @@
 use pmsm_sensorless::drive::{Fault, IdentifyError};
 
 /// Every drive fault but the identification's, in the order `pmsm-sim` lists them.
-pub const FAULTS: [Fault; 12] = [
+pub const FAULTS: [Fault; 13] = [
     Fault::Overcurrent,
     Fault::BusUndervoltage,
     Fault::BusOvervoltage,
@@ -17,6 +17,7 @@ pub const FAULTS: [Fault; 12] = [
     Fault::OverTemperature,
     Fault::TaskStall,
     Fault::Overspeed,
+    Fault::CurrentSensor,
 ];
 
 /// Snake-case name of a drive fault, as in the JSON summary.
@@ -34,6 +35,7 @@ pub fn fault_name(f: Fault) -> &'static str {
         Fault::OverTemperature => "over_temperature",
         Fault::TaskStall => "task_stall",
         Fault::Overspeed => "overspeed",
+        Fault::CurrentSensor => "current_sensor",
         Fault::Identify(e) => error_name(e),
     }
 }

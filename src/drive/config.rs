@@ -7,7 +7,7 @@ use super::identify::IdentifyConfig;
 use super::open_loop;
 use super::ramp::Ramp;
 use super::supervision;
-use super::{adaptation, align, catch, sensorless, Drive};
+use super::{adaptation, align, catch, plausibility, sensorless, Drive};
 use crate::bounds::{ks_max_e2, ks_max_t};
 use crate::dead_time::DeadTimeConfig;
 use crate::foc::FocConfig;
@@ -488,6 +488,7 @@ impl DriveConfig {
             monitor,
             foc,
             limits: l,
+            sensing: plausibility::Settings::new(self.ratings.current_a, self.identify.sense_lsb_a),
             adaptation: adaptation::Settings {
                 r0_ohm: m.r_ohm,
                 flux0_wb: m.flux_wb,

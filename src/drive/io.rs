@@ -78,6 +78,11 @@ pub enum Fault {
     /// conduct with the PWM off) for `loss_time_s`: a load drives the rotor beyond what the
     /// current limit can brake.
     Overspeed,
+    /// The three phase-current samples do not sum to zero: their sum beyond `i_sum_max_a` =
+    /// 12.4 % of the rated current (+ 1.5 ADC steps) on 4 more samples than within it
+    /// (`plausibility.rs`). A current sensor stuck, reading zero or off by a gain while current
+    /// flows (its error is the sum), or a broken sensing path.
+    CurrentSensor,
     /// The identification stopped: why (with the feature `identify`).
     #[cfg(feature = "identify")]
     Identify(super::identify::IdentifyError),

@@ -8,7 +8,8 @@
 //! 2. the commands: enable, disable, clear a fault; then, in a running mode, the count of
 //!    steps since the last 1 kHz task: beyond
 //!    [`STEPS_WITHOUT_TICK_MAX`](crate::schedule::STEPS_WITHOUT_TICK_MAX) the task has
-//!    stalled (`Fault::TaskStall`), PWM off;
+//!    stalled (`Fault::TaskStall`), PWM off; then the phase currents' sum
+//!    (`plausibility.rs`): a failed current sensor (`Fault::CurrentSensor`), PWM off;
 //! 3. both observers ([`Observer`]) every step while the inverter is on, the primary feeding
 //!    the controller and the monitor watching it (their read-outs are the 1 kHz task's);
 //! 4. the mode's step, each mode in a file of its own with its state in its variant of the
@@ -46,6 +47,7 @@ mod io;
 mod mode;
 mod observers;
 mod open_loop;
+mod plausibility;
 mod protection;
 mod ramp;
 mod report;
@@ -89,6 +91,9 @@ pub struct Drive<P, M> {
     open_loop: open_loop::Settings,
     sensorless: sensorless::Settings,
     supervision: supervision::Settings,
+    /// The current sensors' phase-sum check (after the settings that were here before it:
+    /// their offsets from `self` stay as they were).
+    sensing: plausibility::Settings,
     /// The identification's coefficients (`identify/`); last, after everything the running
     /// drive's step reads (their offsets from `self` stay as they were).
     #[cfg(feature = "identify")]
@@ -191,6 +196,11 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 // while catching too (PWM off): the catch's hand-over is the task's.
                 if st.task_stalled() {
                     reason = Some(enter_fault(st, Fault::TaskStall));
+                    None
+                } else if self.sensing.implausible(&mut st.sum_count, input.i_abc) {
+                    // The phase currents do not sum to zero: a current sensor failed
+                    // (`plausibility.rs`); stop switching in this step.
+                    reason = Some(enter_fault(st, Fault::CurrentSensor));
                     None
                 } else {
                     // The samples as the board delivers them (its own offsets taken off: the

@@ -36,6 +36,9 @@ pub struct DriveState<PS, MS> {
     /// ([`DriveState::task_stalled`]), reset by [`Drive::tick`](super::Drive::tick): beyond
     /// [`STEPS_WITHOUT_TICK_MAX`], `Fault::TaskStall`.
     pub(super) since_tick: u8,
+    /// The up/down count of samples whose phase currents do not sum to zero
+    /// (`plausibility.rs`): at its limit, `Fault::CurrentSensor`.
+    pub(super) sum_count: u8,
     pub(super) obs: ObserverStates<PS, MS>,
     pub(super) current: CurrentLoopState,
     /// The currents of the last sample the observers took \[A].
@@ -58,6 +61,7 @@ impl<PS: Default, MS: Default> Default for DriveState<PS, MS> {
             mode: ModeState::Idle,
             slot: Slot::First,
             since_tick: 0,
+            sum_count: 0,
             obs: ObserverStates::default(),
             current: CurrentLoopState::default(),
             i_ab_last: AlphaBeta::default(),

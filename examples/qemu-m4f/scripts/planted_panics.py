@@ -51,6 +51,7 @@ PLACES = [
     ("src/drive/mod.rs", "fn control(", 1, "Drive::control"),
     ("src/drive/mod.rs", "pub fn tick(", 1, "Drive::tick, the 1 kHz task"),
     ("src/drive/state.rs", "pub(super) fn task_stalled(&mut self) -> bool {", 1, "the task-stall count (steps since the 1 kHz task)"),
+    ("src/drive/plausibility.rs", "pub(super) fn implausible(&self, count: &mut u8, i_abc: Abc) -> bool {", 1, "the current sensors' phase-sum check"),
     ("src/drive/observers.rs", "pub(super) fn supervise(", 1, "Drive::supervise"),
     ("src/load_observer.rs", "pub fn update(", 1, "the speed loop's load-torque observer"),
     ("src/foc/mod.rs", "pub fn run(", 1, "Foc::run, the one FOC call site"),

@@ -11,6 +11,7 @@ pub mod stage;
 
 pub use bus::{BoardBus, DcLinkSpec};
 pub use motor_fault::MotorFault;
+pub use sensors::SensorFault;
 pub use stage::{BoardPlant, BoardStage};
 
 use pmsm_sensorless::drive::DriveConfig;

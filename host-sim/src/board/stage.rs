@@ -5,7 +5,7 @@
 
 use super::bus::BoardBus;
 use super::motor_fault::{Faulty, MotorFault};
-use super::sensors::{CurrentSensor, VoltageSensors};
+use super::sensors::{CurrentSensor, SensorFault, VoltageSensors};
 use super::SimBoard;
 use pmsm_plant::{Inverter, Load, Plant, PlantParams, Supply};
 use pmsm_sensorless::drive::DriveInput;
@@ -100,6 +100,11 @@ impl BoardStage {
     /// From now on phase b's current sample reads NaN.
     pub fn break_phase_b(&mut self) {
         self.nan_phase_b = true;
+    }
+
+    /// From the next sample on, phase `phase`'s (0..3: a, b, c) current sensor has failed so.
+    pub fn fail_current_sensor(&mut self, phase: usize, fault: SensorFault) {
+        self.current.fail(phase, fault);
     }
 
     /// The duties loaded for the coming period (`None`: every switch off).

@@ -4,7 +4,7 @@
 use super::file::{DcLinkFile, InjectFile, ScenarioFile, Spec};
 use super::profile::Pwl;
 use super::{DriveScript, Injection, LoadKind, Scenario, Window, BRAKE_FADE};
-use crate::board::DcLinkSpec;
+use crate::board::{DcLinkSpec, SensorFault};
 use crate::names::{fault_name, FAULTS};
 use anyhow::{bail, ensure, Context};
 use pmsm_sensorless::drive::Fault;
@@ -299,6 +299,8 @@ fn injection(i: &InjectFile, motor: &Motor, duration_s: f64) -> anyhow::Result<I
             ("flux", i.flux.is_some()),
             ("bus", i.bus.is_some()),
             ("until", i.until.is_some()),
+            ("phase", i.phase.is_some()),
+            ("gain", i.gain.is_some()),
         ] {
             ensure!(
                 !set || allowed.contains(&key),
@@ -348,10 +350,47 @@ fn injection(i: &InjectFile, motor: &Motor, duration_s: f64) -> anyhow::Result<I
             only(&[])?;
             Injection::TaskStall { t: i.t }
         }
+        "sensor_stuck" | "sensor_zero" => {
+            only(&["phase"])?;
+            Injection::CurrentSensor {
+                t: i.t,
+                phase: sensor_phase(i.phase.as_deref())?,
+                fault: if i.kind == "sensor_stuck" {
+                    SensorFault::Stuck
+                } else {
+                    SensorFault::Zero
+                },
+            }
+        }
+        "sensor_gain" => {
+            only(&["phase", "gain"])?;
+            let gain = i
+                .gain
+                .ok_or_else(|| anyhow::anyhow!("inject.gain: kind \"sensor_gain\" needs it"))?;
+            ensure!(
+                gain.is_finite() && (0.0..=10.0).contains(&gain),
+                "inject.gain = {gain}: a factor in [0, 10]"
+            );
+            Injection::CurrentSensor {
+                t: i.t,
+                phase: sensor_phase(i.phase.as_deref())?,
+                fault: SensorFault::Gain(gain),
+            }
+        }
         other => bail!(
-            "inject.kind = \"{other}\": must be \"plant\", \"bus\", \"nan_current\" or \"task_stall\""
+            "inject.kind = \"{other}\": must be \"plant\", \"bus\", \"nan_current\", \"task_stall\", \"sensor_stuck\", \"sensor_zero\" or \"sensor_gain\""
         ),
     })
+}
+
+/// `inject.phase`: "a" (the default), "b" or "c", as 0..3.
+fn sensor_phase(phase: Option<&str>) -> anyhow::Result<usize> {
+    match phase.unwrap_or("a") {
+        "a" => Ok(0),
+        "b" => Ok(1),
+        "c" => Ok(2),
+        other => bail!("inject.phase = \"{other}\": must be \"a\", \"b\" or \"c\""),
+    }
 }
 
 /// `[dc_link]` for `motor`: the keys given over [`DcLinkSpec::for_motor`], checked.

@@ -6,7 +6,7 @@ use super::Scenario;
 use anyhow::Context;
 
 /// The built-in scenario files, in listing order.
-const BUILT_IN: [(&str, &str); 33] = [
+const BUILT_IN: [(&str, &str); 36] = [
     (
         "horng-ramp-brake",
         include_str!("../../scenarios/horng-ramp-brake.toml"),
@@ -138,6 +138,18 @@ const BUILT_IN: [(&str, &str); 33] = [
     (
         "fault-overspeed",
         include_str!("../../scenarios/fault-overspeed.toml"),
+    ),
+    (
+        "fault-sensor-stuck",
+        include_str!("../../scenarios/fault-sensor-stuck.toml"),
+    ),
+    (
+        "fault-sensor-zero",
+        include_str!("../../scenarios/fault-sensor-zero.toml"),
+    ),
+    (
+        "fault-sensor-gain",
+        include_str!("../../scenarios/fault-sensor-gain.toml"),
     ),
 ];
 

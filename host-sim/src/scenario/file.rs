@@ -48,6 +48,8 @@ pub(super) struct InjectFile {
     pub(super) flux: Option<f64>,
     pub(super) bus: Option<f64>,
     pub(super) until: Option<f64>,
+    pub(super) phase: Option<String>,
+    pub(super) gain: Option<f64>,
 }
 
 /// `[dc_link]` of a scenario file.

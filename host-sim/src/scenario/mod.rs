@@ -22,8 +22,11 @@
 //! expect_fault = "stall"          # the run passes only if the drive faults so
 //! [inject]                        # a fault cause: kind = "plant" (factors r, l, flux),
 //! t = 1.8                         # "bus" (bus, a fraction of the rated bus, and `until`, the
-//! kind = "plant"                  # time it recovers: a sag), "nan_current" or "task_stall"
-//! r = 0.1
+//! kind = "plant"                  # time it recovers: a sag), "nan_current", "task_stall",
+//! r = 0.1                         # or a phase current sensor failed (`phase` = "a" (default),
+//!                                 # "b" or "c"): "sensor_stuck" (holds its last reading),
+//!                                 # "sensor_zero" (reads no current: its offset and noise
+//!                                 # alone), "sensor_gain" (`gain`, e.g. 0.9: reads 90 %)
 //! [dc_link]                       # a DC link instead of the stiff bus (every key optional)
 //! capacitance_uf = 158.0          # default: P·50 µs/(0.01·V²), the rated DC-link current P/V
 //!                                 # for one 20 kHz PWM period with a 1 % droop
@@ -64,6 +67,7 @@ pub use built_in::{
 pub use file::{ScenarioFile, Spec};
 
 use self::profile::Pwl;
+use crate::board::SensorFault;
 use pmsm_sensorless::drive::Fault;
 use pmsm_sensorless::motor::Motor;
 
@@ -215,6 +219,16 @@ pub enum Injection {
         /// Time \[s].
         t: f64,
     },
+    /// One phase's current sensor fails from `t` on: stuck at its last reading, reading
+    /// zero, or off by a gain ([`SensorFault`]).
+    CurrentSensor {
+        /// Time \[s].
+        t: f64,
+        /// The phase, 0..3 (a, b, c).
+        phase: usize,
+        /// How it fails.
+        fault: SensorFault,
+    },
 }
 
 impl Injection {
@@ -224,7 +238,8 @@ impl Injection {
             Injection::Plant { t, .. }
             | Injection::Bus { t, .. }
             | Injection::NanCurrent { t }
-            | Injection::TaskStall { t } => t,
+            | Injection::TaskStall { t }
+            | Injection::CurrentSensor { t, .. } => t,
         }
     }
 }

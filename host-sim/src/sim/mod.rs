@@ -148,8 +148,13 @@ impl Sim {
                 plant.supply.set_supply_v(if recovered { back } else { v });
             }
             Injection::NanCurrent { .. } => self.stage.break_phase_b(),
+            Injection::CurrentSensor { phase, fault, .. } if first => {
+                self.stage.fail_current_sensor(phase, fault);
+            }
             // The controller stops ticking (`Sim::step`).
-            Injection::Plant { .. } | Injection::TaskStall { .. } => {}
+            Injection::Plant { .. }
+            | Injection::TaskStall { .. }
+            | Injection::CurrentSensor { .. } => {}
         }
     }
 
