@@ -556,6 +556,7 @@ impl DriveConfig {
                 // torque over as the d current fades.
                 handover_decay: 1.0 - SLOTS as f32 * ts * TAU * self.speed_bandwidth_hz / 5.0,
                 handback_rpm: s.handback_rpm,
+                through_zero_rpm: s.handover_rpm,
                 stop_rpm: s.stop_rpm,
                 overspeed_rpm: m.bus_limited_rpm(l.bus_max_v),
                 overspeed_checks: slot_cycles(h.loss_time_s).max(1),

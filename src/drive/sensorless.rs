@@ -30,6 +30,10 @@ pub(super) struct Settings {
     /// Without a usable observer, below this |speed| and |reference| open loop takes over
     /// again \[rpm].
     pub(super) handback_rpm: f32,
+    /// On the way through zero speed, below this |speed| and |reference| open loop takes
+    /// over \[rpm]: the hand-over speed, where the observers were trusted to take over at the
+    /// start (the hand-back speed is where they are already failing).
+    pub(super) through_zero_rpm: f32,
     /// With a zero command, stopped below this estimated |speed| \[rpm].
     pub(super) stop_rpm: f32,
     /// The driving observer's |speed| above this is an over-speed \[rpm]: the speed whose
@@ -263,13 +267,14 @@ impl Settings {
         }
         // Through zero speed: the speed reference on its way to a command on the other side of
         // zero (a reversal, not a load pushing the rotor back; the reference beyond the stop
-        // speed, not one seeded at a standing rotor), the rotor and the reference inside the
-        // hand-back band. No back-EMF observer holds the angle through zero speed
+        // speed, not one seeded at a standing rotor), the rotor and the reference below the
+        // hand-over speed. No back-EMF observer holds the angle through zero speed
         // (Ortega et al. Sec III: the flux observer needs ω ≠ 0; Horng & Chin Sec 4: K_s's
         // window closes as ω → 0), so the I/f open loop carries the rotor through from the
         // driving observer's frame and speed and hands over again on the other side.
         let through_zero = cmd_rpm * s.speed_ref_rpm < 0.0 && s.speed_ref_rpm.abs() > self.stop_rpm;
-        if through_zero && s.speed_ref_rpm.abs() < handback && speed_rpm.abs() < handback {
+        let band = self.through_zero_rpm;
+        if through_zero && s.speed_ref_rpm.abs() < band && speed_rpm.abs() < band {
             return Next::OpenLoop {
                 frame: d.frame,
                 omega_m,
