@@ -207,6 +207,15 @@ pub struct Telemetry {
 pub struct DriveOutput {
     /// Duties to load, each in [0, 1]; `None`: all switches off.
     pub duties: Option<Duties>,
+    /// With `duties` `None` (a fault): hold the active short circuit, every low-side switch
+    /// on ([`PowerStage::short_circuit`](crate::power_stage::PowerStage::short_circuit)),
+    /// instead of every switch off, where the fault and the motor allow it (the drive's
+    /// `safe_state.rs`).
+    pub short_circuit: bool,
+    /// The brake chopper's gate, for a stage with a brake resistor
+    /// ([`PowerStage::brake`](crate::power_stage::PowerStage::brake)): on while the bus is
+    /// high (the drive's `regen.rs`).
+    pub brake: bool,
     /// The mode change this step made, if any.
     pub transition: Option<Transition>,
 }
