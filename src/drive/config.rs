@@ -49,6 +49,9 @@ const FLUX_ADAPT_MIN_SPEED: f32 = 0.1;
 /// the robustness matrix) moves ψ_f by 0.4 % at most; a winding warmed 30 % since, by 9 %.
 const FLUX_ADAPT_MAX_R_SHARE: f32 = 0.3;
 
+/// The share of the current loop's voltage limit the field weakening holds the voltage at.
+const FW_MARGIN: f32 = 0.95;
+
 /// The time constant of the measured bus's low-pass filter for the over-speed bound \[s]: half
 /// the over-speed's persistence (`loss_time_s`, 20 ms), long against the PWM's and the
 /// sampling's noise.
@@ -551,7 +554,7 @@ impl DriveConfig {
                 ramp,
                 load_observer: self.load_observer_config().build()?,
                 field_weakening: sensorless::FieldWeakening {
-                    margin: 0.95,
+                    margin: FW_MARGIN,
                     gain_a_per_v: 0.2 / (m.n() * self.ratings.speed_rpm * RAD_S_PER_RPM * m.l_h),
                     i_max_a: l.i_max_a,
                 },
@@ -560,7 +563,11 @@ impl DriveConfig {
                 handover_decay: 1.0 - SLOTS as f32 * ts * TAU * self.speed_bandwidth_hz / 5.0,
                 handback_rpm: s.handback_rpm,
                 stop_rpm: s.stop_rpm,
-                overspeed_rpm_per_v: m.bus_limited_rpm(1.0),
+                // The speed whose back-EMF the field weakening no longer holds within its
+                // voltage target with the whole current limit on the d axis:
+                // `FW_MARGIN v_bus/(√3 N (ψ_f − L i_max))`, per volt of bus.
+                overspeed_rpm_per_v: FW_MARGIN * m.bus_limited_rpm(1.0) * m.flux_wb
+                    / (m.flux_wb - m.l_h * l.i_max_a).max(0.5 * m.flux_wb),
                 bus_filter: SLOTS as f32 * ts / BUS_FILTER_S,
                 overspeed_checks: slot_cycles(h.loss_time_s).max(1),
                 stall: sensorless::Stall {

@@ -74,9 +74,11 @@ pub enum Fault {
     /// [`STEPS_WITHOUT_TICK_MAX`]: crate::schedule::STEPS_WITHOUT_TICK_MAX
     TaskStall,
     /// The driving observer's speed, while it is locked in sensorless control, beyond the
-    /// speed whose line-to-line back-EMF peak reaches `bus_max_v` (above it the diodes
-    /// conduct with the PWM off) for `loss_time_s`: a load drives the rotor beyond what the
-    /// current limit can brake.
+    /// speed whose back-EMF the field weakening no longer holds within the bus the drive
+    /// measures (filtered) with the whole current limit on the d axis (beyond the speed whose
+    /// line-to-line back-EMF peak reaches the bus: the diodes conduct with the PWM off), for
+    /// `loss_time_s`, unless the speed is falling back: a load drives the rotor beyond what
+    /// the current limit can brake.
     Overspeed,
     /// The identification stopped: why (with the feature `identify`).
     #[cfg(feature = "identify")]

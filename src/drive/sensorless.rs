@@ -40,10 +40,16 @@ pub(super) struct Settings {
     /// With a zero command, stopped below this estimated |speed| \[rpm].
     pub(super) stop_rpm: f32,
     /// The driving observer's |speed| above this many rpm per volt of the filtered measured
-    /// bus is an over-speed: `1/(√3 N ψ_f)` in rpm, the speed whose line-to-line back-EMF
-    /// peak `√3 N ψ_f ω_m` reaches the bus the drive measures now (above it the diodes conduct
-    /// with the PWM off and brake the rotor into the bus, uncontrolled; a bus raised by
-    /// regeneration raises it) ...
+    /// bus is an over-speed: `m/(√3 N (ψ_f − L i_max))` in rpm, the speed whose back-EMF the
+    /// field weakening no longer holds within its voltage target (`m` = 0.95 of the bus's
+    /// phase voltage) even with the whole current limit on the d axis: the drive no longer
+    /// controls the current, and the rotor is beyond the speed whose line-to-line back-EMF
+    /// reaches the bus (above it the diodes conduct with the PWM off and brake the rotor into
+    /// the bus, uncontrolled; a bus raised by regeneration raises the bound with it).
+    /// `ψ_f − L i_max` is floored at `ψ_f/2`: a motor whose field weakening would reach
+    /// further is bounded at twice its bus-limited speed (0.95 of it). Sinano: 2,023 rpm at
+    /// its 48 V; Ortega's test motor: 2,562 rpm at 200 V (its current trips `overcurrent`
+    /// about 2,900 rpm, beyond its field weakening) ...
     pub(super) overspeed_rpm_per_v: f32,
     /// The bus's low-pass filter for the over-speed bound: its gain per millisecond (1 ms over
     /// its time constant, `BUS_FILTER_S`), so the PWM's and the sampling's noise do not move
