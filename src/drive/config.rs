@@ -563,9 +563,7 @@ impl DriveConfig {
                 handover_decay: 1.0 - SLOTS as f32 * ts * TAU * self.speed_bandwidth_hz / 5.0,
                 handback_rpm: s.handback_rpm,
                 stop_rpm: s.stop_rpm,
-                // The speed whose back-EMF the field weakening no longer holds within its
-                // voltage target with the whole current limit on the d axis:
-                // `FW_MARGIN v_bus/(√3 N (ψ_f − L i_max))`, per volt of bus.
+                // `FW_MARGIN v_bus/(√3 N (ψ_f − L i_max))` per volt (`sensorless.rs`).
                 overspeed_rpm_per_v: FW_MARGIN * m.bus_limited_rpm(1.0) * m.flux_wb
                     / (m.flux_wb - m.l_h * l.i_max_a).max(0.5 * m.flux_wb),
                 bus_filter: SLOTS as f32 * ts / BUS_FILTER_S,
@@ -583,7 +581,11 @@ impl DriveConfig {
                     l.i_max_a,
                 ),
             },
-            safe_state: safe_state::Settings::new(&m, &l),
+            safe_state: safe_state::Settings::new(
+                m.flux_wb,
+                m.l_h,
+                (l.i_max_a, l.i_trip_a, l.i_sense_max_a),
+            ),
             supervision: supervision::Settings {
                 lock_checks: slot_cycles(h.lock_time_s).max(1),
                 failover_checks: slot_cycles(h.failover_time_s).max(1),

@@ -35,9 +35,7 @@
 //! `bus_undervoltage`: the gate drivers' supply may be short too; `overrun`, `adc_offset`, the
 //! identification's): those turn every switch off.
 
-use super::config::Limits;
 use super::io::Fault;
-use crate::motor::MotorParams;
 
 /// The state a fault leaves the stage in.
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -57,11 +55,12 @@ pub(super) struct Settings {
 }
 
 impl Settings {
-    /// The rule of the module doc for `m` on the limits `l`.
-    pub(super) fn new(m: &MotorParams, l: &Limits) -> Self {
-        let i_ch = m.flux_wb / m.l_h;
+    /// The rule of the module doc for a motor of flux linkage `flux_wb` \[Wb] and inductance
+    /// `l_h` \[H] on the limits `(i_max_a, i_trip_a, i_sense_max_a)` \[A].
+    pub(super) fn new(flux_wb: f32, l_h: f32, (i_max, i_trip, i_sense): (f32, f32, f32)) -> Self {
+        let i_ch = flux_wb / l_h;
         Self {
-            short_circuit_allowed: i_ch <= l.i_max_a && 2.0 * i_ch + l.i_trip_a <= l.i_sense_max_a,
+            short_circuit_allowed: i_ch <= i_max && 2.0 * i_ch + i_trip <= i_sense,
         }
     }
 
