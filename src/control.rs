@@ -180,7 +180,12 @@ impl<P: Observer, M: Observer, S: PowerStage> Control<P, M, S> {
     pub fn step(&mut self, cmd: &Commands) -> Stepped {
         let input = self.stage.sample();
         let out = self.drive.step(&mut self.state, &input, &cmd.drive());
-        self.stage.apply(out.duties);
+        if out.short_circuit {
+            self.stage.short_circuit();
+        } else {
+            self.stage.apply(out.duties);
+        }
+        self.stage.brake(out.brake);
         let step = self.steps;
         self.steps = step.wrapping_add(1);
         let record = if self.to_record > 0 {

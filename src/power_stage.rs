@@ -48,4 +48,22 @@ pub trait PowerStage {
     /// Loads the duties for the coming period (each in [0, 1]), or turns every switch off
     /// (`None`) at once.
     fn apply(&mut self, duties: Option<Duties>);
+
+    /// Holds the active short circuit from the coming period on: every low-side switch on,
+    /// every high-side one off (the drive's safe state where the fault and the motor allow
+    /// it, [`DriveOutput::short_circuit`](crate::drive::DriveOutput::short_circuit)). On a
+    /// stage of three half-bridges that is duty 0 on every phase with the outputs on, the
+    /// default; a stage whose duties do not reach 0 (a duty clamp, a bootstrap refresh) must
+    /// implement it on its registers, or turn every switch off.
+    fn short_circuit(&mut self) {
+        self.apply(Some(Duties {
+            a: 0.0,
+            b: 0.0,
+            c: 0.0,
+        }));
+    }
+
+    /// The brake chopper's gate (a resistor across the bus), on a stage that has one
+    /// ([`DriveOutput::brake`](crate::drive::DriveOutput::brake)); nothing by default.
+    fn brake(&mut self, _on: bool) {}
 }

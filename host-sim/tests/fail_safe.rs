@@ -76,9 +76,8 @@ fn assert_pwm_off_from(r: &Run, t: f64, label: &str) {
     }
 }
 
-/// On the Sinano motor. (Ortega's test motor, whose bound is its 250 V `bus_max_v`'s speed,
-/// trips `overcurrent` first, 0.36 s after the load step with the sliding primary, on its
-/// 200 V bus: a bound from the bus the drive measures is issue #27's open part.)
+/// On the Sinano motor (Ortega's test motor, with the bound from the bus the drive measures:
+/// `tests/overhaul.rs`).
 #[test]
 fn an_overhauling_load_beyond_the_current_limit_is_an_overspeed_with_the_pwm_off() {
     for motor in ["sinano"] {

@@ -14,6 +14,8 @@ pub(super) struct Applied {
     pub(super) v_ab: AlphaBeta,
     /// The current loop's voltage limit \[V].
     pub(super) v_max: f32,
+    /// The bus measured in the last period \[V].
+    pub(super) v_bus: f32,
     /// The voltage was at its limit through the last millisecond.
     pub(super) limited: bool,
 }
@@ -85,6 +87,7 @@ impl LastPeriod {
         Applied {
             v_ab: self.v_ab,
             v_max: foc.v_max(self.v_bus),
+            v_bus: self.v_bus,
             limited: self.limited,
         }
     }

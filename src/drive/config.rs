@@ -1,13 +1,14 @@
 //! The drive's configuration in SI units, its validation, and what it derives: the FOC gains,
 //! the observers' settings, and each mode's per-step coefficients.
 
+use super::derating::FIELD_WEAKENING_MARGIN;
 #[cfg(feature = "identify")]
 use super::identify;
 use super::identify::IdentifyConfig;
 use super::open_loop;
 use super::ramp::Ramp;
 use super::supervision;
-use super::{adaptation, align, catch, plausibility, sensorless, Drive};
+use super::{adaptation, align, catch, plausibility, regen, safe_state, sensorless, Drive};
 use crate::bounds::{ks_max_e2, ks_max_t};
 use crate::dead_time::DeadTimeConfig;
 use crate::foc::FocConfig;
@@ -48,6 +49,11 @@ const FLUX_ADAPT_MIN_SPEED: f32 = 0.1;
 /// ... where `R |i_q|` is at most this share of the back-EMF: R just measured (within 1.2 % in
 /// the robustness matrix) moves ψ_f by 0.4 % at most; a winding warmed 30 % since, by 9 %.
 const FLUX_ADAPT_MAX_R_SHARE: f32 = 0.3;
+
+/// The time constant of the measured bus's low-pass filter for the over-speed bound \[s]: half
+/// the over-speed's persistence (`loss_time_s`, 20 ms), long against the PWM's and the
+/// sampling's noise.
+const BUS_FILTER_S: f32 = 0.01;
 
 /// Why the sliding torque observer was not built ([`DriveConfig::sliding_torque`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -548,7 +554,7 @@ impl DriveConfig {
                 ramp,
                 load_observer: self.load_observer_config().build()?,
                 field_weakening: sensorless::FieldWeakening {
-                    margin: super::derating::FIELD_WEAKENING_MARGIN,
+                    margin: FIELD_WEAKENING_MARGIN,
                     gain_a_per_v: 0.2 / (m.n() * self.ratings.speed_rpm * RAD_S_PER_RPM * m.l_h),
                     i_max_a: l.i_max_a,
                 },
@@ -558,13 +564,29 @@ impl DriveConfig {
                 handback_rpm: s.handback_rpm,
                 through_zero_rpm: s.handover_rpm,
                 stop_rpm: s.stop_rpm,
-                overspeed_rpm: m.bus_limited_rpm(l.bus_max_v),
+                // `FIELD_WEAKENING_MARGIN v_bus/(√3 N (ψ_f − L i_max))` per volt (`sensorless.rs`).
+                overspeed_rpm_per_v: FIELD_WEAKENING_MARGIN * m.bus_limited_rpm(1.0) * m.flux_wb
+                    / (m.flux_wb - m.l_h * l.i_max_a).max(0.5 * m.flux_wb),
+                bus_filter: SLOTS as f32 * ts / BUS_FILTER_S,
                 overspeed_checks: slot_cycles(h.loss_time_s).max(1),
                 stall: sensorless::Stall {
                     checks: slot_cycles(h.stall_time_s).max(1),
                     i_limit_a: 0.99 * l.i_max_a,
                 },
+                regen: regen::Settings::new(
+                    self.ratings.bus_v,
+                    l.bus_max_v,
+                    self.ratings.power_w,
+                    m.r_ohm,
+                    m.torque_constant(),
+                    l.i_max_a,
+                ),
             },
+            safe_state: safe_state::Settings::new(
+                m.flux_wb,
+                m.l_h,
+                (l.i_max_a, l.i_trip_a, l.i_sense_max_a),
+            ),
             supervision: supervision::Settings {
                 lock_checks: slot_cycles(h.lock_time_s).max(1),
                 failover_checks: slot_cycles(h.failover_time_s).max(1),

@@ -74,9 +74,11 @@ pub enum Fault {
     /// [`STEPS_WITHOUT_TICK_MAX`]: crate::schedule::STEPS_WITHOUT_TICK_MAX
     TaskStall,
     /// The driving observer's speed, while it is locked in sensorless control, beyond the
-    /// speed whose line-to-line back-EMF peak reaches `bus_max_v` (above it the diodes
-    /// conduct with the PWM off) for `loss_time_s`: a load drives the rotor beyond what the
-    /// current limit can brake.
+    /// speed whose back-EMF the field weakening no longer holds within the bus the drive
+    /// measures (filtered) with the whole current limit on the d axis (beyond the speed whose
+    /// line-to-line back-EMF peak reaches the bus: the diodes conduct with the PWM off), for
+    /// `loss_time_s`, unless the speed is falling back: a load drives the rotor beyond what
+    /// the current limit can brake.
     Overspeed,
     /// The three phase-current samples do not sum to zero: their sum beyond `i_sum_max_a` =
     /// 12.4 % of the rated current (+ 1.5 ADC steps) on 4 more samples than within it
@@ -216,6 +218,15 @@ pub struct Telemetry {
 pub struct DriveOutput {
     /// Duties to load, each in [0, 1]; `None`: all switches off.
     pub duties: Option<Duties>,
+    /// With `duties` `None` (a fault): hold the active short circuit, every low-side switch
+    /// on ([`PowerStage::short_circuit`](crate::power_stage::PowerStage::short_circuit)),
+    /// instead of every switch off, where the fault and the motor allow it (the drive's
+    /// `safe_state.rs`).
+    pub short_circuit: bool,
+    /// The brake chopper's gate, for a stage with a brake resistor
+    /// ([`PowerStage::brake`](crate::power_stage::PowerStage::brake)): on while the bus is
+    /// high (the drive's `regen.rs`).
+    pub brake: bool,
     /// The mode change this step made, if any.
     pub transition: Option<Transition>,
 }

@@ -50,7 +50,9 @@ mod open_loop;
 mod plausibility;
 mod protection;
 mod ramp;
+mod regen;
 mod report;
+mod safe_state;
 mod sensorless;
 mod state;
 mod supervision;
@@ -62,6 +64,7 @@ pub use config::{DriveConfig, HealthConfig, Limits, PowerStageConfig, StartConfi
 pub use identify::{Identified, IdentifyConfig, IdentifyError, IdentifyPhase};
 pub use io::{Command, DriveOutput, Fault, Mode, Reason, Role, Telemetry, Transition};
 pub use report::{Derived, DerivedRow, Warning};
+pub use safe_state::{allows_short_circuit, SafeState};
 pub use state::{DriveState, StateOf};
 
 use crate::foc::{Foc, Request};
@@ -94,6 +97,8 @@ pub struct Drive<P, M> {
     /// The current sensors' phase-sum check (after the settings that were here before it:
     /// their offsets from `self` stay as they were).
     sensing: plausibility::Settings,
+    /// The safe state per fault on this motor (`safe_state.rs`).
+    safe_state: safe_state::Settings,
     /// The identification's coefficients (`identify/`); last, after everything the running
     /// drive's step reads (their offsets from `self` stay as they were).
     #[cfg(feature = "identify")]
@@ -224,8 +229,15 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         };
         st.slot = st.slot.next();
         let to = st.mode();
+        // The brake chopper's gate from the bus, in every mode (`regen.rs`).
+        st.brake = self.sensorless.regen.brake(st.brake, input.v_bus);
         DriveOutput {
             duties: if to == Mode::Fault { None } else { duties },
+            short_circuit: match st.mode {
+                ModeState::Fault(f) => self.safe_state.for_fault(f) == SafeState::ShortCircuit,
+                _ => false,
+            },
+            brake: st.brake,
             transition: reason
                 .filter(|_| to != from)
                 .map(|reason| Transition { from, to, reason }),
@@ -427,7 +439,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             ModeState::OpenLoop(ol) => Outcome::Run(self.open_loop.step(ol)),
             ModeState::Sensorless(s) if observers_ok => {
                 let (frame, frame_out, omega_m, _) = self.driving(&st.obs, s.out_rot());
-                Outcome::Run(self.sensorless.step(s, frame, frame_out, omega_m))
+                Outcome::Run(self.sensorless.step(s, frame, frame_out, omega_m, v_bus))
             }
             ModeState::Sensorless(_) => Outcome::Fault(Fault::ObserverLoss),
             // Not running: `Drive::step` does not call this in these modes.
@@ -449,6 +461,17 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         let out = self.foc.run(&mut st.current, &request, i_ab, v_bus);
         st.last.record(&out, v_bus);
         (Some(out.duties), reason)
+    }
+
+    /// The safe state the drive holds the stage in while faulted (`safe_state.rs`): every
+    /// switch off, or the active short circuit where the fault and the motor allow it.
+    pub fn safe_state(&self, st: &StateOf<P, M>) -> Option<SafeState> {
+        st.fault().map(|f| self.safe_state.for_fault(f))
+    }
+
+    /// The safe state this drive chooses for `fault` on its motor (`safe_state.rs`).
+    pub fn safe_state_for(&self, fault: Fault) -> SafeState {
+        self.safe_state.for_fault(fault)
     }
 }
 

@@ -7,14 +7,21 @@
 use super::applied::Applied;
 use super::mode::{Driving, Entry, Next};
 use super::ramp::Ramp;
+use super::regen;
 use super::supervision::{consecutive, Verdict};
 use super::{Fault, Reason};
 use crate::foc::{Foc, Reference, Request};
 use crate::frames::{AlphaBeta, Dq, SinCos};
 use crate::load_observer::{LoadObserver, LoadObserverState};
-use crate::math::{clamp, sqrt_or_zero};
+use crate::math::{clamp, max, min, sqrt_or_zero};
 use crate::pi::{Held, PiState};
 use crate::units::{RAD_S_PER_RPM, RPM_PER_RAD_S};
+use core::hint::cold_path;
+
+/// An over-speed is not counted as lost while the speed has fallen this share below its peak
+/// above the bound: the drive is bringing it back (five times the flux observer's speed noise
+/// at the test motor's 2,500 rpm bound with the board's 1 % current noise, ±40 rpm).
+pub(super) const RECOVERING: f32 = 0.05;
 
 /// Sensorless control's coefficients.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -36,17 +43,35 @@ pub(super) struct Settings {
     pub(super) through_zero_rpm: f32,
     /// With a zero command, stopped below this estimated |speed| \[rpm].
     pub(super) stop_rpm: f32,
-    /// The driving observer's |speed| above this is an over-speed \[rpm]: the speed whose
-    /// line-to-line back-EMF peak `√3 N ψ_f ω_m` reaches the highest bus `bus_max_v` (above
-    /// it the diodes conduct with the PWM off and brake the rotor into the bus, uncontrolled) ...
-    pub(super) overspeed_rpm: f32,
-    /// ... for this many checks in a row: the supervision's loss time (`loss_time_s`, 20 ms
-    /// by default), the time the drive gives any transient before it faults. A rated-load
-    /// release at rated speed on the Sinano motor, with the drive in control, takes the flux
-    /// observer's estimate to 1,595 rpm, above the bound (1,427 rpm) for 12 ms.
+    /// The driving observer's |speed| above this many rpm per volt of the filtered measured
+    /// bus is an over-speed: `m/(√3 N (ψ_f − L i_max))` in rpm, the speed whose back-EMF the
+    /// field weakening no longer holds within its voltage target (`m` = 0.95 of the bus's
+    /// phase voltage) even with the whole current limit on the d axis: the drive no longer
+    /// controls the current, and the rotor is beyond the speed whose line-to-line back-EMF
+    /// reaches the bus (above it the diodes conduct with the PWM off and brake the rotor into
+    /// the bus, uncontrolled; a bus raised by regeneration raises the bound with it).
+    /// `ψ_f − L i_max` is floored at `ψ_f/2`: a motor whose field weakening would reach
+    /// further is bounded at twice its bus-limited speed (0.95 of it). Sinano: 2,023 rpm at
+    /// its 48 V; Ortega's test motor: 2,562 rpm at 200 V (its current trips `overcurrent`
+    /// about 2,900 rpm, beyond its field weakening) ...
+    pub(super) overspeed_rpm_per_v: f32,
+    /// The bus's low-pass filter for the over-speed bound: its gain per millisecond (1 ms over
+    /// its time constant, `BUS_FILTER_S`), so the PWM's and the sampling's noise do not move
+    /// the bound.
+    pub(super) bus_filter: f32,
+    /// ... for this many checks in a row (the supervision's loss time, `loss_time_s`, 20 ms
+    /// by default, the time the drive gives any transient before it faults), unless the
+    /// drive is winning: the speed fallen more than [`RECOVERING`] below its peak since it
+    /// passed the bound. An overhauling load reversed at rated speed on the Sinano motor
+    /// (`overhaul-hold`: ±0.8 of rated torque, 165 rpm per ms on its small rotor) takes the
+    /// rotor to 1,730 rpm, above the bound at its 48 V (1,142 rpm) for 20 ms, while the
+    /// speed loop brings it back; a load beyond the current limit raises the speed to the
+    /// end.
     pub(super) overspeed_checks: u32,
     /// The stall check.
     pub(super) stall: Stall,
+    /// The regeneration's limit from the bus (`regen.rs`).
+    pub(super) regen: regen::Settings,
 }
 
 /// Sensorless stall: the driving observer's speed below half the slewed reference (or turning
@@ -141,10 +166,17 @@ pub(super) struct Sensorless {
     stall: u32,
     /// Consecutive checks of an over-speed.
     overspeed: u32,
+    /// The highest |speed| since it passed the over-speed bound (0 below it) \[rpm].
+    overspeed_peak_rpm: f32,
     /// The speed loop's load-torque observer (`load_observer.rs`).
     load: LoadObserverState,
     /// The load torque fed forward last \[N·m].
     ff_nm: f32,
+    /// The measured bus, low-passed at 1 kHz (0 before the first run) \[V].
+    bus_v: f32,
+    /// The least bound on the braking |i_q| the regeneration's limit set since the last
+    /// speed-loop run \[A] (∞: none): the speed loop's limit at its next run.
+    regen_iq_a: f32,
 }
 
 impl Sensorless {
@@ -197,27 +229,40 @@ impl Settings {
             out_rot: foc.output_rotation(omega_m),
             stall: 0,
             overspeed: 0,
+            overspeed_peak_rpm: 0.0,
             load,
             ff_nm,
+            bus_v: 0.0,
+            regen_iq_a: f32::INFINITY,
         }
     }
 
     /// One sensorless step: the speed loop's currents in the driving observer's frame `frame`
     /// (sin/cos of θ̂_e), applied at its output angle `frame_out` (`frame` turned by
-    /// [`Sensorless::out_rot`], or the observer's own), `omega_m` its speed [rad/s].
+    /// [`Sensorless::out_rot`], or the observer's own), `omega_m` its speed [rad/s]; limited
+    /// by the regeneration's limit on the bus `v_bus` \[V] where it is high (`regen.rs`).
     #[inline(always)]
     pub(super) fn step(
         &self,
-        s: &Sensorless,
+        s: &mut Sensorless,
         frame: SinCos,
         frame_out: SinCos,
         omega_m: f32,
+        v_bus: f32,
     ) -> Request {
+        let mut i_dq = Dq::new(s.i_d_ref, s.i_q_ref);
+        let k = self.regen.share(v_bus);
+        if k < 1.0 {
+            cold_path();
+            let (limited, bound) = self.regen.limit(k, i_dq, omega_m);
+            i_dq = limited;
+            s.regen_iq_a = min(s.regen_iq_a, bound);
+        }
         Request {
             frame,
             frame_out,
             omega_m,
-            reference: Reference::Current(Dq::new(s.i_d_ref, s.i_q_ref)),
+            reference: Reference::Current(i_dq),
         }
     }
 
@@ -282,8 +327,21 @@ impl Settings {
         }
         // A locked observer's speed beyond the bound, persistently: a rotor the drive no
         // longer holds.
-        s.overspeed = consecutive(s.overspeed, speed_rpm.abs() > self.overspeed_rpm);
-        if s.overspeed >= self.overspeed_checks {
+        s.bus_v = if s.bus_v == 0.0 {
+            applied.v_bus
+        } else {
+            s.bus_v + self.bus_filter * (applied.v_bus - s.bus_v)
+        };
+        let overspeed_rpm = self.overspeed_rpm_per_v * s.bus_v;
+        let above = speed_rpm.abs() > overspeed_rpm;
+        s.overspeed = consecutive(s.overspeed, above);
+        s.overspeed_peak_rpm = if above {
+            max(s.overspeed_peak_rpm, speed_rpm.abs())
+        } else {
+            0.0
+        };
+        let recovering = speed_rpm.abs() < (1.0 - RECOVERING) * s.overspeed_peak_rpm;
+        if s.overspeed >= self.overspeed_checks && !recovering {
             return Next::Fault(Fault::Overspeed);
         }
         if cmd_rpm == 0.0 && s.speed_ref_rpm == 0.0 && speed_rpm.abs() < self.stop_rpm {
@@ -319,11 +377,22 @@ impl Settings {
             (true, true) => Held::Up,
             (true, false) => Held::Down,
         };
+        // The regeneration's bound on braking current (∞ unless the bus was high since the
+        // last run: then `min` leaves `i_q_max` as it is).
+        let braking_max = min(
+            i_q_max,
+            core::mem::replace(&mut s.regen_iq_a, f32::INFINITY),
+        );
+        let bounds = if omega_m >= 0.0 {
+            (-braking_max, i_q_max)
+        } else {
+            (-i_q_max, braking_max)
+        };
         s.i_q_ref = foc.speed_step(
             &mut s.speed_pi,
             (omega_m_ref, omega_m),
             ff_nm,
-            Some(((-i_q_max, i_q_max), held)),
+            Some((bounds, held)),
         );
         if (self.stall).stalled(&mut s.stall, omega_m, s.speed_ref_rpm, s.i_q_ref) {
             return Next::Fault(Fault::Stall);

@@ -47,6 +47,8 @@ pub struct DriveState<PS, MS> {
     pub(super) last: LastPeriod,
     /// No start after a cleared fault until the enable was low (`protection.rs`).
     pub(super) arming: Arming,
+    /// The brake chopper's gate (`regen.rs`).
+    pub(super) brake: bool,
     /// The current sensors' offsets measured with the PWM off (`identify/offset.rs`), taken
     /// off the identification's samples; an implausible one refuses the enable.
     pub(super) offsets: Offsets,
@@ -67,6 +69,7 @@ impl<PS: Default, MS: Default> Default for DriveState<PS, MS> {
             i_ab_last: AlphaBeta::default(),
             last: LastPeriod::default(),
             arming: Arming::default(),
+            brake: false,
             offsets: Offsets::default(),
             #[cfg(feature = "identify")]
             identify: Identify::new(),

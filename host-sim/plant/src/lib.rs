@@ -36,7 +36,7 @@ pub mod plant;
 pub mod state;
 pub mod supply;
 
-pub use converter::{Converter, DiodeBridge, HeldDuties, Inverter};
+pub use converter::{Converter, DiodeBridge, HeldDuties, Inverter, ShortCircuit};
 pub use electrical::Pmsm;
 pub use frames::{clarke, inverse_clarke};
 pub use mechanical::{Load, Rotor};

@@ -30,6 +30,8 @@ pub struct DcLinkSpec {
     pub sink_a: f64,
     /// The brake chopper, if any (its thresholds in volts).
     pub chopper: Option<Chopper>,
+    /// The chopper's gate is the drive's brake output (its thresholds unused).
+    pub chopper_by_drive: bool,
 }
 
 impl DcLinkSpec {
@@ -46,6 +48,7 @@ impl DcLinkSpec {
             source_ohm: SOURCE_DROOP * v * v / p,
             sink_a: 0.0,
             chopper: None,
+            chopper_by_drive: false,
         }
     }
 
@@ -102,7 +105,11 @@ impl DcLinkSpec {
             r_ohm: self.source_ohm,
             sink_a: self.sink_a,
         };
-        DcLink::new(self.capacitance_f, source, self.chopper)
+        let mut link = DcLink::new(self.capacitance_f, source, self.chopper);
+        if self.chopper_by_drive && self.chopper.is_some() {
+            link.gate = Some(false);
+        }
+        link
     }
 }
 
@@ -122,6 +129,15 @@ impl BoardBus {
         match self {
             BoardBus::Stiff(bus) => bus.v_bus = v,
             BoardBus::Link(link) => link.source.v_open = v,
+        }
+    }
+
+    /// The drive's brake output: the chopper's gate where the drive drives it.
+    pub fn gate_brake(&mut self, on: bool) {
+        if let BoardBus::Link(link) = self {
+            if link.gate.is_some() {
+                link.gate = Some(on);
+            }
         }
     }
 

@@ -7,7 +7,7 @@ use super::bus::BoardBus;
 use super::motor_fault::{Faulty, MotorFault};
 use super::sensors::{CurrentSensor, SensorFault, VoltageSensors};
 use super::SimBoard;
-use pmsm_plant::{Inverter, Load, Plant, PlantParams, Supply};
+use pmsm_plant::{Inverter, Load, Plant, PlantParams, ShortCircuit, Supply};
 use pmsm_sensorless::drive::DriveInput;
 use pmsm_sensorless::frames::{Abc, AlphaBeta};
 use pmsm_sensorless::power_stage::PowerStage;
@@ -30,6 +30,9 @@ pub struct BoardStage {
     motor_fault: Option<MotorFault>,
     /// The duties loaded for the coming period (`None`: every switch off).
     duties: Option<Duties>,
+    /// Every low-side switch on for the coming period (the active short circuit), instead of
+    /// `duties`.
+    short_circuit: bool,
     /// The terminal voltage of the period that just ended \[V].
     v_terminal: AlphaBeta,
     /// The last sample taken.
@@ -66,6 +69,7 @@ impl BoardStage {
             nan_phase_b: false,
             motor_fault: None,
             duties: None,
+            short_circuit: false,
             v_terminal: AlphaBeta::default(),
             last: None,
         })
@@ -107,6 +111,11 @@ impl BoardStage {
         self.current.fail(phase, fault);
     }
 
+    /// The stage holds the active short circuit (every low-side switch on).
+    pub fn shorted(&self) -> bool {
+        self.short_circuit
+    }
+
     /// The duties loaded for the coming period (`None`: every switch off).
     pub fn duties(&self) -> Option<Duties> {
         self.duties
@@ -124,6 +133,7 @@ impl BoardStage {
     /// this period's mean.
     pub fn advance(&mut self, tau_l: impl Load, h: f64, n_sub: usize) {
         let v = match self.duties {
+            _ if self.short_circuit => self.plant.advance(&ShortCircuit, tau_l, h, n_sub),
             Some(d) => {
                 let faulty = Faulty {
                     inner: self.inverter.hold(d),
@@ -159,5 +169,15 @@ impl PowerStage for BoardStage {
 
     fn apply(&mut self, duties: Option<Duties>) {
         self.duties = duties;
+        self.short_circuit = false;
+    }
+
+    fn short_circuit(&mut self) {
+        self.duties = None;
+        self.short_circuit = true;
+    }
+
+    fn brake(&mut self, on: bool) {
+        self.plant.supply.gate_brake(on);
     }
 }

@@ -410,10 +410,11 @@ fn dc_link(d: &DcLinkFile, motor: &Motor) -> anyhow::Result<DcLinkSpec> {
             spec.chopper = Some(ch);
         }
         None => ensure!(
-            d.brake_on.is_none() && d.brake_off.is_none(),
-            "dc_link.brake_on, brake_off: only with dc_link.brake_ohm"
+            d.brake_on.is_none() && d.brake_off.is_none() && d.brake_by_drive.is_none(),
+            "dc_link.brake_on, brake_off, brake_by_drive: only with dc_link.brake_ohm"
         ),
     }
+    spec.chopper_by_drive = d.brake_by_drive.unwrap_or(false);
     spec.check().context("[dc_link]")?;
     Ok(spec)
 }

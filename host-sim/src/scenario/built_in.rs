@@ -6,7 +6,7 @@ use super::Scenario;
 use anyhow::Context;
 
 /// The built-in scenario files, in listing order.
-const BUILT_IN: [(&str, &str); 36] = [
+const BUILT_IN: [(&str, &str); 39] = [
     (
         "horng-ramp-brake",
         include_str!("../../scenarios/horng-ramp-brake.toml"),
@@ -150,6 +150,18 @@ const BUILT_IN: [(&str, &str); 36] = [
     (
         "fault-sensor-gain",
         include_str!("../../scenarios/fault-sensor-gain.toml"),
+    ),
+    (
+        "overhaul-hold",
+        include_str!("../../scenarios/overhaul-hold.toml"),
+    ),
+    (
+        "fault-hanging-load",
+        include_str!("../../scenarios/fault-hanging-load.toml"),
+    ),
+    (
+        "stop-regen-brake",
+        include_str!("../../scenarios/stop-regen-brake.toml"),
     ),
 ];
 

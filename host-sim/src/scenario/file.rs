@@ -62,6 +62,7 @@ pub(super) struct DcLinkFile {
     pub(super) brake_ohm: Option<f64>,
     pub(super) brake_on: Option<f64>,
     pub(super) brake_off: Option<f64>,
+    pub(super) brake_by_drive: Option<bool>,
 }
 
 /// A scenario: its name and its file.

@@ -35,6 +35,8 @@
 //! brake_ohm = 20.0                # a brake chopper's resistor; default: none
 //! brake_on = 1.15                 # its switch-on and switch-off voltages, fractions of the
 //! brake_off = 1.10                # rated bus (defaults 1.15 and 1.10; the drive trips at 1.25)
+//! brake_by_drive = false         # true: the chopper's gate is the drive's brake output
+//!                                 # (`DriveOutput::brake`), its thresholds unused
 //! ```
 //!
 //! With a `[dc_link]` (`V`, `P`: the motor's rated bus and power), the bus is a capacitor fed

@@ -62,6 +62,8 @@ pub(super) trait SimDrive {
 struct Latch {
     input: Option<DriveInput>,
     duties: Option<Duties>,
+    short_circuit: bool,
+    brake: bool,
 }
 
 impl PowerStage for Latch {
@@ -77,6 +79,14 @@ impl PowerStage for Latch {
     }
     fn apply(&mut self, duties: Option<Duties>) {
         self.duties = duties;
+        self.short_circuit = false;
+    }
+    fn short_circuit(&mut self) {
+        self.duties = None;
+        self.short_circuit = true;
+    }
+    fn brake(&mut self, on: bool) {
+        self.brake = on;
     }
 }
 
@@ -93,7 +103,13 @@ impl<P: Observer, M: Observer> SimDrive for Control<P, M, Latch> {
         } else {
             (Control::step(self, cmd), Ticked::default())
         };
-        stage.apply(self.stage().duties);
+        let latch = self.stage();
+        if latch.short_circuit {
+            stage.short_circuit();
+        } else {
+            stage.apply(latch.duties);
+        }
+        stage.brake(latch.brake);
         [stepped.transition, ticked.transition]
     }
     fn telemetry(&self) -> Telemetry {

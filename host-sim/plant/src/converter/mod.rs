@@ -10,6 +10,19 @@ mod inverter;
 pub use bridge::{Clamped, DiodeBridge, Pattern};
 pub use inverter::{HeldDuties, Inverter};
 
+/// The bridge with every low-side switch on and every high-side one off (the active short
+/// circuit): the three terminals on the link's negative rail, no switching, so no dead time;
+/// the stator voltage is zero and no current flows in the link (Welchko, Jahns, Soong &
+/// Nagashima, IEEE Trans. Energy Conversion 18(2), 2003: the symmetrical short circuit).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ShortCircuit;
+
+impl Converter for ShortCircuit {
+    fn v_alpha_beta(&self, _v_dc: f64, _i: (f64, f64), _e: (f64, f64)) -> (f64, f64) {
+        (0.0, 0.0)
+    }
+}
+
 /// What feeds the stator during a sub-step: its voltage as a function of the DC-link voltage,
 /// of the currents (the inverter's dead time depends on their sign) and of the back-EMF
 /// term `e = ψNω (sin Nθ, −cos Nθ)` of eqs (16)-(17) (an open circuit is `v = −e` at zero

@@ -80,6 +80,9 @@ pub struct DcLink {
     pub v_c: f64,
     /// The chopper conducts.
     pub brake_on: bool,
+    /// The chopper's gate driven from outside (the drive's brake output): `Some(on)` holds it
+    /// on or off, its own thresholds unused; `None`: the chopper's hysteresis.
+    pub gate: Option<bool>,
     /// Energy integrals.
     pub energy: LinkEnergy,
     /// The highest capacitor voltage reached \[V].
@@ -151,6 +154,7 @@ impl DcLink {
             chopper,
             v_c: source.v_open,
             brake_on: false,
+            gate: None,
             energy: LinkEnergy::default(),
             v_peak: source.v_open,
         }
@@ -193,6 +197,10 @@ impl DcLink {
 
     /// The chopper's hysteresis at the present voltage.
     fn switch_chopper(&mut self) {
+        if let (Some(_), Some(on)) = (self.chopper, self.gate) {
+            self.brake_on = on;
+            return;
+        }
         if let Some(ch) = self.chopper {
             if !self.brake_on && self.v_c >= ch.v_on {
                 self.brake_on = true;
@@ -205,9 +213,13 @@ impl DcLink {
     /// The voltages at which a piece ends: the supply's knee, the chopper's next threshold
     /// (which one the solution reaches, if any, [`reach`] says).
     fn boundaries(&self) -> [Option<f64>; 2] {
-        let chopper = self
-            .chopper
-            .map(|ch| if self.brake_on { ch.v_off } else { ch.v_on });
+        let chopper = self.chopper.filter(|_| self.gate.is_none()).map(|ch| {
+            if self.brake_on {
+                ch.v_off
+            } else {
+                ch.v_on
+            }
+        });
         [Some(self.knee()), chopper]
     }
 
