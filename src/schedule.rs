@@ -44,6 +44,8 @@ pub const RATE_MAX_HZ: f32 = 100_000.0;
 pub struct Schedule {
     /// Steps per run of the 1 kHz task, `rate_hz / 1000` (1..=100).
     steps_per_tick: u8,
+    /// [`Schedule::steps_without_tick_max`], kept (the step compares with it).
+    stall_steps: u16,
 }
 
 impl Default for Schedule {
@@ -51,6 +53,7 @@ impl Default for Schedule {
     fn default() -> Self {
         Self {
             steps_per_tick: SLOTS as u8,
+            stall_steps: STEPS_WITHOUT_TICK_MAX as u16,
         }
     }
 }
@@ -67,6 +70,7 @@ impl Schedule {
             .check(field, rate_hz)?;
         Ok(Self {
             steps_per_tick: steps as u8,
+            stall_steps: (steps as u32 * TICKS_MISSED_MAX) as u16,
         })
     }
 
@@ -83,7 +87,13 @@ impl Schedule {
     /// at 4 kHz, 4.05 ms at 20 kHz.
     #[inline(always)]
     pub fn steps_without_tick_max(&self) -> u32 {
-        self.steps_per_tick() * TICKS_MISSED_MAX
+        u32::from(self.stall_steps)
+    }
+
+    /// [`Schedule::steps_without_tick_max`] as the step compares it.
+    #[inline(always)]
+    pub(crate) fn stall_steps(&self) -> u16 {
+        self.stall_steps
     }
 
     /// The slot of the step after one in `slot` (0: the first step after the 1 kHz task;

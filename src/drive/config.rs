@@ -20,8 +20,8 @@ use crate::observer::pll::PllConfig;
 use crate::observer::sliding::{SlidingConfig, SlidingGain, SlidingObserver};
 use crate::observer::Observer;
 use crate::param::{Allowed, Checks, ParamError};
-use crate::rate::{control_rate, CpuBudget, RateChoice};
-use crate::schedule::Schedule;
+use crate::rate::{control_rate, CpuBudget};
+pub use super::config_rate::PowerStageConfig;
 use crate::units::{RAD_PER_DEG, RAD_S_PER_RPM};
 use core::f32::consts::TAU;
 
@@ -135,34 +135,6 @@ pub struct HealthConfig {
     pub stall_time_s: f32,
 }
 
-/// The board's power stage as the drive compensates it (see [`crate::dead_time`]).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PowerStageConfig {
-    /// PWM (switching) frequency \[Hz], positive.
-    pub pwm_hz: f32,
-    /// Dead time per switching edge \[s], in `[0, 0.1/pwm_hz]`; 0 for no compensation.
-    pub dead_time_s: f32,
-    /// Width of the compensation's smooth sign \[A], > 0: a phase current of this or more
-    /// gets the full `t_d·f_pwm`.
-    pub dead_time_band_a: f32,
-    /// The largest duty the board applies, in `(0.5 + t_d·f_pwm, 1]`: the voltage limit keeps
-    /// every duty within `[1 − duty_max, duty_max]`
-    /// ([`DeadTimeConfig::v_max_per_bus`](crate::dead_time::DeadTimeConfig::v_max_per_bus)).
-    pub duty_max: f32,
-    /// The time from a sample to the duties computed from it taking effect \[s], in
-    /// `[0, 1/rate_hz]`. The model: the duties of sample `k` hold over
-    /// `[t_k + d, t_{k+1} + d)`, so the voltage between samples `k` and `k+1`, the
-    /// observers' input, is `(d/T) v_{k−1} + (1 − d/T) v_k`
-    /// ([`DriveState::v_ab_applied`](super::DriveState::v_ab_applied)), and the controller
-    /// applies its voltage at `θ_e + (d/T + ½) ω_e T`, the middle of its interval. A board
-    /// whose timer loads the compare registers at the PWM update after the sample has
-    /// `d = 1/pwm_hz` (the B-G431B-ESC1: 50 µs; at a step every PWM period, `d = T`: 1.5
-    /// periods from the sample to the middle of the voltage, 27° electrical at 20 samples per
-    /// electrical period). Default 0: the sample, the computation and the update at one
-    /// instant, the simulator's and the papers' timing.
-    pub update_delay_s: f32,
-}
-
 /// Everything the drive is built from. [`DriveConfig::new`] derives it from a motor.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DriveConfig {
@@ -218,13 +190,8 @@ impl DriveConfig {
         let speed = motor.ratings.speed_rpm;
         Self {
             motor: motor.params,
-            rate_hz: control_rate(
-                motor.params.pole_pairs,
-                speed,
-                PWM_HZ,
-                &CpuBudget::BOARD,
-            )
-            .rate_hz,
+            rate_hz: control_rate(motor.params.pole_pairs, speed, PWM_HZ, &CpuBudget::BOARD)
+                .rate_hz,
             current_bandwidth_hz: 300.0,
             speed_bandwidth_hz: 20.0,
             limits: Limits {
@@ -268,35 +235,6 @@ impl DriveConfig {
         }
     }
 
-    /// The rate [`crate::rate::control_rate`] chooses for this motor's pole pairs and rated
-    /// speed on this power stage's PWM within the board's CPU budget
-    /// ([`CpuBudget::BOARD`]): the rate, the rate 20 samples per electrical period at rated
-    /// speed need, and what bounds it below that.
-    pub fn rate_choice(&self) -> RateChoice {
-        control_rate(
-            self.motor.pole_pairs,
-            self.ratings.speed_rpm,
-            self.power_stage.pwm_hz,
-            &CpuBudget::BOARD,
-        )
-    }
-
-    /// Sets the step rate to [`DriveConfig::rate_choice`]'s (after a board has set its PWM
-    /// frequency).
-    pub fn choose_rate(&mut self) {
-        self.rate_hz = self.rate_choice().rate_hz;
-    }
-
-    /// The steps per 1 kHz task at the step rate (the error names `rate_hz`).
-    pub fn schedule(&self) -> Result<Schedule, ParamError> {
-        Schedule::at("rate_hz", self.rate_hz)
-    }
-
-    /// The update delay in control periods, `update_delay_s · rate_hz`.
-    pub(super) fn delay_periods(&self) -> f32 {
-        self.power_stage.update_delay_s * self.rate_hz
-    }
-
     /// The settings validated: the error names the bad field, its value and the range
     /// allowed. The ranges keep every protection on (no trip level, disagreement or time so
     /// large that it never acts) and the start-up within what the bus can drive. The
@@ -313,7 +251,11 @@ impl DriveConfig {
         let mut c = Checks::new();
         self.schedule()?;
         let delay = Allowed::between(0.0, 1.0 / self.rate_hz).because("up to one step");
-        c.check("power_stage.update_delay_s", self.power_stage.update_delay_s, delay);
+        c.check(
+            "power_stage.update_delay_s",
+            self.power_stage.update_delay_s,
+            delay,
+        );
         let i_rated = rated.torque_nm / m.torque_constant();
         let i_max = Allowed::above_up_to(0.0, 3.0 * i_rated).because("3 x rated-torque current");
         c.check("limits.i_max_a", l.i_max_a, i_max);
@@ -467,11 +409,6 @@ impl DriveConfig {
     /// The flux observer's settings (unvalidated).
     pub(super) fn flux_config(&self) -> FluxConfig {
         FluxConfig::new(self.motor, self.rate_hz, self.start.handback_rpm)
-    }
-
-    /// The steps per 1 kHz task, unvalidated (the rate rounded to whole kHz, at least one).
-    fn steps_per_tick(&self) -> f32 {
-        libm::roundf(self.rate_hz / crate::schedule::TICK_HZ).max(1.0)
     }
 
     /// The PLL's settings (unvalidated).

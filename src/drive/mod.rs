@@ -40,6 +40,7 @@ mod align;
 mod applied;
 mod catch;
 mod config;
+mod config_rate;
 pub mod identify;
 mod io;
 mod mode;

@@ -80,7 +80,7 @@ pub struct Derived {
     /// The speed up to which the rated bus drives rated torque \[rpm].
     pub rated_torque_speed_rpm: f32,
     /// What will struggle, each once.
-    pub warnings: [Option<Warning>; 3],
+    pub warnings: [Option<Warning>; 4],
 }
 
 /// A setting the drive accepts but will struggle with: the setting, its value, the limit it
@@ -121,6 +121,7 @@ impl DriveConfig {
         let speed_rated = self.ratings.speed_rpm * RAD_S_PER_RPM;
         let v_rated_point = voltage(&m, i_rated, speed_rated);
         let rated_torque_speed_rpm = rpm(speed_for_voltage(&m, i_rated, v_max));
+        let rate = self.rate_choice();
         let warnings = [
             (s.handover_rpm < ks_e2_speed_rpm).then_some(Warning {
                 field: "start.handover_rpm",
@@ -149,6 +150,19 @@ impl DriveConfig {
                 what: "above this speed rated torque needs more than the largest phase voltage \
                        (bus_v/sqrt(3) less the dead time's): the current loop saturates under \
                        full load",
+            }),
+            // Fewer than 20 samples per electrical period at rated speed (`crate::rate`).
+            (self.rate_hz < rate.wanted_hz).then_some(Warning {
+                field: "rate_hz",
+                value: self.rate_hz,
+                limit: rate.wanted_hz,
+                what: match rate.bound {
+                    Some(b) if rate.rate_hz >= self.rate_hz => b.what(),
+                    _ => {
+                        "below 20 samples per electrical period at rated speed (20 N n/60): \
+                         the configuration's rate would give more"
+                    }
+                },
             }),
         ];
         Ok(Derived {

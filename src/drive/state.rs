@@ -93,7 +93,7 @@ impl<PS, MS> DriveState<PS, MS> {
     #[inline(always)]
     pub(super) fn task_stalled(&mut self, schedule: &Schedule) -> bool {
         self.since_tick = self.since_tick.saturating_add(1);
-        u32::from(self.since_tick) > schedule.steps_without_tick_max()
+        self.since_tick > schedule.stall_steps()
     }
 
     /// The 1 kHz task ran: the count of [`DriveState::task_stalled`] starts again.

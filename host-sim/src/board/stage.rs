@@ -136,7 +136,10 @@ impl BoardStage {
             let v0 = self.advance_with(first, &tau_l, 0.0, h, n_delay);
             let loaded = self.duties;
             let v1 = self.advance_with(loaded, &tau_l, n_delay as f64 * h, h, n_sub - n_delay);
-            let (w0, w1) = (n_delay as f64 / n_sub as f64, (n_sub - n_delay) as f64 / n_sub as f64);
+            let (w0, w1) = (
+                n_delay as f64 / n_sub as f64,
+                (n_sub - n_delay) as f64 / n_sub as f64,
+            );
             self.v_terminal = AlphaBeta::new(
                 (w0 * v0.0 + w1 * v1.0) as f32,
                 (w0 * v0.1 + w1 * v1.1) as f32,
