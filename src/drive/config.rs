@@ -1,6 +1,7 @@
 //! The drive's configuration in SI units, its validation, and what it derives: the FOC gains,
 //! the observers' settings, and each mode's per-step coefficients.
 
+pub use super::config_rate::PowerStageConfig;
 #[cfg(feature = "identify")]
 use super::identify;
 use super::identify::IdentifyConfig;
@@ -21,7 +22,6 @@ use crate::observer::sliding::{SlidingConfig, SlidingGain, SlidingObserver};
 use crate::observer::Observer;
 use crate::param::{Allowed, Checks, ParamError};
 use crate::rate::{control_rate, CpuBudget};
-pub use super::config_rate::PowerStageConfig;
 use crate::units::{RAD_PER_DEG, RAD_S_PER_RPM};
 use core::f32::consts::TAU;
 

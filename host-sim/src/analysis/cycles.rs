@@ -452,10 +452,7 @@ type Sections = HashMap<String, Vec<(u64, u64)>>;
 
 /// The worst (instructions, cycles) per section of the bench built for `rate` (None: its
 /// default), run under QEMU; and the bench's ELF.
-fn bench_sections(
-    root: &Path,
-    rate: Option<u32>,
-) -> anyhow::Result<(Sections, PathBuf)> {
+fn bench_sections(root: &Path, rate: Option<u32>) -> anyhow::Result<(Sections, PathBuf)> {
     let bench = build_thumb(
         root,
         &root.join("examples/qemu-m4f/Cargo.toml"),
