@@ -24,6 +24,7 @@ pub mod observer;
 pub mod param;
 pub mod pi;
 pub mod power_stage;
+pub mod rate;
 pub mod schedule;
 
 pub mod svpwm;

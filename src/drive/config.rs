@@ -1,6 +1,7 @@
 //! The drive's configuration in SI units, its validation, and what it derives: the FOC gains,
 //! the observers' settings, and each mode's per-step coefficients.
 
+pub use super::config_rate::PowerStageConfig;
 use super::derating::FIELD_WEAKENING_MARGIN;
 #[cfg(feature = "identify")]
 use super::identify;
@@ -21,12 +22,15 @@ use crate::observer::pll::PllConfig;
 use crate::observer::sliding::{SlidingConfig, SlidingGain, SlidingObserver};
 use crate::observer::Observer;
 use crate::param::{Allowed, Checks, ParamError};
-use crate::schedule::SLOTS;
+use crate::rate::{control_rate, CpuBudget};
 use crate::units::{RAD_PER_DEG, RAD_S_PER_RPM};
 use core::f32::consts::TAU;
 
-/// The sliding observer's back-EMF angle and the controller's output angle lead the sample by
-/// half a period of rotation: the middle of the period the voltage is held over.
+/// The sliding observer's back-EMF angle leads the sample by half a period of rotation: the
+/// middle of the period between two samples (the back-EMF's mean over it). The controller's
+/// output angle leads it by this plus the update delay in periods
+/// ([`PowerStageConfig::update_delay_s`]): the middle of the period the voltage is applied
+/// over.
 const ADVANCE_PERIODS: f32 = 0.5;
 
 /// Natural frequency \[Hz] and damping of the PLL on the flux observer's angle.
@@ -54,6 +58,8 @@ const FLUX_ADAPT_MAX_R_SHARE: f32 = 0.3;
 /// the over-speed's persistence (`loss_time_s`, 20 ms), long against the PWM's and the
 /// sampling's noise.
 const BUS_FILTER_S: f32 = 0.01;
+/// The B-G431B-ESC1's PWM frequency \[Hz], the default power stage's.
+const PWM_HZ: f32 = 20_000.0;
 
 /// Why the sliding torque observer was not built ([`DriveConfig::sliding_torque`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -134,32 +140,18 @@ pub struct HealthConfig {
     pub stall_time_s: f32,
 }
 
-/// The board's power stage as the drive compensates it (see [`crate::dead_time`]).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PowerStageConfig {
-    /// PWM (switching) frequency \[Hz], positive.
-    pub pwm_hz: f32,
-    /// Dead time per switching edge \[s], in `[0, 0.1/pwm_hz]`; 0 for no compensation.
-    pub dead_time_s: f32,
-    /// Width of the compensation's smooth sign \[A], > 0: a phase current of this or more
-    /// gets the full `t_d·f_pwm`.
-    pub dead_time_band_a: f32,
-    /// The largest duty the board applies, in `(0.5 + t_d·f_pwm, 1]`: the voltage limit keeps
-    /// every duty within `[1 − duty_max, duty_max]`
-    /// ([`DeadTimeConfig::v_max_per_bus`](crate::dead_time::DeadTimeConfig::v_max_per_bus)).
-    pub duty_max: f32,
-}
-
 /// Everything the drive is built from. [`DriveConfig::new`] derives it from a motor.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DriveConfig {
     /// The controller's motor model.
     pub motor: MotorParams,
-    /// Step rate \[Hz] (4000).
+    /// Step rate \[Hz]: a multiple of 1 kHz (whole steps per 1 kHz task); chosen from the
+    /// motor by [`DriveConfig::new`] ([`crate::rate`]: 4 kHz for every motor up to 200 Hz
+    /// electrical at rated speed).
     pub rate_hz: f32,
     /// Current-loop bandwidth \[Hz] (300).
     pub current_bandwidth_hz: f32,
-    /// Speed-loop bandwidth \[Hz] (20), run every 4th step.
+    /// Speed-loop bandwidth \[Hz] (20), run in the 1 kHz task.
     pub speed_bandwidth_hz: f32,
     /// Protection limits.
     pub limits: Limits,
@@ -192,7 +184,9 @@ impl DriveConfig {
     /// standard deviations of the 1 %-of-rated-current noise a board's sensing has
     /// (`DESIGN.md`), so noise at a zero crossing moves the compensation by a fifth of it
     /// per sample, not from one sign to the other; and a phase current of rated-torque
-    /// amplitude is below the band only 3 % of an electrical turn (|sin| < 0.05).
+    /// amplitude is below the band only 3 % of an electrical turn (|sin| < 0.05). The step
+    /// rate is [`crate::rate::control_rate`]'s for the motor on this PWM and the board's CPU
+    /// budget ([`DriveConfig::rate_choice`]).
     pub fn new(motor: &Motor) -> Self {
         let i_rated = motor.rated_torque_current_a();
         let i_max = 1.5 * i_rated;
@@ -201,7 +195,8 @@ impl DriveConfig {
         let speed = motor.ratings.speed_rpm;
         Self {
             motor: motor.params,
-            rate_hz: 4000.0,
+            rate_hz: control_rate(motor.params.pole_pairs, speed, PWM_HZ, &CpuBudget::BOARD)
+                .rate_hz,
             current_bandwidth_hz: 300.0,
             speed_bandwidth_hz: 20.0,
             limits: Limits {
@@ -230,10 +225,11 @@ impl DriveConfig {
                 stall_time_s: 0.1,
             },
             power_stage: PowerStageConfig {
-                pwm_hz: 20_000.0,
+                pwm_hz: PWM_HZ,
                 dead_time_s: 500e-9,
                 dead_time_band_a: 0.05 * i_rated,
                 duty_max: 1.0,
+                update_delay_s: 0.0,
             },
             ratings: motor.ratings,
             // The drive's own sensing range; a board sets its own.
@@ -256,6 +252,15 @@ impl DriveConfig {
         let (l, s, h) = (self.limits, self.start, self.health);
         let mut c = Checks::new();
         c.check("rate_hz", self.rate_hz, Allowed::between(1000.0, 100_000.0));
+        c.done()?;
+        let mut c = Checks::new();
+        self.schedule()?;
+        let delay = Allowed::between(0.0, 1.0 / self.rate_hz).because("up to one step");
+        c.check(
+            "power_stage.update_delay_s",
+            self.power_stage.update_delay_s,
+            delay,
+        );
         let i_rated = rated.torque_nm / m.torque_constant();
         let i_max = Allowed::above_up_to(0.0, 3.0 * i_rated).because("3 x rated-torque current");
         c.check("limits.i_max_a", l.i_max_a, i_max);
@@ -400,6 +405,7 @@ impl DriveConfig {
         SlidingConfig {
             rate_hz: self.rate_hz,
             emf_advance_periods: ADVANCE_PERIODS,
+            output_advance_periods: ADVANCE_PERIODS + self.delay_periods(),
             min_speed_rad_s: self.start.handover_rpm * RAD_S_PER_RPM,
             ..SlidingConfig::torque(self.motor)
         }
@@ -413,7 +419,7 @@ impl DriveConfig {
     /// The PLL's settings (unvalidated).
     pub(super) fn pll_config(&self) -> PllConfig {
         PllConfig {
-            rate_hz: self.rate_hz / SLOTS as f32,
+            rate_hz: self.rate_hz / self.steps_per_tick(),
             bandwidth_hz: PLL_BANDWIDTH_HZ,
             damping: PLL_DAMPING,
         }
@@ -441,7 +447,7 @@ impl DriveConfig {
             b_nms: self.motor.b_nms,
             torque_constant: self.motor.torque_constant(),
             bandwidth_hz: PLL_BANDWIDTH_HZ / 5.0,
-            rate_hz: self.rate_hz / SLOTS as f32,
+            rate_hz: self.rate_hz / self.steps_per_tick(),
         }
     }
 
@@ -451,8 +457,8 @@ impl DriveConfig {
             current_bandwidth_hz: self.current_bandwidth_hz,
             speed_bandwidth_hz: self.speed_bandwidth_hz,
             current_rate_hz: self.rate_hz,
-            speed_divider: SLOTS,
-            angle_advance_periods: ADVANCE_PERIODS,
+            speed_divider: self.steps_per_tick() as u32,
+            angle_advance_periods: ADVANCE_PERIODS + self.delay_periods(),
             dead_time: self.dead_time_config(),
             ..FocConfig::new(self.motor, self.limits.i_max_a)
         }
@@ -480,16 +486,20 @@ impl DriveConfig {
     ) -> Result<Drive<P, M>, ParamError> {
         let m = self.validate()?;
         let rate = self.rate_hz;
+        let schedule = self.schedule()?;
+        let slots = schedule.steps_per_tick() as f32;
         let (l, s, h) = (self.limits, self.start, self.health);
         let foc = self.foc_config().build()?;
         let ts = 1.0 / rate;
         let steps = |t: f32| (t * rate) as u32;
-        let slot_cycles = |t: f32| (t * rate / SLOTS as f32) as u32;
+        let slot_cycles = |t: f32| (t * rate / slots) as u32;
         let ramp = Ramp {
             max_rpm: self.ratings.speed_rpm,
-            step_rpm: s.accel_rpm_per_s * ts * SLOTS as f32,
+            step_rpm: s.accel_rpm_per_s * ts * slots,
         };
         Ok(Drive {
+            schedule,
+            delay_periods: self.delay_periods(),
             primary,
             monitor,
             foc,
@@ -503,7 +513,7 @@ impl DriveConfig {
                 l_h: m.l_h,
                 pole_pairs: m.n(),
                 half_ts: 0.5 * ts,
-                flux_gain: SLOTS as f32 * ts / FLUX_ADAPT_TIME_S,
+                flux_gain: slots * ts / FLUX_ADAPT_TIME_S,
                 // A fifth of its time constant (50 ms): an electrical period down to 20 Hz.
                 steady_checks: slot_cycles(FLUX_ADAPT_TIME_S / 5.0).clamp(1, u16::MAX.into())
                     as u16,
@@ -560,14 +570,14 @@ impl DriveConfig {
                 },
                 // Five speed-loop time constants, 1/(2π f_speed) each: the speed loop takes the
                 // torque over as the d current fades.
-                handover_decay: 1.0 - SLOTS as f32 * ts * TAU * self.speed_bandwidth_hz / 5.0,
+                handover_decay: 1.0 - slots * ts * TAU * self.speed_bandwidth_hz / 5.0,
                 handback_rpm: s.handback_rpm,
                 through_zero_rpm: s.handover_rpm,
                 stop_rpm: s.stop_rpm,
                 // `FIELD_WEAKENING_MARGIN v_bus/(√3 N (ψ_f − L i_max))` per volt (`sensorless.rs`).
                 overspeed_rpm_per_v: FIELD_WEAKENING_MARGIN * m.bus_limited_rpm(1.0) * m.flux_wb
                     / (m.flux_wb - m.l_h * l.i_max_a).max(0.5 * m.flux_wb),
-                bus_filter: SLOTS as f32 * ts / BUS_FILTER_S,
+                bus_filter: slots * ts / BUS_FILTER_S,
                 overspeed_checks: slot_cycles(h.loss_time_s).max(1),
                 stall: sensorless::Stall {
                     checks: slot_cycles(h.stall_time_s).max(1),

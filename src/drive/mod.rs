@@ -41,6 +41,7 @@ mod align;
 mod applied;
 mod catch;
 mod config;
+mod config_rate;
 mod derating;
 pub mod identify;
 mod io;
@@ -59,7 +60,7 @@ mod supervision;
 mod telemetry;
 
 pub use crate::power_stage::DriveInput;
-pub use crate::schedule::{Slot, SLOTS};
+pub use crate::schedule::{Schedule, SLOTS};
 pub use config::{DriveConfig, HealthConfig, Limits, PowerStageConfig, StartConfig};
 pub use identify::{Identified, IdentifyConfig, IdentifyError, IdentifyPhase};
 pub use io::{Command, DriveOutput, Fault, Mode, Reason, Role, Telemetry, Transition};
@@ -87,6 +88,11 @@ pub struct Drive<P, M> {
     monitor: M,
     foc: Foc,
     limits: Limits,
+    /// Steps per 1 kHz task; the task-stall count.
+    schedule: crate::schedule::Schedule,
+    /// The update delay in control periods ([`PowerStageConfig::update_delay_s`] times the
+    /// rate): the observers' voltage is the last two periods' blend.
+    delay_periods: f32,
     /// The motor model's adaptation (R, ψ_f).
     adaptation: adaptation::Settings,
     catch: catch::Settings,
@@ -199,7 +205,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 // The 1 kHz task stalled (`STEPS_WITHOUT_TICK_MAX` steps without it): its
                 // speed loop, supervision and checks stopped with it; stop switching. Counted
                 // while catching too (PWM off): the catch's hand-over is the task's.
-                if st.task_stalled() {
+                if st.task_stalled(&self.schedule) {
                     reason = Some(enter_fault(st, Fault::TaskStall));
                     None
                 } else if self.sensing.implausible(&mut st.sum_count, input.i_abc) {
@@ -227,7 +233,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 }
             }
         };
-        st.slot = st.slot.next();
+        st.slot = self.schedule.next_slot(st.slot);
         let to = st.mode();
         // The brake chopper's gate from the bus, in every mode (`regen.rs`).
         st.brake = self.sensorless.regen.brake(st.brake, input.v_bus);
@@ -244,7 +250,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         }
     }
 
-    /// The drive's 1 kHz task: call it once after every [`SLOTS`]th [`Drive::step`] (when
+    /// The drive's 1 kHz task: call it once after every `rate_hz/1000`-th [`Drive::step`] (when
     /// [`DriveState::tick_due`]), never while a step runs; on a board from a
     /// context the step's interrupt cannot preempt in the middle of it (a critical section
     /// in the main loop: a few µs of interrupt latency). It runs the observers' read-outs
@@ -274,7 +280,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             ModeState::Identify => return None,
             ModeState::Catch(_) | ModeState::OpenLoop(_) | ModeState::Sensorless(_) => {}
         }
-        st.last.close_millisecond();
+        st.last.close_millisecond(&self.schedule);
         let obs = &mut st.obs;
         self.primary.read_out(&mut obs.primary, ReadOut::Angle);
         self.monitor.read_out(&mut obs.monitor, ReadOut::Angle);
@@ -459,7 +465,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             Outcome::Fault(f) => return (None, Some(enter_fault(st, f))),
         };
         let out = self.foc.run(&mut st.current, &request, i_ab, v_bus);
-        st.last.record(&out, v_bus);
+        st.last.record(&out, v_bus, self.delay_periods);
         (Some(out.duties), reason)
     }
 

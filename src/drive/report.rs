@@ -81,7 +81,7 @@ pub struct Derived {
     /// (`DriveConfig::torque_speed_limit_rpm`) \[rpm]: below rated speed, the derating.
     pub rated_torque_speed_rpm: f32,
     /// What will struggle, each once.
-    pub warnings: [Option<Warning>; 3],
+    pub warnings: [Option<Warning>; 4],
 }
 
 /// A setting the drive accepts but will struggle with: the setting, its value, the limit it
@@ -123,6 +123,7 @@ impl DriveConfig {
         let v_rated_point = voltage(&m, i_rated, speed_rated);
         let rated_torque_speed_rpm =
             self.torque_speed_limit_rpm(self.ratings.torque_nm, self.ratings.bus_v);
+        let rate = self.rate_choice();
         let warnings = [
             (s.handover_rpm < ks_e2_speed_rpm).then_some(Warning {
                 field: "start.handover_rpm",
@@ -151,6 +152,19 @@ impl DriveConfig {
                 what: "derated: above this speed rated torque does not fit the largest phase \
                        voltage (bus_v/sqrt(3) less the dead time's) even with field weakening \
                        within i_max; the drive holds less torque there (telemetry `derated`)",
+            }),
+            // Fewer than 20 samples per electrical period at rated speed (`crate::rate`).
+            (self.rate_hz < rate.wanted_hz).then_some(Warning {
+                field: "rate_hz",
+                value: self.rate_hz,
+                limit: rate.wanted_hz,
+                what: match rate.bound {
+                    Some(b) if rate.rate_hz >= self.rate_hz => b.what(),
+                    _ => {
+                        "below 20 samples per electrical period at rated speed (20 N n/60): \
+                         the configuration's rate would give more"
+                    }
+                },
             }),
         ];
         Ok(Derived {

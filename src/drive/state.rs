@@ -14,11 +14,10 @@ use super::observers::ObserverStates;
 use super::open_loop::OpenLoop;
 use super::protection::Arming;
 use super::sensorless::Sensorless;
-use super::Slot;
 use crate::foc::CurrentLoopState;
 use crate::frames::{AlphaBeta, SinCos};
 use crate::observer::Observer;
-use crate::schedule::STEPS_WITHOUT_TICK_MAX;
+use crate::schedule::Schedule;
 
 /// The running state of a [`Drive<P, M>`](super::Drive): `DriveState<P::State, M::State>`.
 pub type StateOf<P, M> = DriveState<<P as Observer>::State, <M as Observer>::State>;
@@ -31,11 +30,13 @@ pub type StateOf<P, M> = DriveState<<P as Observer>::State, <M as Observer>::Sta
 #[repr(C)]
 pub struct DriveState<PS, MS> {
     pub(super) mode: ModeState,
-    pub(super) slot: Slot,
+    /// The coming step's place in its millisecond: steps since the 1 kHz task,
+    /// `0..steps_per_tick` ([`Schedule::next_slot`]).
+    pub(super) slot: u8,
     /// Steps since the last run of the 1 kHz task, counted by the running modes' steps
     /// ([`DriveState::task_stalled`]), reset by [`Drive::tick`](super::Drive::tick): beyond
-    /// [`STEPS_WITHOUT_TICK_MAX`], `Fault::TaskStall`.
-    pub(super) since_tick: u8,
+    /// [`Schedule::steps_without_tick_max`], `Fault::TaskStall`.
+    pub(super) since_tick: u16,
     /// The up/down count of samples whose phase currents do not sum to zero
     /// (`plausibility.rs`): at its limit, `Fault::CurrentSensor`.
     pub(super) sum_count: u8,
@@ -61,7 +62,7 @@ impl<PS: Default, MS: Default> Default for DriveState<PS, MS> {
     fn default() -> Self {
         Self {
             mode: ModeState::Idle,
-            slot: Slot::First,
+            slot: 0,
             since_tick: 0,
             sum_count: 0,
             obs: ObserverStates::default(),
@@ -94,12 +95,12 @@ impl<PS: Default, MS: Default> DriveState<PS, MS> {
 
 impl<PS, MS> DriveState<PS, MS> {
     /// A step of a running mode, counted since the last run of the 1 kHz task: true when the
-    /// count is beyond [`STEPS_WITHOUT_TICK_MAX`] (the task has missed
+    /// count is beyond [`Schedule::steps_without_tick_max`] (the task has missed
     /// [`TICKS_MISSED_MAX`](crate::schedule::TICKS_MISSED_MAX) runs: it stalled).
     #[inline(always)]
-    pub(super) fn task_stalled(&mut self) -> bool {
+    pub(super) fn task_stalled(&mut self, schedule: &Schedule) -> bool {
         self.since_tick = self.since_tick.saturating_add(1);
-        u32::from(self.since_tick) > STEPS_WITHOUT_TICK_MAX
+        self.since_tick > schedule.stall_steps()
     }
 
     /// The 1 kHz task ran: the count of [`DriveState::task_stalled`] starts again.
@@ -182,14 +183,14 @@ impl<PS, MS> DriveState<PS, MS> {
         }
     }
 
-    /// The slot of the coming step.
-    pub fn slot(&self) -> Slot {
+    /// The slot of the coming step: steps since the 1 kHz task (0: the first after it).
+    pub fn slot(&self) -> u8 {
         self.slot
     }
 
-    /// The last step was the [`SLOTS`](super::SLOTS)th of its millisecond: [`Drive::tick`](super::Drive::tick) is due now.
+    /// The last step was the last of its millisecond (the `rate_hz/1000`-th): [`Drive::tick`](super::Drive::tick) is due now.
     pub fn tick_due(&self) -> bool {
-        self.slot == Slot::First
+        self.slot == 0
     }
 
     /// The voltage the last step's duties apply over the period \[V] (what the observers take

@@ -2,12 +2,11 @@
 //! the papers' bare loop (the speed loop on the estimated speed with the load estimate fed
 //! forward, Horng & Chin Fig 4; the current loop in the estimated frame), for the simulator's
 //! observer runs, the tests and the quick start. The speed loop runs in the first step of
-//! each [`Slot`] cycle, as the drive's does in its 1 kHz task.
+//! each millisecond ([`crate::schedule::Schedule`]), as the drive's does in its 1 kHz task.
 
 use super::{Foc, FocOutput, Reference, Request};
 use crate::frames::{Abc, AlphaBeta, Dq, SinCos};
 use crate::pi::PiState;
-use crate::schedule::Slot;
 
 pub use super::current::CurrentLoopState;
 
@@ -20,8 +19,9 @@ pub struct FocState {
     pub speed: PiState,
     /// Latest `i_q` command from the speed loop \[A].
     pub i_q_ref: f32,
-    /// The coming step's place in the speed loop's period (the speed loop runs in the first).
-    pub slot: Slot,
+    /// The coming step's place in the speed loop's period, `0..speed_divider` (the speed loop
+    /// runs in slot 0).
+    pub slot: u8,
 }
 
 /// Inputs of one step of the bare loop.
@@ -80,11 +80,11 @@ impl FocState {
         sc: SinCos,
         sc_out: SinCos,
     ) -> FocOutput {
-        if self.slot == Slot::First {
+        if self.slot == 0 {
             let speeds = (input.omega_m_ref, input.omega_m);
             self.i_q_ref = foc.speed_step(&mut self.speed, speeds, input.torque_ff_nm, None);
         }
-        self.slot = self.slot.next();
+        self.slot = foc.schedule.next_slot(self.slot);
         let request = Request {
             frame: sc,
             frame_out: sc_out,

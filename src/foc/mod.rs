@@ -33,7 +33,7 @@ use crate::frames::{AlphaBeta, Dq, SinCos};
 use crate::motor::MotorParams;
 use crate::param::{Allowed, Checks, ParamError};
 use crate::pi::{Held, Pi, PiConfig, PiState};
-use crate::schedule::SLOTS;
+use crate::schedule::{Schedule, SLOTS};
 use crate::svpwm::{svpwm_limited, Duties, Svpwm};
 use core::f32::consts::TAU;
 use core::hint::cold_path;
@@ -48,8 +48,9 @@ pub struct FocConfig {
     pub current_rate_hz: f32,
     /// Current-loop bandwidth \[Hz], at most `current_rate_hz / (2π)`. Default 300.
     pub current_bandwidth_hz: f32,
-    /// The speed loop runs every `speed_divider` steps: [`SLOTS`] (4, 1 kHz at 4 kHz), the
-    /// one schedule of the drive and of [`FocState`]; the speed PI's period.
+    /// The speed loop runs every `speed_divider` steps: `current_rate_hz / 1000` (the 1 kHz
+    /// task; [`SLOTS`] = 4 at 4 kHz), the one schedule of the drive and of [`FocState`]; the
+    /// speed PI's period.
     pub speed_divider: u32,
     /// Speed-loop bandwidth \[Hz], at most a fifth of the current-loop bandwidth. Default 20.
     pub speed_bandwidth_hz: f32,
@@ -102,8 +103,9 @@ impl FocConfig {
         c.check("current_rate_hz", rate, Allowed::POSITIVE);
         let current = Allowed::above_up_to(0.0, rate / TAU).because("w_c T <= 1");
         c.check("current_bandwidth_hz", self.current_bandwidth_hz, current);
-        // The caller's schedule runs the speed loop once a slot cycle (`FocState`, the drive).
-        let divider = Allowed::between(SLOTS as f32, SLOTS as f32).because("the slots");
+        // The caller's schedule runs the speed loop once a millisecond (`FocState`, the drive).
+        let per_tick = libm::roundf(rate / crate::schedule::TICK_HZ);
+        let divider = Allowed::between(per_tick, per_tick).because("current_rate_hz/1000");
         c.check("speed_divider", self.speed_divider as f32, divider);
         let speed = Allowed::above_up_to(0.0, self.current_bandwidth_hz / 5.0).because("current/5");
         c.check("speed_bandwidth_hz", self.speed_bandwidth_hz, speed);
@@ -131,7 +133,9 @@ impl FocConfig {
             out_max: i_max,
         }
         .build(ts * self.speed_divider as f32)?;
+        let schedule = Schedule::at("current_rate_hz", rate)?;
         Ok(Foc {
+            schedule,
             current: CurrentLoop {
                 kp: g.current_kp,
                 ki_ts: g.current_ki * ts,
@@ -189,10 +193,12 @@ pub enum Reference {
 
 /// The FOC block: [`Foc::run`] every step (current loop, dead-time compensation, SVPWM) and
 /// [`Foc::speed_step`] every `speed_divider` steps (the caller's schedule: the drive's
-/// [`Slot`](crate::schedule::Slot)).
+/// [`Schedule`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Foc {
     current: CurrentLoop,
+    /// The speed loop's place among the steps ([`FocState`]).
+    pub(crate) schedule: Schedule,
     speed: Pi,
     inv_kt: f32,
     pole_pairs: f32,

@@ -67,6 +67,12 @@ pub struct SlidingConfig {
     /// The back-EMF angle is advanced by this many periods of rotation (0.5: middle of the
     /// period, matching a voltage held over the period; 0: the plain start-of-period Euler).
     pub emf_advance_periods: f32,
+    /// A controller applies its voltage at `θ̂_e + a N ω̂ T` with `a` this (the middle of the
+    /// period the voltage is applied over, which a computation and PWM delay moves later:
+    /// `crate::drive::PowerStageConfig::update_delay_s`); equal to `emf_advance_periods`
+    /// (0.5, no delay) the observer hands out its EMF angle ([`SlidingState::sc_mid`]), else
+    /// the frame turned by the controller's lead.
+    pub output_advance_periods: f32,
     /// A drive lets this observer drive only above this |ω̂| \[rad/s] (0: at any speed;
     /// infinite: never, for a motor whose K_s window is empty). Not the paper's: it is
     /// unobservable at ω = 0 (Sec 3, the gains divide by ω̂).
@@ -86,6 +92,7 @@ impl SlidingConfig {
             ks: SlidingGain::Constant(1000.0 * core::f32::consts::PI),
             omega_low_rad_s: 1.0,
             emf_advance_periods: 0.5,
+            output_advance_periods: 0.5,
             min_speed_rad_s: 0.0,
         }
     }
@@ -156,6 +163,7 @@ impl SlidingConfig {
             min_speed: self.min_speed_rad_s,
             emf_residual_scale: m.l_h / (kn * 2.0 * libm::sinf(core::f32::consts::PI / 8.0)),
             emf_advance_s: self.emf_advance_periods * ts * n,
+            output_at_emf: self.output_advance_periods == self.emf_advance_periods,
             torque_factor: motor.torque.factor(),
         })
     }
@@ -183,6 +191,8 @@ pub struct SlidingObserver {
     emf_residual_scale: f32,
     /// a·T·N \[s]: the EMF angle leads θ̂_e by this times ω̂ \[rad].
     emf_advance_s: f32,
+    /// The controller's output angle is the EMF angle (`SlidingConfig::output_advance_periods`).
+    output_at_emf: bool,
 }
 
 /// The speed-free factors of the observer gains G1..G4 (Horng & Chin Secs 3.1, 3.2), from
@@ -481,11 +491,15 @@ impl Observer for SlidingObserver {
     }
 
     /// The back-EMF angle of the coming period, [`SlidingState::sc_mid`], which the observer
-    /// keeps (the drive builds the controller with the same advance, so it equals `frame`
-    /// turned by `lead`).
+    /// keeps, where the controller's advance is the same (no update delay: then it equals
+    /// `frame` turned by `lead`); else `frame` turned by `lead`.
     #[inline(always)]
-    fn sin_cos_output(&self, st: &SlidingState, _frame: SinCos, _lead: SinCos) -> SinCos {
-        st.sc_mid
+    fn sin_cos_output(&self, st: &SlidingState, frame: SinCos, lead: SinCos) -> SinCos {
+        if self.output_at_emf {
+            st.sc_mid
+        } else {
+            frame.rotated(lead)
+        }
     }
 
     #[inline(always)]

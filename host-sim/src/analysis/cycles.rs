@@ -22,6 +22,8 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+pub use super::rate_cycles::{rate_cycles, RateCycles, BOARD_RATES_HZ};
+
 /// The answer of `pmsm-sim cycles`.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct CyclesReport {
@@ -77,6 +79,9 @@ pub struct CyclesReport {
     pub ramfunc_bytes: u64,
     /// f64 soft-float routines linked into the board firmware or the bench (should be none).
     pub f64_soft_float_symbols: Vec<String>,
+    /// The bench at each control rate the board offers ([`BOARD_RATES_HZ`]), with the
+    /// board's update delay: the worst step and tick and the CPU share.
+    pub rates: Vec<RateCycles>,
 }
 
 /// One instruction of the disassembly.
@@ -131,16 +136,21 @@ fn llvm_tool(root: &Path, name: &str) -> anyhow::Result<PathBuf> {
     Ok(path)
 }
 
-fn cargo_build(root: &Path, args: &[&str], what: &str) -> anyhow::Result<()> {
-    run(
-        Command::new("cargo")
-            .args(["build", "--release", "--target", "thumbv7em-none-eabihf"])
-            .args(args)
-            .current_dir(root),
-        what,
-    )
-    .map(|_| ())
+fn cargo_build(root: &Path, args: &[&str], what: &str, rate: Option<u32>) -> anyhow::Result<()> {
+    let mut cmd = Command::new("cargo");
+    cmd.args(["build", "--release", "--target", "thumbv7em-none-eabihf"])
+        .args(args)
+        .current_dir(root);
+    match rate {
+        Some(r) => cmd.env(BENCH_RATE_ENV, r.to_string()),
+        None => cmd.env_remove(BENCH_RATE_ENV),
+    };
+    run(&mut cmd, what).map(|_| ())
 }
+
+/// The bench's control rate, read when it is built (`option_env!`): unset, the
+/// configuration's (4 kHz on the Sinano motor, no update delay).
+const BENCH_RATE_ENV: &str = "PMSM_BENCH_RATE_HZ";
 
 /// `cargo metadata` of `manifest`'s workspace (JSON, no dependencies).
 fn metadata(root: &Path, manifest: &Path) -> Command {
@@ -169,12 +179,19 @@ fn target_dir(root: &Path, manifest: &Path) -> anyhow::Result<PathBuf> {
 }
 
 /// Builds binary `bin` of `manifest` for the M4F and returns its path.
-fn build_thumb(root: &Path, manifest: &Path, bin: &str, what: &str) -> anyhow::Result<PathBuf> {
+fn build_thumb(
+    root: &Path,
+    manifest: &Path,
+    bin: &str,
+    what: &str,
+    rate: Option<u32>,
+) -> anyhow::Result<PathBuf> {
     let manifest_arg = manifest.to_string_lossy();
     cargo_build(
         root,
         &["--manifest-path", &manifest_arg, "--bin", bin],
         what,
+        rate,
     )?;
     let elf = target_dir(root, manifest)?
         .join("thumbv7em-none-eabihf/release")
@@ -430,19 +447,18 @@ fn soft_float_symbols(nm: &Path, elf: &Path) -> anyhow::Result<Vec<String>> {
     Ok(found)
 }
 
-/// Builds the bench and the board firmware, runs the bench under QEMU, and measures.
-pub fn measure(root: &Path) -> anyhow::Result<CyclesReport> {
+/// (instructions, cycles) of each measured call, by section name.
+type Sections = HashMap<String, Vec<(u64, u64)>>;
+
+/// The worst (instructions, cycles) per section of the bench built for `rate` (None: its
+/// default), run under QEMU; and the bench's ELF.
+fn bench_sections(root: &Path, rate: Option<u32>) -> anyhow::Result<(Sections, PathBuf)> {
     let bench = build_thumb(
         root,
         &root.join("examples/qemu-m4f/Cargo.toml"),
         "bench",
         "building the bench (thumbv7em)",
-    )?;
-    let board = build_thumb(
-        root,
-        &root.join("examples/b-g431b-esc1/Cargo.toml"),
-        "b-g431b-esc1",
-        "building the board firmware (thumbv7em)",
+        rate,
     )?;
     let version = run(
         Command::new("qemu-system-arm").arg("--version"),
@@ -467,6 +483,25 @@ pub fn measure(root: &Path) -> anyhow::Result<CyclesReport> {
     let _ = std::fs::remove_dir_all(&dir);
     let insns = disassemble(&llvm_tool(root, "llvm-objdump")?, &bench)?;
     let found = sections(&read_trace(&trace_text), &insns)?;
+    Ok((found, bench))
+}
+
+/// Builds the bench and the board firmware, runs the bench under QEMU, and measures; then the
+/// bench again at each of [`BOARD_RATES_HZ`].
+pub fn measure(root: &Path) -> anyhow::Result<CyclesReport> {
+    let mut rates = Vec::new();
+    for r in BOARD_RATES_HZ {
+        let (found, _) = bench_sections(root, Some(r))?;
+        rates.push(rate_cycles(&found, r));
+    }
+    let (found, bench) = bench_sections(root, None)?;
+    let board = build_thumb(
+        root,
+        &root.join("examples/b-g431b-esc1/Cargo.toml"),
+        "b-g431b-esc1",
+        "building the board firmware (thumbv7em)",
+        None,
+    )?;
     let worst = |name: &str| -> anyhow::Result<(u64, u64)> {
         let v = found
             .get(name)
@@ -508,74 +543,10 @@ pub fn measure(root: &Path) -> anyhow::Result<CyclesReport> {
         ram_bytes,
         ramfunc_bytes,
         f64_soft_float_symbols,
+        rates,
     })
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn qemu_flags_follow_its_version() {
-        let flags = |v: &str| one_insn_per_tb_flags(v).unwrap();
-        let debian = "QEMU emulator version 7.2.22 (Debian 1:7.2+dfsg-7+deb12u18+b2)\nCopyright";
-        assert_eq!(flags(debian), ["-singlestep"]);
-        assert_eq!(flags("QEMU emulator version 8.0.5"), ["-singlestep"]);
-        let new = ["-accel", "tcg,one-insn-per-tb=on"];
-        assert_eq!(flags("QEMU emulator version 8.1.0"), new);
-        assert_eq!(flags("QEMU emulator version 9.2.1 (v9.2.1)"), new);
-        assert_eq!(
-            flags("QEMU emulator version 10.0.2 (Debian 1:10.0.2+ds-2)"),
-            new
-        );
-        assert!(one_insn_per_tb_flags("qemu-system-arm: command not found").is_err());
-    }
-
-    #[test]
-    fn the_target_directory_follows_cargo_target_dir() {
-        let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
-        let manifest = root.join("examples/qemu-m4f/Cargo.toml");
-        let expected = std::env::var_os("CARGO_TARGET_DIR")
-            .map_or_else(|| root.join("examples/qemu-m4f/target"), PathBuf::from);
-        assert_eq!(target_dir(root, &manifest).unwrap(), expected);
-        let moved = run(
-            metadata(root, &manifest).env("CARGO_TARGET_DIR", "/tmp/elsewhere"),
-            "cargo metadata",
-        )
-        .unwrap();
-        assert!(
-            moved.contains("\"target_directory\":\"/tmp/elsewhere\""),
-            "{moved}"
-        );
-    }
-
-    fn insn(m: &str, o: &str) -> Insn {
-        Insn {
-            mnemonic: m.into(),
-            operands: o.into(),
-        }
-    }
-
-    #[test]
-    fn timing_table() {
-        assert_eq!(cycles(&insn("adds", "r0, r1"), false), 1);
-        assert_eq!(cycles(&insn("ldr", "r0, [r1]"), false), 2);
-        assert_eq!(cycles(&insn("push", "{r4, r5, r6, r7, lr}"), false), 6);
-        assert_eq!(cycles(&insn("pop", "{r4-r7, pc}"), true), 1 + 5 + 2);
-        assert_eq!(cycles(&insn("vpush", "{d8, d9}"), false), 3);
-        assert_eq!(cycles(&insn("vmla.f32", "s0, s1, s2"), false), 3);
-        assert_eq!(cycles(&insn("vdiv.f32", "s0, s1, s2"), false), 14);
-        assert_eq!(cycles(&insn("vldr", "s0, [r0]"), false), 2);
-        assert_eq!(cycles(&insn("bne.w", "0x800"), true), 3);
-        assert_eq!(cycles(&insn("bne", "0x800"), false), 1);
-        assert_eq!(cycles(&insn("bl", "0x800"), true), 3);
-        assert_eq!(cycles(&insn("tbb", "[pc, r0]"), true), 6);
-        assert_eq!(register_count("{s16-s23}"), 8);
-    }
-
-    #[test]
-    fn trace_lines_parse() {
-        let t = "Trace 0: 0x7f [00800408/00002d80/00000110/ff000201] bench_begin_step\n";
-        assert_eq!(read_trace(t), vec![(0x2d80, "bench_begin_step")]);
-    }
-}
+#[path = "cycles_tests.rs"]
+mod tests;

@@ -51,6 +51,14 @@ pub struct SimBoard {
     /// The board senses the terminal voltage (the B-G431B-ESC1's back-EMF dividers): the
     /// drive gets it while its PWM is off and can catch a turning rotor.
     pub sense_terminal_voltage: bool,
+    /// The time from a sample to the duties computed from it taking effect \[s], at most one
+    /// control period: the plant holds the last period's duties that long
+    /// ([`BoardStage::advance`]) and the drive is told the same figure
+    /// (`PowerStageConfig::update_delay_s`). 0 (the default): sample, computation and update
+    /// at one instant, the timing of every run before the control rate followed the motor;
+    /// the B-G431B-ESC1 loads its duties at the next PWM update, 50 µs
+    /// (`pmsm-sim run --update-delay-us 50`).
+    pub update_delay_s: f64,
 }
 
 impl SimBoard {
@@ -69,6 +77,7 @@ impl SimBoard {
             seed: 1,
             idle_s: 0.0,
             sense_terminal_voltage: true,
+            update_delay_s: 0.0,
         }
     }
 
@@ -106,10 +115,12 @@ impl SimBoard {
         }
     }
 
-    /// The board's power stage as the drive is told it: its PWM frequency and dead time.
+    /// The board's power stage as the drive is told it: its PWM frequency, dead time and
+    /// update delay.
     pub fn configure_drive(&self, cfg: &mut DriveConfig) {
         cfg.power_stage.pwm_hz = self.pwm_hz as f32;
         cfg.power_stage.dead_time_s = self.dead_time_s as f32;
+        cfg.power_stage.update_delay_s = self.update_delay_s as f32;
     }
 
     /// Samples the board is idle before t = 0 at the control rate `rate_hz`.

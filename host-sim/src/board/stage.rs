@@ -33,6 +33,11 @@ pub struct BoardStage {
     /// Every low-side switch on for the coming period (the active short circuit), instead of
     /// `duties`.
     short_circuit: bool,
+    /// The duties in effect at the end of the last period: with an update delay, the
+    /// coming period's first part.
+    in_effect: Option<Duties>,
+    /// The time from a sample to its duties taking effect \[s] ([`SimBoard::update_delay_s`]).
+    update_delay_s: f64,
     /// The terminal voltage of the period that just ended \[V].
     v_terminal: AlphaBeta,
     /// The last sample taken.
@@ -70,6 +75,8 @@ impl BoardStage {
             motor_fault: None,
             duties: None,
             short_circuit: false,
+            in_effect: None,
+            update_delay_s: board.update_delay_s,
             v_terminal: AlphaBeta::default(),
             last: None,
         })
@@ -131,7 +138,30 @@ impl BoardStage {
     /// diodes into the bus until they die out, and a back-EMF above the bus brakes the
     /// rotor), under the load torque `tau_l(t_rel, ω)`. The terminal voltage sensed next is
     /// this period's mean.
+    ///
+    /// With an update delay `d` ([`SimBoard::update_delay_s`], rounded to whole sub-steps),
+    /// the duties in effect before (the last period's) hold for the first `d` of the period
+    /// and the loaded ones from then on; switching off (`None`) is at once (the break clears
+    /// the outputs without waiting for an update).
     pub fn advance(&mut self, tau_l: impl Load, h: f64, n_sub: usize) {
+        let n_delay = ((self.update_delay_s / h).round() as usize).min(n_sub);
+        if n_delay > 0 && self.duties.is_some() {
+            let first = self.in_effect;
+            let v0 = self.advance_with(first, &tau_l, 0.0, h, n_delay);
+            let loaded = self.duties;
+            let v1 = self.advance_with(loaded, &tau_l, n_delay as f64 * h, h, n_sub - n_delay);
+            let (w0, w1) = (
+                n_delay as f64 / n_sub as f64,
+                (n_sub - n_delay) as f64 / n_sub as f64,
+            );
+            self.v_terminal = AlphaBeta::new(
+                (w0 * v0.0 + w1 * v1.0) as f32,
+                (w0 * v0.1 + w1 * v1.1) as f32,
+            );
+            self.in_effect = self.duties;
+            return;
+        }
+        self.in_effect = self.duties;
         let v = match self.duties {
             _ if self.short_circuit => self.plant.advance(&ShortCircuit, tau_l, h, n_sub),
             Some(d) => {
@@ -145,6 +175,35 @@ impl BoardStage {
             None => self.plant.advance_off(tau_l, h, n_sub),
         };
         self.v_terminal = AlphaBeta::new(v.0 as f32, v.1 as f32);
+    }
+}
+
+impl BoardStage {
+    /// `n` sub-steps of `h` with `duties` (`None`: every switch off), the load's time from
+    /// `t0` into the period; the mean terminal voltage (0 V for no sub-step).
+    fn advance_with(
+        &mut self,
+        duties: Option<Duties>,
+        tau_l: &impl Load,
+        t0: f64,
+        h: f64,
+        n: usize,
+    ) -> (f64, f64) {
+        if n == 0 {
+            return (0.0, 0.0);
+        }
+        let load = |dt: f64, w: f64| tau_l(t0 + dt, w);
+        match duties {
+            Some(d) => {
+                let faulty = Faulty {
+                    inner: self.inverter.hold(d),
+                    fault: self.motor_fault,
+                    r: self.plant.params.r,
+                };
+                self.plant.advance(&faulty, load, h, n)
+            }
+            None => self.plant.advance_off(load, h, n),
+        }
     }
 }
 

@@ -5,7 +5,8 @@
 use crate::board::SimBoard;
 use crate::observer::ObserverKind;
 use crate::scenario::Scenario;
-use pmsm_sensorless::motor::MotorParams;
+use pmsm_sensorless::drive::DriveConfig;
+use pmsm_sensorless::motor::{Motor, MotorParams};
 use pmsm_sensorless::observer::sliding::SlidingConfig;
 use pmsm_sensorless::param::ParamError;
 
@@ -107,7 +108,9 @@ pub struct SimConfig {
 
 impl SimConfig {
     /// Defaults: an ideal board ([`SimBoard::ideal`]: the scenario's motor's bus, no noise,
-    /// ideal inverter), exact parameters, 4 kHz control, 25 sub-steps (10 µs).
+    /// ideal inverter), exact parameters, the control rate the drive's configuration chooses
+    /// for the motor on the board ([`SimConfig::rate_for`]: 4 kHz up to 200 Hz electrical at
+    /// rated speed), sub-steps of at most 10 µs (25 at 4 kHz).
     pub fn new(scenario: Scenario, observer: ObserverKind) -> Self {
         let board = SimBoard::ideal(&scenario.motor);
         Self::on(board, scenario, observer)
@@ -115,13 +118,14 @@ impl SimConfig {
 
     /// The defaults of [`SimConfig::new`] on `board`.
     pub fn on(board: SimBoard, scenario: Scenario, observer: ObserverKind) -> Self {
+        let rate_hz = Self::rate_for(&board, &scenario.motor);
         Self {
             scenario,
             observer,
             board,
             mismatch: Mismatch::default(),
-            rate_hz: 4000.0,
-            substeps: 25,
+            rate_hz,
+            substeps: Self::substeps_at(rate_hz),
             theta_m0: 0.0,
             sliding: None,
             sensorless_from_rpm: None,
@@ -129,5 +133,27 @@ impl SimConfig {
             gamma: None,
             identify_first: false,
         }
+    }
+}
+
+impl SimConfig {
+    /// The control rate the drive's configuration chooses for `motor` on `board`'s PWM
+    /// ([`DriveConfig::choose_rate`], `pmsm_sensorless::rate`) \[Hz].
+    pub fn rate_for(board: &SimBoard, motor: &Motor) -> f64 {
+        let mut cfg = DriveConfig::new(motor);
+        board.configure_drive(&mut cfg);
+        cfg.choose_rate();
+        f64::from(cfg.rate_hz)
+    }
+
+    /// RK4 sub-steps of at most 10 µs per control period at `rate_hz`: `⌈100 kHz/rate⌉`.
+    pub fn substeps_at(rate_hz: f64) -> usize {
+        (1e5 / rate_hz).ceil().max(1.0) as usize
+    }
+
+    /// The control rate `rate_hz` \[Hz] and its sub-steps ([`SimConfig::substeps_at`]).
+    pub fn set_rate(&mut self, rate_hz: f64) {
+        self.rate_hz = rate_hz;
+        self.substeps = Self::substeps_at(rate_hz);
     }
 }

@@ -199,8 +199,14 @@ impl Controller {
     /// FOC on `config.observer`.
     fn bare(config: &SimConfig, params: MotorParams) -> anyhow::Result<Self> {
         let sc = &config.scenario;
+        anyhow::ensure!(
+            config.board.update_delay_s == 0.0,
+            "the bare observer runs (the papers' timing) take no update delay"
+        );
         let mut foc_cfg = FocConfig::new(params, sc.i_max_a() as f32);
         foc_cfg.current_rate_hz = config.rate_hz as f32;
+        // The speed loop at 1 kHz, as the drive's task.
+        foc_cfg.speed_divider = (config.rate_hz / 1000.0).round().max(1.0) as u32;
         // The plant's dead time compensated, as the drive does (the drive's smooth-sign
         // band: 5 % of the rated-torque current).
         let band_a = DriveConfig::new(&sc.motor).power_stage.dead_time_band_a;

@@ -515,7 +515,8 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             .gains
             .foc(&self.foc)
             .run(&mut st.current, &request, i_ab, input.v_bus);
-        st.last.record_voltage(out.v_ab, input.v_bus);
+        st.last
+            .record_voltage(out.v_ab, input.v_bus, self.delay_periods);
         (Some(out.duties), None)
     }
 

@@ -147,11 +147,25 @@ mod firmware {
     #[entry]
     fn main() -> ! {
         let m = HORNG_SINANO;
-        let rate = 4000.0;
-        let cfg = DriveConfig::new(&m);
+        // The control rate: the configuration's (4 kHz for this motor), or the one
+        // `pmsm-sim cycles` builds the bench for (`PMSM_BENCH_RATE_HZ`), with the board's
+        // update delay of one PWM period (the blended observer voltage, the output angle
+        // turned apart from the sliding observer's EMF angle).
+        let mut cfg = DriveConfig::new(&m);
+        if let Some(r) = option_env!("PMSM_BENCH_RATE_HZ").and_then(|s| s.parse::<f32>().ok()) {
+            cfg.rate_hz = r;
+            cfg.power_stage.update_delay_s = 1.0 / cfg.power_stage.pwm_hz;
+        }
+        let rate = cfg.rate_hz;
+        let steps_per_ms = (rate / 1000.0) as u32;
         let drive = cfg.build_sliding_primary().ok();
         let drive_flux = cfg.build_flux_primary().ok();
-        let sliding = SlidingConfig::torque(m.params).build().ok();
+        let sliding = SlidingConfig {
+            rate_hz: rate,
+            ..SlidingConfig::torque(m.params)
+        }
+        .build()
+        .ok();
         let flux = FluxConfig::new(m.params, rate, 60.0).build().ok();
         let pll = PllConfig {
             rate_hz: rate,
@@ -160,7 +174,13 @@ mod firmware {
         }
         .build()
         .ok();
-        let foc = FocConfig::new(m.params, 4.5).build().ok();
+        let foc = FocConfig {
+            current_rate_hz: rate,
+            speed_divider: steps_per_ms,
+            ..FocConfig::new(m.params, 4.5)
+        }
+        .build()
+        .ok();
         let (Some(drive), Some(drive_flux), Some(sliding), Some(flux), Some(pll), Some(foc)) =
             (drive, drive_flux, sliding, flux, pll, foc)
         else {
@@ -254,7 +274,7 @@ mod firmware {
             ..cmd
         };
         let mut open_loop = StateOf::<SlidingObserver, FluxPll>::default();
-        for k in 0..1200 {
+        for k in 0..300 * steps_per_ms {
             control_step(&drive, &mut open_loop, &input(theta0, k), &open_loop_cmd);
             if open_loop.tick_due() {
                 control_tick(&drive, &mut open_loop, &open_loop_cmd);

@@ -98,5 +98,35 @@ pub fn cycles(args: CyclesArgs) -> anyhow::Result<String> {
         "f64 soft-float routines linked: {:?}",
         r.f64_soft_float_symbols
     );
+    outln!(
+        out,
+        "At each control rate the board offers (the bench on the Sinano motor, update delay one PWM period, 50 µs):"
+    );
+    let mut t = table(
+        &[
+            "rate (Hz)",
+            "worst step",
+            "worst 1 kHz task",
+            "CPU share of 170 MHz",
+        ],
+        &[0, 1, 2, 3],
+    );
+    for x in &r.rates {
+        t.add_row([
+            x.rate_hz.to_string(),
+            x.step_max_cycles_est.to_string(),
+            x.tick_max_cycles_est.to_string(),
+            format!("{:.1} %", x.cpu_share_pct),
+        ]);
+    }
+    outln!(out, "{t}");
+    if let Some(top) = r.rates.iter().max_by_key(|x| x.rate_hz) {
+        outln!(
+            out,
+            "CPU share at the highest rate, {} Hz: {:.1} % (budget 15 %)",
+            top.rate_hz,
+            top.cpu_share_pct
+        );
+    }
     Ok(out)
 }

@@ -11,9 +11,11 @@ use std::fmt::Write as _;
 pub struct GainsArgs {
     #[command(flatten)]
     motor: MotorArg,
-    /// Control rate (Hz).
-    #[arg(long, default_value_t = 4000.0)]
-    rate_hz: f64,
+    /// Control rate (Hz); default: the configuration's for the motor on the PWM
+    /// (`pmsm_sensorless::rate`: 20 samples per electrical period at rated speed, a divisor
+    /// of the PWM frequency and a multiple of 1 kHz, 4 kHz at least, within the CPU budget).
+    #[arg(long)]
+    rate_hz: Option<f64>,
     /// The power stage's dead time (µs) the drive compensates (default: the B-G431B-ESC1's
     /// 0.5).
     #[arg(long)]
@@ -61,12 +63,15 @@ fn formula(row: &DerivedRow) -> String {
 pub fn gains(args: GainsArgs) -> anyhow::Result<String> {
     let (name, m) = args.motor.resolve()?;
     let mut cfg = DriveConfig::new(&m);
-    cfg.rate_hz = args.rate_hz as f32;
     if let Some(us) = args.dead_time_us {
         cfg.power_stage.dead_time_s = (us * 1e-6) as f32;
     }
     if let Some(hz) = args.pwm_hz {
         cfg.power_stage.pwm_hz = hz as f32;
+    }
+    cfg.choose_rate();
+    if let Some(hz) = args.rate_hz {
+        cfg.rate_hz = hz as f32;
     }
     let d = cfg.derived().map_err(|e| anyhow::anyhow!("{name}: {e}"))?;
     let (p, r, ps) = (m.params, m.ratings, cfg.power_stage);
@@ -110,6 +115,8 @@ pub fn gains(args: GainsArgs) -> anyhow::Result<String> {
         ),
     ];
     let rows = d.rows(&cfg);
+    let choice = cfg.rate_choice();
+    let f_e = p.pole_pairs as f32 * r.speed_rpm / 60.0;
     let warnings: Vec<_> = d.warnings.iter().flatten().collect();
     let mut out = String::new();
     if args.json {
@@ -132,12 +139,28 @@ pub fn gains(args: GainsArgs) -> anyhow::Result<String> {
                     "limit": f64::from(w.limit), "what": w.what})
             })
             .collect();
+        let rate = serde_json::json!({"rate_hz": f64::from(cfg.rate_hz),
+            "chosen_hz": f64::from(choice.rate_hz), "wanted_hz": f64::from(choice.wanted_hz),
+            "f_e_rated_hz": f64::from(f_e),
+            "samples_per_period": f64::from(cfg.rate_hz / f_e),
+            "bound": choice.bound.map(|b| format!("{b:?}"))});
         let v = serde_json::json!({ "motor": name, "inputs": inputs, "values": values,
-            "warnings": warnings });
+            "warnings": warnings, "rate": rate });
         outln!(out, "{v}");
         return Ok(out);
     }
-    outln!(out, "{name} at {} Hz", args.rate_hz);
+    outln!(out, "{name} at {} Hz", cfg.rate_hz);
+    outln!(
+        out,
+        "control rate: {} Hz, {:.1} samples per electrical period at rated speed (f_e = N n/60 = {} Hz); \
+         the rule's: the smallest multiple of 1 kHz dividing f_pwm, from 4 kHz up, within the CPU \
+         budget, at or above 20 f_e = {} Hz: {} Hz",
+        cfg.rate_hz,
+        cfg.rate_hz / f_e,
+        significant(f_e.into()),
+        significant(choice.wanted_hz.into()),
+        choice.rate_hz
+    );
     for (group, values) in &inputs {
         let values: Vec<String> = values
             .iter()

@@ -62,9 +62,17 @@ pub struct RunArgs {
     /// an active load is a signed torque (a hanging mass).
     #[arg(long, value_enum)]
     load_kind: Option<LoadKindArg>,
-    /// Control (current-loop and observer) rate (Hz); the speed loop runs at a quarter of it.
-    #[arg(long, default_value_t = 4000.0)]
-    rate_hz: f64,
+    /// Control (current-loop and observer) rate (Hz), a multiple of 1000 for the drive (the
+    /// speed loop and the drive's task run at 1 kHz); default: the configuration's for the
+    /// motor (20 samples per electrical period at rated speed, a divisor of the PWM
+    /// frequency, 4 kHz at least; `pmsm-sim gains` prints it).
+    #[arg(long)]
+    rate_hz: Option<f64>,
+    /// The time from a sample to its duties taking effect (µs), modelled by the plant and
+    /// compensated by the drive (`PowerStageConfig::update_delay_s`); at most one control
+    /// period. The B-G431B-ESC1 loads its duties at the next PWM update: 50 µs. Default 0.
+    #[arg(long)]
+    update_delay_us: Option<f64>,
     /// Run on the encoder until this speed (rpm), then sensorless (a stand-in for a start-up
     /// sequence; default: sensorless from t = 0).
     #[arg(long)]
@@ -147,13 +155,27 @@ pub fn prepare(args: &RunArgs) -> anyhow::Result<SimConfig> {
         cfg.mismatch = Mismatch::between(&m.params, &d.params);
     }
     cfg.identify_first = args.identified;
-    anyhow::ensure!(
-        args.rate_hz.is_finite() && (1000.0..=100_000.0).contains(&args.rate_hz),
-        "--rate-hz must be between 1000 and 100000"
-    );
-    cfg.rate_hz = args.rate_hz;
-    // Keep the plant's sub-step at 10 µs or less.
-    cfg.substeps = (1e5 / args.rate_hz).ceil() as usize;
+    if let Some(rate_hz) = args.rate_hz {
+        anyhow::ensure!(
+            rate_hz.is_finite() && (1000.0..=100_000.0).contains(&rate_hz),
+            "--rate-hz must be between 1000 and 100000"
+        );
+        // Keeps the plant's sub-step at 10 µs or less.
+        cfg.set_rate(rate_hz);
+    } else {
+        // The configuration's for the board as the options set it (its PWM frequency).
+        cfg.set_rate(SimConfig::rate_for(&cfg.board, &cfg.scenario.motor));
+    }
+    if let Some(us) = args.update_delay_us {
+        let max_us = 1e6 / cfg.rate_hz;
+        anyhow::ensure!(
+            us.is_finite() && (0.0..=max_us).contains(&us),
+            "--update-delay-us = {}: allowed [0, {}] (one control period)",
+            number(us),
+            number(max_us)
+        );
+        cfg.board.update_delay_s = 1e-6 * us;
+    }
     if let Some(x) = args.sensorless_from_rpm {
         anyhow::ensure!(
             cfg.scenario.drive.is_none(),
