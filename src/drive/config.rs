@@ -1,6 +1,7 @@
 //! The drive's configuration in SI units, its validation, and what it derives: the FOC gains,
 //! the observers' settings, and each mode's per-step coefficients.
 
+use super::config_observers::{ADVANCE_PERIODS, PLL_BANDWIDTH_HZ};
 pub use super::config_rate::PowerStageConfig;
 use super::derating::FIELD_WEAKENING_MARGIN;
 #[cfg(feature = "identify")]
@@ -10,32 +11,18 @@ use super::open_loop;
 use super::ramp::Ramp;
 use super::supervision;
 use super::{adaptation, align, catch, plausibility, regen, safe_state, sensorless, Drive};
-use crate::bounds::{ks_max_e2, ks_max_t};
 use crate::dead_time::DeadTimeConfig;
 use crate::foc::FocConfig;
 use crate::load_observer::LoadObserverConfig;
 use crate::math::INV_SQRT3;
 use crate::motor::{Motor, MotorParams, Ratings};
-use crate::observer::flux::FluxConfig;
 use crate::observer::flux_speed::FluxPll;
-use crate::observer::pll::PllConfig;
-use crate::observer::sliding::{SlidingConfig, SlidingGain, SlidingObserver};
+use crate::observer::sliding::SlidingObserver;
 use crate::observer::Observer;
 use crate::param::{Allowed, Checks, ParamError};
 use crate::rate::{control_rate, CpuBudget};
 use crate::units::{RAD_PER_DEG, RAD_S_PER_RPM};
 use core::f32::consts::TAU;
-
-/// The sliding observer's back-EMF angle leads the sample by half a period of rotation: the
-/// middle of the period between two samples (the back-EMF's mean over it). The controller's
-/// output angle leads it by this plus the update delay in periods
-/// ([`PowerStageConfig::update_delay_s`]): the middle of the period the voltage is applied
-/// over.
-const ADVANCE_PERIODS: f32 = 0.5;
-
-/// Natural frequency \[Hz] and damping of the PLL on the flux observer's angle.
-const PLL_BANDWIDTH_HZ: f32 = 50.0;
-const PLL_DAMPING: f32 = 1.0;
 
 /// The adapted resistance stays within R₀/3..3 R₀ (`adaptation.rs`): a copper winding from
 /// −40 °C to 150 °C spans 1.75×, and a datasheet's line-to-line figure taken for the phase's
@@ -60,25 +47,6 @@ const FLUX_ADAPT_MAX_R_SHARE: f32 = 0.3;
 const BUS_FILTER_S: f32 = 0.01;
 /// The B-G431B-ESC1's PWM frequency \[Hz], the default power stage's.
 const PWM_HZ: f32 = 20_000.0;
-
-/// Why the sliding torque observer was not built ([`DriveConfig::sliding_torque`]).
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum SlidingRefused {
-    /// Its constant `K_s` is outside the window of Horng & Chin Sec 4: at or above the
-    /// discrete-time bound `(K_s,max)_T`, or above `(K_s,max)_E2` at the rated speed (where the
-    /// unstable second equilibrium exists). The motor is run by the flux observer alone.
-    KsWindow(ParamError),
-    /// Another setting is invalid.
-    Invalid(ParamError),
-}
-
-impl From<SlidingRefused> for ParamError {
-    fn from(r: SlidingRefused) -> Self {
-        match r {
-            SlidingRefused::KsWindow(e) | SlidingRefused::Invalid(e) => e,
-        }
-    }
-}
 
 /// Protection limits.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -339,90 +307,6 @@ impl DriveConfig {
         #[cfg(feature = "identify")]
         self.identify.check()?;
         Ok(m)
-    }
-
-    /// Horng & Chin's torque observer with the paper's settings (Sec 5) at the drive's rate,
-    /// its `K_s` checked inside its bounds (Sec 4): below the discrete-time bound
-    /// `(K_s,max)_T` and below `(K_s,max)_E2` at the rated speed. E2 grows with speed: the
-    /// paper's constant K_s = 1000π exceeds it below about 620 rpm on the Sinano motor, where
-    /// the (always unstable) second equilibrium exists, as in the paper's own experiment.
-    pub fn sliding_torque(&self) -> Result<SlidingObserver, ParamError> {
-        self.checked_sliding(self.sliding_config())
-            .map_err(ParamError::from)
-    }
-
-    /// The sliding observer as a monitor: [`DriveConfig::sliding_torque`], or, for a motor
-    /// whose `K_s` window is empty, the observer built never to drive nor be judged
-    /// (`min_speed_rad_s` infinite): the flux observer runs alone ([`Derived::warnings`]
-    /// says so).
-    ///
-    /// [`Derived::warnings`]: super::Derived::warnings
-    pub fn sliding_monitor(&self) -> Result<SlidingObserver, ParamError> {
-        match self.checked_sliding(self.sliding_config()) {
-            Ok(observer) => Ok(observer),
-            Err(SlidingRefused::KsWindow(_)) => SlidingConfig {
-                min_speed_rad_s: f32::INFINITY,
-                ..self.sliding_config()
-            }
-            .build(),
-            Err(SlidingRefused::Invalid(e)) => Err(e),
-        }
-    }
-
-    /// `cfg` built, its `K_s` checked inside its window (see [`DriveConfig::sliding_torque`]).
-    fn checked_sliding(&self, cfg: SlidingConfig) -> Result<SlidingObserver, SlidingRefused> {
-        let m = self.validate().map_err(SlidingRefused::Invalid)?;
-        if let SlidingGain::Constant(ks) = cfg.ks {
-            let eps = cfg.epsilon_a;
-            let rated = self.ratings.speed_rpm * RAD_S_PER_RPM;
-            let e2 = ks_max_e2(&m, rated, eps);
-            let window = |e: ParamError| SlidingRefused::KsWindow(e);
-            Allowed::strictly_between(0.0, ks_max_t(&m, self.rate_hz, eps))
-                .because("(K_s,max)_T")
-                .check("ks", ks)
-                .map_err(window)?;
-            Allowed::above_up_to(0.0, e2)
-                .because("(K_s,max)_E2 at rated speed")
-                .check("ks", ks)
-                .map_err(window)?;
-        }
-        cfg.build().map_err(SlidingRefused::Invalid)
-    }
-
-    /// Ortega et al.'s flux observer, γ recommended for the lowest sensorless speed
-    /// (`handback_rpm`, Proposition 4), with a 50 Hz critically damped PLL run at the speed
-    /// loop's rate (1 kHz).
-    pub fn flux_pll(&self) -> Result<FluxPll, ParamError> {
-        let m = self.validate()?;
-        let flux = self.flux_config().build()?;
-        let pll = self.pll_config().build()?;
-        Ok(FluxPll::new(flux, pll, m.n()))
-    }
-
-    /// The sliding torque observer's settings (unvalidated): it drives above the hand-over
-    /// speed.
-    pub(super) fn sliding_config(&self) -> SlidingConfig {
-        SlidingConfig {
-            rate_hz: self.rate_hz,
-            emf_advance_periods: ADVANCE_PERIODS,
-            output_advance_periods: ADVANCE_PERIODS + self.delay_periods(),
-            min_speed_rad_s: self.start.handover_rpm * RAD_S_PER_RPM,
-            ..SlidingConfig::torque(self.motor)
-        }
-    }
-
-    /// The flux observer's settings (unvalidated).
-    pub(super) fn flux_config(&self) -> FluxConfig {
-        FluxConfig::new(self.motor, self.rate_hz, self.start.handback_rpm)
-    }
-
-    /// The PLL's settings (unvalidated).
-    pub(super) fn pll_config(&self) -> PllConfig {
-        PllConfig {
-            rate_hz: self.rate_hz / self.steps_per_tick(),
-            bandwidth_hz: PLL_BANDWIDTH_HZ,
-            damping: PLL_DAMPING,
-        }
     }
 
     /// The dead-time compensation's settings (unvalidated).

@@ -41,6 +41,7 @@ mod align;
 mod applied;
 mod catch;
 mod config;
+mod config_observers;
 mod config_rate;
 mod derating;
 pub mod identify;
