@@ -58,6 +58,8 @@ pub(super) struct OpenLoop {
     pulled_out: u32,
     /// Consecutive checks with the rotor following the ramp.
     following: u32,
+    /// The user's command at the last check \[rpm] (`None` before the first).
+    last_cmd_rpm: Option<f32>,
 }
 
 impl OpenLoop {
@@ -70,6 +72,7 @@ impl OpenLoop {
         checks: 0,
         pulled_out: 0,
         following: 0,
+        last_cmd_rpm: None,
     };
 
     /// sin/cos of θ_ol.
@@ -136,7 +139,17 @@ impl Settings {
     ) -> Next {
         let cmd_rpm = self.ramp.command(cmd_rpm);
         let omega_m = ol.speed_rpm * RAD_S_PER_RPM;
-        ol.checks = ol.checks.saturating_add(1);
+        // The time limit waits while a command below the hand-over speed is still rising: a
+        // slow ramp to a low speed is followed as long as it lasts (the observers see the
+        // rotor follow only once it turns fast enough, and the command ends its rise at the
+        // latest at the hand-over speed); every other check counts.
+        let rising_low = ol
+            .last_cmd_rpm
+            .is_some_and(|last| cmd_rpm.abs() > last.abs() && cmd_rpm.abs() < self.handover_rpm);
+        ol.last_cmd_rpm = Some(cmd_rpm);
+        if !rising_low {
+            ol.checks = ol.checks.saturating_add(1);
+        }
         if verdict == Verdict::Contradiction {
             return Next::Fault(Fault::ObserverLoss);
         }
