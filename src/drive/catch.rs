@@ -120,6 +120,7 @@ impl Settings {
                 omega_m: d.omega_m,
                 i_dq: Dq::new(0.0, i_q),
                 load_nm: d.load_nm,
+                ref_omega_m: d.omega_m,
             };
             return Next::Sensorless(entry, Reason::Caught);
         }

@@ -7,7 +7,7 @@ use super::identify::IdentifyConfig;
 use super::open_loop;
 use super::ramp::Ramp;
 use super::supervision;
-use super::{adaptation, align, catch, sensorless, Drive};
+use super::{adaptation, align, catch, catch_zero, sensorless, Drive};
 use crate::bounds::{ks_max_e2, ks_max_t};
 use crate::dead_time::DeadTimeConfig;
 use crate::foc::FocConfig;
@@ -142,6 +142,13 @@ pub struct PowerStageConfig {
     /// every duty within `[1 − duty_max, duty_max]`
     /// ([`DeadTimeConfig::v_max_per_bus`](crate::dead_time::DeadTimeConfig::v_max_per_bus)).
     pub duty_max: f32,
+    /// The board senses the terminal voltage while the PWM is off (phase-voltage dividers):
+    /// an enable passing [`DriveInput::v_ab_terminal`](super::DriveInput) watches a
+    /// coasting rotor with the PWM off (`catch.rs`); one without it aligns. `false`: the
+    /// board has no such sensing (the B-G431B-ESC1's firmware passes none), and an enable
+    /// first regulates the currents to zero to see whether the rotor turns, and catches it
+    /// so (`catch_zero.rs`). Default true.
+    pub terminal_sensing: bool,
 }
 
 /// Everything the drive is built from. [`DriveConfig::new`] derives it from a motor.
@@ -228,6 +235,7 @@ impl DriveConfig {
                 dead_time_s: 500e-9,
                 dead_time_band_a: 0.05 * i_rated,
                 duty_max: 1.0,
+                terminal_sensing: true,
             },
             ratings: motor.ratings,
             // The drive's own sensing range; a board sets its own.
@@ -512,6 +520,8 @@ impl DriveConfig {
                 half_n_ts: 0.5 * m.n() * ts,
                 timeout_checks: 5 * slot_cycles(h.lock_time_s).max(1),
             },
+            catch_zero: catch_zero::Settings::new(self, &m),
+            terminal_sensing: self.power_stage.terminal_sensing,
             #[cfg(feature = "identify")]
             identify: identify::Settings::new(
                 &self.ratings,
@@ -539,6 +549,7 @@ impl DriveConfig {
                 )
                 .max(1),
                 pullout_checks: slot_cycles(h.lock_time_s).max(1),
+                reverse_checks: slot_cycles(h.failover_time_s).max(1),
                 handback_rpm: s.handback_rpm,
                 ramp,
             },
@@ -560,6 +571,7 @@ impl DriveConfig {
                 stall: sensorless::Stall {
                     checks: slot_cycles(h.stall_time_s).max(1),
                     i_limit_a: 0.99 * l.i_max_a,
+                    gain_rpm: s.handback_rpm,
                 },
             },
             supervision: supervision::Settings {

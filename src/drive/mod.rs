@@ -39,6 +39,7 @@ mod adaptation;
 mod align;
 mod applied;
 mod catch;
+mod catch_zero;
 mod config;
 pub mod identify;
 mod io;
@@ -66,6 +67,7 @@ use crate::frames::{AlphaBeta, Dq};
 use crate::observer::{Observer, ReadOut, Rotor};
 use align::Align;
 use catch::{Catch, Seen};
+use catch_zero::{CatchZero, Probe};
 use core::hint::cold_path;
 use mode::Next;
 use observers::AngleSample;
@@ -84,6 +86,10 @@ pub struct Drive<P, M> {
     /// The motor model's adaptation (R, ψ_f).
     adaptation: adaptation::Settings,
     catch: catch::Settings,
+    /// The catch without terminal sensing, and the alignment's watch of the back-EMF.
+    catch_zero: catch_zero::Settings,
+    /// The board senses the terminal voltage (`PowerStageConfig::terminal_sensing`).
+    terminal_sensing: bool,
     align: align::Settings,
     open_loop: open_loop::Settings,
     sensorless: sensorless::Settings,
@@ -142,9 +148,12 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                     // The idle samples' offsets are no amplifier's: refuse the start.
                     reason = Some(enter_fault(st, Fault::AdcOffset));
                 } else {
-                    // With the terminal voltage sensed, first see whether the rotor turns.
+                    // With the terminal voltage sensed, first see whether the rotor turns; on a
+                    // board without it, with the currents regulated to zero.
                     let mode = if input.v_ab_terminal.is_some() {
                         ModeState::Catch(Catch::default())
+                    } else if !self.terminal_sensing {
+                        ModeState::CatchZero(CatchZero::default())
                     } else {
                         ModeState::Align(Align::default())
                     };
@@ -155,6 +164,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             }
             ModeState::Idle => {}
             ModeState::Catch(_)
+            | ModeState::CatchZero(_)
             | ModeState::Align(_)
             | ModeState::OpenLoop(_)
             | ModeState::Sensorless(_)
@@ -182,6 +192,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 duties
             }
             ModeState::Catch(_)
+            | ModeState::CatchZero(_)
             | ModeState::Align(_)
             | ModeState::OpenLoop(_)
             | ModeState::Sensorless(_) => {
@@ -203,7 +214,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                         _ => st.last.v_ab(),
                     };
                     let ok = self.observe(st, i_ab, v_ab);
-                    let (duties, r) = self.control(st, input.v_bus, i_ab, input.v_ab_terminal, ok);
+                    let (duties, r) = self.control(st, input, i_ab, cmd.speed_rpm, ok);
                     if r.is_some() {
                         reason = r;
                     }
@@ -249,7 +260,10 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             // Without the feature `identify` the mode is never entered.
             #[cfg(not(feature = "identify"))]
             ModeState::Identify => return None,
-            ModeState::Catch(_) | ModeState::OpenLoop(_) | ModeState::Sensorless(_) => {}
+            ModeState::Catch(_)
+            | ModeState::CatchZero(_)
+            | ModeState::OpenLoop(_)
+            | ModeState::Sensorless(_) => {}
         }
         st.last.close_millisecond();
         let obs = &mut st.obs;
@@ -269,6 +283,12 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 self.supervise(obs, i_ab, 0.0);
                 let driving = obs.health.usable().then(|| self.driving_now(obs));
                 self.catch.tick(c, &self.foc, driving)
+            }
+            ModeState::CatchZero(c) if !c.seeded() => Next::Stay,
+            ModeState::CatchZero(c) => {
+                self.supervise(obs, i_ab, 0.0);
+                let driving = obs.health.usable().then(|| self.driving_now(obs));
+                self.catch_zero.tick(c, &self.foc, driving)
             }
             ModeState::OpenLoop(ol) => {
                 let (verdict, _) = self.supervise(obs, i_ab, 0.0);
@@ -342,6 +362,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             omega_m: rotor.omega_m,
             i_dq: Dq::new(0.0, i_q),
             load_nm: d.load_nm,
+            ref_omega_m: rotor.omega_m,
         };
         st.mode = ModeState::Sensorless(self.sensorless.enter(&self.foc, entry));
         st
@@ -367,11 +388,12 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     fn control(
         &self,
         st: &mut StateOf<P, M>,
-        v_bus: f32,
+        input: &DriveInput,
         i_ab: AlphaBeta,
-        v_terminal: Option<AlphaBeta>,
+        cmd_rpm: f32,
         observers_ok: bool,
     ) -> (Option<crate::svpwm::Duties>, Option<Reason>) {
+        let (v_bus, v_terminal) = (input.v_bus, input.v_ab_terminal);
         let outcome = match &mut st.mode {
             ModeState::Catch(c) => {
                 // PWM off; the observers ran on the terminal voltage (their update refuses a
@@ -394,9 +416,31 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                     (None, Some(enter_fault(st, Fault::InvalidInput)))
                 };
             }
+            ModeState::CatchZero(_) if !observers_ok => Outcome::Fault(Fault::ObserverLoss),
+            ModeState::CatchZero(c) => {
+                cold_path();
+                match self.catch_zero.probe(c, i_ab, st.last.v_ab()) {
+                    Probe::Run(request) => Outcome::Run(request),
+                    Probe::AtRest => {
+                        st.mode = ModeState::Align(Align::default());
+                        return (None, Some(Reason::AtRest));
+                    }
+                    Probe::Rotor(rotor, request) => {
+                        let driven = c.is_driven();
+                        self.caught_probe(st, i_ab, rotor, cmd_rpm, driven, request)
+                    }
+                }
+            }
             ModeState::Align(a) => {
+                // A rotor the current does not hold: caught, then closed loop.
+                self.catch_zero.watch(&mut a.watch, i_ab, st.last.v_ab());
+                let turning = a.watch.turn().abs() >= catch_zero::TURN_ALIGN;
                 let (request, done) = self.align.step(a, i_ab, st.last.v_ab());
-                if done {
+                if turning {
+                    cold_path();
+                    let c = CatchZero::driven(a.watch);
+                    Outcome::Switch(request, ModeState::CatchZero(c), Reason::Turning)
+                } else if done {
                     cold_path();
                     // The resistance of this start (kept unless implausible).
                     let r_ohm = self.align.resistance(a);

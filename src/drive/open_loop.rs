@@ -11,8 +11,15 @@
 //! and the speed loop has up to `i_max_a`); a stall when no hand-over came within the time
 //! limit, at any speed (a blocked rotor at a small command); stopped when the ramp is at zero
 //! with a zero command.
+//!
+//! Never handed over in reverse: a usable observer that sees the rotor turn against the
+//! ramp's direction above the hand-back speed (an active load beyond the I/f current drags
+//! it backwards) for `reverse_checks` takes over in closed loop at once
+//! (`Reason::AgainstCommand`), its speed reference starting at zero so that the speed loop
+//! brakes the rotor with up to `i_max_a` before it follows the command; any hand-over of a
+//! rotor turning against the command starts the reference at zero too (`Entry::reference`).
 
-use super::mode::{Driving, Entry, Next};
+use super::mode::{against, Driving, Entry, Next};
 use super::ramp::Ramp;
 use super::supervision::{consecutive, Verdict};
 use super::{Fault, Reason};
@@ -34,6 +41,9 @@ pub(super) struct Settings {
     pub(super) timeout_checks: u32,
     /// Checks of a rotor pulled out of the ramp, or following it, before the hand-over.
     pub(super) pullout_checks: u32,
+    /// Checks of a rotor turning against the ramp before the closed loop takes it: the
+    /// supervision's failover time (a change the health check trusts that fast).
+    pub(super) reverse_checks: u32,
     /// Above this |ω_ol| a rotor off the ramp has pulled out (below it a rotor still
     /// accelerating from rest lags the ramp too) \[rpm]: the hand-back speed.
     pub(super) handback_rpm: f32,
@@ -58,6 +68,8 @@ pub(super) struct OpenLoop {
     pulled_out: u32,
     /// Consecutive checks with the rotor following the ramp.
     following: u32,
+    /// Consecutive checks with the rotor turning against the ramp.
+    reversed: u32,
 }
 
 impl OpenLoop {
@@ -70,6 +82,7 @@ impl OpenLoop {
         checks: 0,
         pulled_out: 0,
         following: 0,
+        reversed: 0,
     };
 
     /// sin/cos of θ_ol.
@@ -152,8 +165,21 @@ impl Settings {
             let reached = ol.speed_rpm.abs() >= self.handover_rpm.min(cmd_rpm.abs());
             ol.following = consecutive(ol.following, !off && ol.speed_rpm != 0.0);
             let seen_following = ol.following >= self.pullout_checks;
+            // Turning against the ramp (or the command, at the ramp's start) above the
+            // hand-back speed: the closed loop takes it now, braking it first.
+            let direction = if ol.speed_rpm != 0.0 {
+                ol.speed_rpm
+            } else {
+                cmd_rpm
+            };
+            let backwards = against(d.omega_m, direction)
+                && d.omega_m.abs() * RPM_PER_RAD_S >= self.handback_rpm;
+            ol.reversed = consecutive(ol.reversed, backwards);
+            if ol.reversed >= self.reverse_checks {
+                return Next::Sensorless(self.handover(ol, d, cmd_rpm), Reason::AgainstCommand);
+            }
             if (reached && seen_following) || ol.pulled_out >= self.pullout_checks {
-                return Next::Sensorless(self.handover(ol, d), Reason::HandOver);
+                return Next::Sensorless(self.handover(ol, d, cmd_rpm), Reason::HandOver);
             }
         }
         // No hand-over within the time limit, at any speed.
@@ -173,10 +199,10 @@ impl Settings {
 
     /// The hand-over: the open-loop current in the driving observer's frame `d` (its q part
     /// the speed loop's start, its d part fading, `sensorless::Settings::enter`), the
-    /// reference from its speed.
+    /// reference from its speed (zero if it turns against the command `cmd_rpm`).
     // Out of line, like the other mode changes: rare, kept off the every-step path.
     #[inline(never)]
-    fn handover(&self, ol: &OpenLoop, d: Driving) -> Entry {
+    fn handover(&self, ol: &OpenLoop, d: Driving, cmd_rpm: f32) -> Entry {
         core::hint::cold_path();
         let p = d.frame;
         // cos and sin(θ_ol − θ̂) of this sample.
@@ -187,6 +213,7 @@ impl Settings {
             omega_m: d.omega_m,
             i_dq: Dq::new(i * cos_load_angle, i * sin_load_angle),
             load_nm: d.load_nm,
+            ref_omega_m: Entry::reference(d.omega_m, cmd_rpm),
         }
     }
 }

@@ -5,6 +5,7 @@
 use super::align::Align;
 use super::applied::LastPeriod;
 use super::catch::Catch;
+use super::catch_zero::CatchZero;
 use super::identify::offset::Offsets;
 #[cfg(feature = "identify")]
 use super::identify::Identify;
@@ -105,7 +106,7 @@ impl<PS, MS> DriveState<PS, MS> {
     pub fn mode(&self) -> Mode {
         match self.mode {
             ModeState::Idle => Mode::Idle,
-            ModeState::Catch(_) => Mode::Catch,
+            ModeState::Catch(_) | ModeState::CatchZero(_) => Mode::Catch,
             ModeState::Align(_) => Mode::Align,
             ModeState::OpenLoop(_) => Mode::OpenLoop,
             ModeState::Sensorless(_) => Mode::Sensorless,
@@ -125,6 +126,7 @@ impl<PS, MS> DriveState<PS, MS> {
             ModeState::Identified => None,
             ModeState::Idle
             | ModeState::Catch(_)
+            | ModeState::CatchZero(_)
             | ModeState::Align(_)
             | ModeState::OpenLoop(_)
             | ModeState::Sensorless(_)
@@ -143,6 +145,7 @@ impl<PS, MS> DriveState<PS, MS> {
             ModeState::Identify => None,
             ModeState::Idle
             | ModeState::Catch(_)
+            | ModeState::CatchZero(_)
             | ModeState::Align(_)
             | ModeState::OpenLoop(_)
             | ModeState::Sensorless(_)
@@ -166,6 +169,7 @@ impl<PS, MS> DriveState<PS, MS> {
             ModeState::Fault(f) => Some(f),
             ModeState::Idle
             | ModeState::Catch(_)
+            | ModeState::CatchZero(_)
             | ModeState::Align(_)
             | ModeState::OpenLoop(_)
             | ModeState::Sensorless(_)
@@ -213,6 +217,7 @@ impl<PS, MS> DriveState<PS, MS> {
             ModeState::OpenLoop(ol) => Some(ol.frame()),
             ModeState::Idle
             | ModeState::Catch(_)
+            | ModeState::CatchZero(_)
             | ModeState::Align(_)
             | ModeState::Sensorless(_)
             | ModeState::Fault(_)
@@ -233,6 +238,9 @@ pub(super) enum ModeState {
     Idle,
     /// PWM off, the observers on the terminal voltage.
     Catch(Catch),
+    /// Without terminal sensing: the currents regulated to zero, the observers on the
+    /// commanded voltage (`catch_zero.rs`).
+    CatchZero(CatchZero),
     /// Rotor alignment.
     Align(Align),
     /// Open-loop start.
