@@ -6,7 +6,7 @@ use super::Scenario;
 use anyhow::Context;
 
 /// The built-in scenario files, in listing order.
-const BUILT_IN: [(&str, &str); 28] = [
+const BUILT_IN: [(&str, &str); 34] = [
     (
         "horng-ramp-brake",
         include_str!("../../scenarios/horng-ramp-brake.toml"),
@@ -118,6 +118,30 @@ const BUILT_IN: [(&str, &str); 28] = [
     (
         "fault-overspeed",
         include_str!("../../scenarios/fault-overspeed.toml"),
+    ),
+    (
+        "catch-no-terminal-50",
+        include_str!("../../scenarios/catch-no-terminal-50.toml"),
+    ),
+    (
+        "catch-no-terminal-neg50",
+        include_str!("../../scenarios/catch-no-terminal-neg50.toml"),
+    ),
+    (
+        "catch-no-terminal-100",
+        include_str!("../../scenarios/catch-no-terminal-100.toml"),
+    ),
+    (
+        "catch-no-terminal-neg100",
+        include_str!("../../scenarios/catch-no-terminal-neg100.toml"),
+    ),
+    (
+        "start-active-80",
+        include_str!("../../scenarios/start-active-80.toml"),
+    ),
+    (
+        "start-active-120",
+        include_str!("../../scenarios/start-active-120.toml"),
     ),
 ];
 
