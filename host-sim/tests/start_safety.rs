@@ -15,7 +15,10 @@
 //! - a start lifting an active load of 0.8 and 1.2 of rated torque, there before the enable
 //!   (`host-sim/scenarios/start-active-{80,120}.toml`): never handed over in reverse (no
 //!   open-loop hand-over while the rotor turns against the command beyond the hand-back
-//!   speed), the load lifted to the command; the reverse excursion is printed.
+//!   speed), the load lifted to the command; the reverse excursion is printed;
+//! - an enable storm and a fault cleared and re-enabled (`enable-storm.toml`,
+//!   `fault-clear-recatch.toml`, the scenario files' `enable` and `clear_fault` events):
+//!   every re-enable catches the coasting rotor.
 
 mod board;
 
@@ -119,6 +122,44 @@ fn an_active_load_at_the_enable_is_never_handed_over_in_reverse() {
                         );
                     }
                 }
+            }
+        }
+    }
+}
+
+/// An enable storm (`enable-storm`: the enable off for 100, 5, 20 and 50 ms at half rated
+/// speed) and a fault cleared and re-enabled (`fault-clear-recatch`: a bus sag's
+/// `bus_undervoltage`, the `clear_fault` event, the enable low then high) on a board without
+/// terminal sensing: each re-enable catches the coasting rotor (no alignment after the first
+/// start), never turning it backwards, and the command is held again.
+#[test]
+fn re_enables_catch_the_coasting_rotor() {
+    for (scenario, catches) in [("enable-storm", 4), ("fault-clear-recatch", 1)] {
+        for motor in MOTORS {
+            for observer in PRIMARIES {
+                let r = board_run(scenario, motor, observer);
+                let label = format!("{scenario} {motor} {}", observer.name());
+                let s = Summary::of(&r);
+                let slowest = r
+                    .rows
+                    .iter()
+                    .filter(|row| row.t >= 1.0)
+                    .map(|row| row.speed_rpm)
+                    .fold(f64::INFINITY, f64::min);
+                let caught = r
+                    .transitions
+                    .iter()
+                    .filter(|(_, tr)| tr.reason == Reason::Caught)
+                    .count();
+                println!("{label}: {caught} catches, slowest {slowest:.1} rpm after 1 s");
+                assert!(s.pass, "{label}: {:?}", s.reasons);
+                assert_eq!(caught, catches, "{label}: {:?}", r.transitions);
+                assert!(slowest > 0.0, "{label}: {slowest} rpm");
+                let realigned = r
+                    .transitions
+                    .iter()
+                    .any(|(t, tr)| *t >= 1.0 && tr.to == Mode::Align);
+                assert!(!realigned, "{label}: {:?}", r.transitions);
             }
         }
     }

@@ -6,7 +6,7 @@ use super::Scenario;
 use anyhow::Context;
 
 /// The built-in scenario files, in listing order.
-const BUILT_IN: [(&str, &str); 34] = [
+const BUILT_IN: [(&str, &str); 36] = [
     (
         "horng-ramp-brake",
         include_str!("../../scenarios/horng-ramp-brake.toml"),
@@ -142,6 +142,14 @@ const BUILT_IN: [(&str, &str); 34] = [
     (
         "start-active-120",
         include_str!("../../scenarios/start-active-120.toml"),
+    ),
+    (
+        "fault-clear-recatch",
+        include_str!("../../scenarios/fault-clear-recatch.toml"),
+    ),
+    (
+        "enable-storm",
+        include_str!("../../scenarios/enable-storm.toml"),
     ),
 ];
 
