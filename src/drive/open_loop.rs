@@ -175,11 +175,20 @@ impl Settings {
             let backwards = against(d.omega_m, direction)
                 && d.omega_m.abs() * RPM_PER_RAD_S >= self.handback_rpm;
             ol.reversed = consecutive(ol.reversed, backwards);
-            if ol.reversed >= self.reverse_checks {
-                return Next::Sensorless(self.handover(ol, d, cmd_rpm), Reason::AgainstCommand);
-            }
-            if (reached && seen_following) || ol.pulled_out >= self.pullout_checks {
-                return Next::Sensorless(self.handover(ol, d, cmd_rpm), Reason::HandOver);
+            let reason = if ol.reversed >= self.reverse_checks {
+                Some(Reason::AgainstCommand)
+            } else if (reached && seen_following) || ol.pulled_out >= self.pullout_checks {
+                Some(Reason::HandOver)
+            } else {
+                None
+            };
+            if let Some(reason) = reason {
+                // Never carried on in reverse: against the command, the reference from zero.
+                let entry = Entry {
+                    ref_omega_m: Entry::reference(d.omega_m, cmd_rpm),
+                    ..self.handover(ol, d)
+                };
+                return Next::Sensorless(entry, reason);
             }
         }
         // No hand-over within the time limit, at any speed.
@@ -199,10 +208,10 @@ impl Settings {
 
     /// The hand-over: the open-loop current in the driving observer's frame `d` (its q part
     /// the speed loop's start, its d part fading, `sensorless::Settings::enter`), the
-    /// reference from its speed (zero if it turns against the command `cmd_rpm`).
+    /// reference from its speed.
     // Out of line, like the other mode changes: rare, kept off the every-step path.
     #[inline(never)]
-    fn handover(&self, ol: &OpenLoop, d: Driving, cmd_rpm: f32) -> Entry {
+    fn handover(&self, ol: &OpenLoop, d: Driving) -> Entry {
         core::hint::cold_path();
         let p = d.frame;
         // cos and sin(θ_ol − θ̂) of this sample.
@@ -213,7 +222,7 @@ impl Settings {
             omega_m: d.omega_m,
             i_dq: Dq::new(i * cos_load_angle, i * sin_load_angle),
             load_nm: d.load_nm,
-            ref_omega_m: Entry::reference(d.omega_m, cmd_rpm),
+            ref_omega_m: d.omega_m,
         }
     }
 }
