@@ -48,16 +48,13 @@
 //! rotor is at rest for practical purposes and the alignment's current holds it: 3.3 V on the
 //! Sinano motor (13.6 % of its rated speed), 4.0 V on Ortega's test motor (8.7 %).
 
-use super::mode::{against, Driving, Entry, Next};
-use super::state::ModeState;
-use super::supervision::{Health, Seed};
-use super::{Drive, DriveConfig, Fault, Outcome, Reason, StateOf};
+use super::mode::{Driving, Entry, Next};
+use super::{Fault, Reason};
 use crate::foc::{Foc, Reference, Request};
 use crate::frames::{AlphaBeta, Dq, SinCos};
 use crate::math::{atan2, rsqrt_normal};
 use crate::motor::MotorParams;
-use crate::observer::{Observer, Rotor};
-use crate::schedule::SLOTS;
+use crate::observer::Rotor;
 use crate::units::RAD_S_PER_RPM;
 use core::f32::consts::FRAC_PI_2;
 
@@ -101,6 +98,23 @@ const NOISE_SIGMAS: f32 = 4.0;
 
 /// √(4/3): the noise of a back-EMF estimate per axis per unit of `(L/T) σ_i` (`Settings::new`).
 const SQRT_4_3: f32 = 1.154_700_5;
+
+/// What [`Settings::new`] takes of the drive's configuration.
+pub(super) struct From {
+    /// The step rate \[Hz].
+    pub(super) rate_hz: f32,
+    /// The rated torque \[N·m] and bus \[V].
+    pub(super) rated_torque_nm: f32,
+    pub(super) bus_v: f32,
+    /// The hand-back speed \[rpm].
+    pub(super) handback_rpm: f32,
+    /// The power stage's dead time \[s], PWM frequency \[Hz] and dead-time band \[A].
+    pub(super) dead_time_s: f32,
+    pub(super) pwm_hz: f32,
+    pub(super) dead_time_band_a: f32,
+    /// Checks for an observer to lock before an observer loss.
+    pub(super) timeout_checks: u32,
+}
 
 /// The catch's coefficients.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -210,34 +224,34 @@ fn turned(v: AlphaBeta, s: f32, c: f32) -> AlphaBeta {
 }
 
 impl Settings {
-    /// The settings for `cfg` with the drive's motor model `m`: the measurable back-EMF
+    /// The settings for the drive's motor model `m` and `c` (from `DriveConfig`): the
+    /// measurable back-EMF
     /// `v_min = max(N ψ_f ω_handback, NOISE_SIGMAS √(4/3) (L/T) σ_i, 2 t_d f_pwm V_bus)`
     /// (`σ_i` = [`SENSE_NOISE`] of the rated-torque current, `V_bus` the rated bus; module
     /// doc); the probe's length, the time a rotor at `v_min` takes to turn by `TURN_MIN`,
     /// `TURN_MIN ψ_f/(v_min T)` steps, plus [`REST_STEPS`].
-    pub(super) fn new(cfg: &DriveConfig, m: &MotorParams) -> Self {
-        let rate = cfg.rate_hz;
+    pub(super) fn new(m: &MotorParams, c: &From) -> Self {
+        let rate = c.rate_hz;
         let kt = m.torque_constant();
-        let i_rated = cfg.ratings.torque_nm / kt;
+        let i_rated = c.rated_torque_nm / kt;
         let l_over_t = m.l_h * rate;
-        let ps = &cfg.power_stage;
-        let v_handback = kt * cfg.start.handback_rpm * RAD_S_PER_RPM;
+        let v_handback = kt * c.handback_rpm * RAD_S_PER_RPM;
         // Per axis: the difference of two samples (√2) of the phase currents' noise in α or β
         // (√(2/3) of a phase's, amplitude-invariant Clarke), times L/T.
         let sigma_e = SQRT_4_3 * l_over_t * SENSE_NOISE * i_rated;
         let v_noise = NOISE_SIGMAS * sigma_e;
-        let v_dead = 2.0 * ps.dead_time_s * ps.pwm_hz * cfg.ratings.bus_v;
+        let v_dead = 2.0 * c.dead_time_s * c.pwm_hz * c.bus_v;
         let v_min = v_handback.max(v_noise).max(v_dead);
         let probe_steps = TURN_MIN * m.flux_wb * rate / v_min;
         Settings {
             v_min,
             r_ohm: m.r_ohm,
             l_over_t,
-            i_hold_a: 2.0 * ps.dead_time_band_a,
+            i_hold_a: 2.0 * c.dead_time_band_a,
             omega_m_per_v: 1.0 / kt,
             half_n_ts: 0.5 * m.n() / rate,
             max_steps: (probe_steps as u32).saturating_add(REST_STEPS),
-            timeout_checks: 5 * ((cfg.health.lock_time_s * rate / SLOTS as f32) as u32).max(1),
+            timeout_checks: c.timeout_checks,
         }
     }
 
@@ -374,47 +388,5 @@ impl Settings {
             return Next::Fault(Fault::ObserverLoss);
         }
         Next::Stay
-    }
-}
-
-impl<P: Observer, M: Observer> Drive<P, M> {
-    /// The probe saw the rotor `rotor` (`i_ab` the currents now \[A], `request` this step's
-    /// voltage): a rotor turning with the command waits at zero current for an observer to
-    /// lock on its own evidence; one turning against the command `cmd_rpm` \[rpm], or
-    /// `driven` by a load (seen turning in the alignment), is taken over in closed loop now,
-    /// the observers trusted at the probe's estimate (as at the aligned rotor) and the speed
-    /// reference from zero (`Entry::reference`): a load is fought within the current limit,
-    /// not left to drag the rotor while the observers lock.
-    // Out of line, like the other mode changes: once per start.
-    #[inline(never)]
-    pub(super) fn caught_probe(
-        &self,
-        st: &mut StateOf<P, M>,
-        i_ab: AlphaBeta,
-        rotor: Rotor,
-        cmd_rpm: f32,
-        driven: bool,
-        request: Request,
-    ) -> Outcome {
-        let backwards = against(rotor.omega_m, cmd_rpm);
-        if !(driven || backwards) {
-            self.seed_caught(&mut st.obs, i_ab, rotor);
-            return Outcome::Run(request);
-        }
-        self.seed_observers(&mut st.obs, Seed::BOTH, i_ab, rotor);
-        st.obs.health = Health::AT_KNOWN_STATE;
-        let entry = Entry {
-            omega_m: rotor.omega_m,
-            i_dq: Dq::default(),
-            load_nm: None,
-            ref_omega_m: Entry::reference(rotor.omega_m, cmd_rpm),
-        };
-        let mode = ModeState::Sensorless(self.sensorless.enter(&self.foc, entry));
-        let reason = if backwards {
-            Reason::AgainstCommand
-        } else {
-            Reason::Caught
-        };
-        Outcome::Switch(request, mode, reason)
     }
 }

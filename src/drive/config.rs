@@ -520,7 +520,19 @@ impl DriveConfig {
                 half_n_ts: 0.5 * m.n() * ts,
                 timeout_checks: 5 * slot_cycles(h.lock_time_s).max(1),
             },
-            catch_zero: catch_zero::Settings::new(self, &m),
+            catch_zero: catch_zero::Settings::new(
+                &m,
+                &catch_zero::From {
+                    rate_hz: rate,
+                    rated_torque_nm: self.ratings.torque_nm,
+                    bus_v: self.ratings.bus_v,
+                    handback_rpm: s.handback_rpm,
+                    dead_time_s: self.power_stage.dead_time_s,
+                    pwm_hz: self.power_stage.pwm_hz,
+                    dead_time_band_a: self.power_stage.dead_time_band_a,
+                    timeout_checks: 5 * slot_cycles(h.lock_time_s).max(1),
+                },
+            ),
             terminal_sensing: self.power_stage.terminal_sensing,
             #[cfg(feature = "identify")]
             identify: identify::Settings::new(

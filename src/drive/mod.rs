@@ -69,7 +69,7 @@ use align::Align;
 use catch::{Catch, Seen};
 use catch_zero::{CatchZero, Probe};
 use core::hint::cold_path;
-use mode::Next;
+use mode::{against, Entry, Next};
 use observers::AngleSample;
 use open_loop::OpenLoop;
 use state::ModeState;
@@ -482,6 +482,48 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         let out = self.foc.run(&mut st.current, &request, i_ab, v_bus);
         st.last.record(&out, v_bus);
         (Some(out.duties), reason)
+    }
+}
+
+impl<P: Observer, M: Observer> Drive<P, M> {
+    /// The probe saw the rotor `rotor` (`i_ab` the currents now \[A], `request` this step's
+    /// voltage): a rotor turning with the command waits at zero current for an observer to
+    /// lock on its own evidence; one turning against the command `cmd_rpm` \[rpm], or
+    /// `driven` by a load (seen turning in the alignment), is taken over in closed loop now,
+    /// the observers trusted at the probe's estimate (as at the aligned rotor) and the speed
+    /// reference from zero (`Entry::reference`): a load is fought within the current limit,
+    /// not left to drag the rotor while the observers lock.
+    // Out of line, like the other mode changes: once per start.
+    #[inline(never)]
+    fn caught_probe(
+        &self,
+        st: &mut StateOf<P, M>,
+        i_ab: AlphaBeta,
+        rotor: Rotor,
+        cmd_rpm: f32,
+        driven: bool,
+        request: Request,
+    ) -> Outcome {
+        let backwards = against(rotor.omega_m, cmd_rpm);
+        if !(driven || backwards) {
+            self.seed_caught(&mut st.obs, i_ab, rotor);
+            return Outcome::Run(request);
+        }
+        self.seed_observers(&mut st.obs, Seed::BOTH, i_ab, rotor);
+        st.obs.health = Health::AT_KNOWN_STATE;
+        let entry = Entry {
+            omega_m: rotor.omega_m,
+            i_dq: Dq::default(),
+            load_nm: None,
+            ref_omega_m: Entry::reference(rotor.omega_m, cmd_rpm),
+        };
+        let mode = ModeState::Sensorless(self.sensorless.enter(&self.foc, entry));
+        let reason = if backwards {
+            Reason::AgainstCommand
+        } else {
+            Reason::Caught
+        };
+        Outcome::Switch(request, mode, reason)
     }
 }
 
