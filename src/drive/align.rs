@@ -18,12 +18,11 @@
 //!
 //! A rotor the current does not hold (an active load beyond the alignment's torque drags it)
 //! shows a back-EMF that turns on in one direction: the drive watches it every step
-//! (`catch_zero::Watch`) and, after a full electrical turn while measurable
+//! (`catch_zero::Watch`, `DriveState::watch`) and, after a full electrical turn while measurable
 //! (`catch_zero::TURN_ALIGN`), catches the rotor with the currents regulated to zero and takes
 //! it over in closed loop (`Reason::Turning`), instead of starting an open loop the rotor does
 //! not follow.
 
-use super::catch_zero::Watch;
 use crate::foc::{Reference, Request};
 use crate::frames::{AlphaBeta, Dq, SinCos};
 
@@ -56,8 +55,6 @@ pub(super) struct Align {
     sum_i: [f32; 2],
     /// Sum of the squared q voltage over both windows \[V²].
     sum_vq2: f32,
-    /// The back-EMF watched: a rotor the current does not hold turns on (`catch_zero.rs`).
-    pub(super) watch: Watch,
 }
 
 impl Settings {

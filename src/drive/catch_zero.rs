@@ -58,13 +58,14 @@ use crate::observer::Rotor;
 use crate::units::RAD_S_PER_RPM;
 use core::f32::consts::FRAC_PI_2;
 
-/// The turn of the back-EMF that ends the probe [rad, electrical]: far above the noise of its
-/// angle at the measurable back-EMF (about a third of a radian at `v_min`, two samples), and a
-/// direction no swing of a rotor at rest shows continuously.
+/// The turn of the back-EMF that ends the probe [rad, electrical]: four times the noise of
+/// its angle at the measurable back-EMF (a quarter of a radian at `v_min`, its endpoints'
+/// noise: the turn is summed), and at least two steps of [`TURN_STEP_MAX`], so that noise
+/// alone reaches it only through three measurable samples in a row.
 pub(super) const TURN_MIN: f32 = 1.0;
 
-/// The weight of a step's `|e|` in the probe's running mean: its noise to half, its lag
-/// behind an accelerating rotor about four steps.
+/// The weight of a step's `|e|` and turn in the probe's running means: their noise to
+/// about 0.4 (`√(w/(2 − w))`), their lag behind an accelerating rotor about four steps.
 const EMF_WEIGHT: f32 = 0.25;
 
 /// Probe steps after which a back-EMF never measurable is a rotor at rest: the first
@@ -173,8 +174,6 @@ impl Watch {
 pub(super) struct CatchZero {
     /// Probe steps taken.
     steps: u32,
-    /// The back-EMF watched.
-    watch: Watch,
     /// Entered from a rotor seen turning under a load (the alignment's watch): closed loop
     /// as soon as the probe has seen it, the observers trusted at its estimate.
     driven: bool,
@@ -201,11 +200,10 @@ impl CatchZero {
         self.seeded
     }
 
-    /// A probe entered from the alignment, whose watch `watch` saw the rotor turning (driven
-    /// by a load): it goes on from there.
-    pub(super) fn driven(watch: Watch) -> Self {
+    /// A probe entered from the alignment, whose watch saw the rotor turning (driven by a
+    /// load): it goes on from there (the watch is the drive's, `DriveState::watch`).
+    pub(super) fn driven() -> Self {
         Self {
-            watch,
             driven: true,
             ..Self::default()
         }
@@ -258,7 +256,8 @@ impl Settings {
     /// One step of the watch: `i_ab` measured now \[A], `v_ab` applied over the period that
     /// just ended \[V]; returns this period's back-EMF estimate \[V] (zero before a period
     /// with a known voltage), its turn summed while it is measurable.
-    #[inline(always)]
+    // Out of line: the start's (the alignment's and the catch's), not the running drive's.
+    #[inline(never)]
     pub(super) fn watch(&self, w: &mut Watch, i_ab: AlphaBeta, v_ab: AlphaBeta) -> AlphaBeta {
         let i_prev = w.i_prev;
         w.i_prev = i_ab;
@@ -315,10 +314,15 @@ impl Settings {
     /// ended \[V] (module doc, phase 1).
     // Out of line, like the mode changes: only between an enable and the start.
     #[inline(never)]
-    pub(super) fn probe(&self, c: &mut CatchZero, i_ab: AlphaBeta, v_ab: AlphaBeta) -> Probe {
+    pub(super) fn probe(
+        &self,
+        c: &mut CatchZero,
+        w: &mut Watch,
+        i_ab: AlphaBeta,
+        v_ab: AlphaBeta,
+    ) -> Probe {
         c.steps = c.steps.saturating_add(1);
-        let e = self.watch(&mut c.watch, i_ab, v_ab);
-        let w = &c.watch;
+        let e = self.watch(w, i_ab, v_ab);
         // The next period's back-EMF: this one turned by the mean turn per step.
         let rho = w.rho;
         let e_next = turned(e, rho, 1.0 - 0.5 * rho * rho);

@@ -86,10 +86,6 @@ pub struct Drive<P, M> {
     /// The motor model's adaptation (R, ψ_f).
     adaptation: adaptation::Settings,
     catch: catch::Settings,
-    /// The catch without terminal sensing, and the alignment's watch of the back-EMF.
-    catch_zero: catch_zero::Settings,
-    /// The board senses the terminal voltage (`PowerStageConfig::terminal_sensing`).
-    terminal_sensing: bool,
     align: align::Settings,
     open_loop: open_loop::Settings,
     sensorless: sensorless::Settings,
@@ -100,6 +96,11 @@ pub struct Drive<P, M> {
     identify: identify::Settings,
     /// An offset beyond this is implausible (`Fault::AdcOffset`) \[A].
     identify_offset_limit_a: f32,
+    /// The catch without terminal sensing, and the alignment's watch of the back-EMF (last,
+    /// like the identification's: the running drive's step reads none of it).
+    catch_zero: catch_zero::Settings,
+    /// The board senses the terminal voltage (`PowerStageConfig::terminal_sensing`).
+    terminal_sensing: bool,
 }
 
 /// What a mode's step decided.
@@ -419,10 +420,14 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             ModeState::CatchZero(_) if !observers_ok => Outcome::Fault(Fault::ObserverLoss),
             ModeState::CatchZero(c) => {
                 cold_path();
-                match self.catch_zero.probe(c, i_ab, st.last.v_ab()) {
+                match self
+                    .catch_zero
+                    .probe(c, &mut st.watch, i_ab, st.last.v_ab())
+                {
                     Probe::Run(request) => Outcome::Run(request),
                     Probe::AtRest => {
                         st.mode = ModeState::Align(Align::default());
+                        st.watch = catch_zero::Watch::default();
                         return (None, Some(Reason::AtRest));
                     }
                     Probe::Rotor(rotor, request) => {
@@ -433,12 +438,12 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             }
             ModeState::Align(a) => {
                 // A rotor the current does not hold: caught, then closed loop.
-                self.catch_zero.watch(&mut a.watch, i_ab, st.last.v_ab());
-                let turning = a.watch.turn().abs() >= catch_zero::TURN_ALIGN;
+                self.catch_zero.watch(&mut st.watch, i_ab, st.last.v_ab());
+                let turning = st.watch.turn().abs() >= catch_zero::TURN_ALIGN;
                 let (request, done) = self.align.step(a, i_ab, st.last.v_ab());
                 if turning {
                     cold_path();
-                    let c = CatchZero::driven(a.watch);
+                    let c = CatchZero::driven();
                     Outcome::Switch(request, ModeState::CatchZero(c), Reason::Turning)
                 } else if done {
                     cold_path();

@@ -5,7 +5,7 @@
 use super::align::Align;
 use super::applied::LastPeriod;
 use super::catch::Catch;
-use super::catch_zero::CatchZero;
+use super::catch_zero::{CatchZero, Watch};
 use super::identify::offset::Offsets;
 #[cfg(feature = "identify")]
 use super::identify::Identify;
@@ -51,6 +51,9 @@ pub struct DriveState<PS, MS> {
     /// Mode `Identify`'s state (`identify/`).
     #[cfg(feature = "identify")]
     pub(super) identify: Identify,
+    /// The back-EMF watched in the alignment and the catch without terminal sensing
+    /// (`catch_zero.rs`); last, so that it moves none of the fields before it.
+    pub(super) watch: Watch,
 }
 
 impl<PS: Default, MS: Default> Default for DriveState<PS, MS> {
@@ -67,6 +70,7 @@ impl<PS: Default, MS: Default> Default for DriveState<PS, MS> {
             offsets: Offsets::default(),
             #[cfg(feature = "identify")]
             identify: Identify::new(),
+            watch: Watch::default(),
         }
     }
 }
