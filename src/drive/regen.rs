@@ -61,9 +61,10 @@ pub(super) struct Settings {
     pub(super) inv_band: f32,
     /// The rated power `P_n` \[W].
     pub(super) p_rated_w: f32,
-    /// The winding's resistance \[Ω].
+    /// The copper loss per A² of the dq current, `c R` \[Ω] (`c` of the motor's torque
+    /// convention: the power of three phases through the amplitude-invariant transform).
     pub(super) r_ohm: f32,
-    /// `N ψ_f` \[V·s/rad].
+    /// The torque constant `c N ψ_f` \[N·m/A]: the mechanical power per amp per rad/s.
     pub(super) kt: f32,
     /// The current limit \[A].
     pub(super) i_max_a: f32,
@@ -74,8 +75,8 @@ pub(super) struct Settings {
 }
 
 impl Settings {
-    /// From the rated bus `v_rated`, the trip `v_max`, the rated power, the motor's R and
-    /// `N ψ_f`, and the current limit.
+    /// From the rated bus `v_rated`, the trip `v_max`, the rated power, the copper loss per
+    /// A² `c R`, the torque constant `c N ψ_f`, and the current limit.
     pub(super) fn new(
         v_rated: f32,
         v_max: f32,
