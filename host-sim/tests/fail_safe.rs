@@ -12,7 +12,7 @@
 
 mod board;
 
-use board::{board_run, MOTORS, PRIMARIES};
+use board::{board_run, FAIL_SAFE_MOTORS as MOTORS, PRIMARIES};
 use pmsm_host_sim::report::summary::Summary;
 use pmsm_host_sim::sim::Run;
 use pmsm_sensorless::drive::{Fault, Mode, Reason};

@@ -7,12 +7,11 @@
 
 mod board;
 
-use board::{board_run, MOTORS, PRIMARIES};
+use board::{board_run, FAIL_SAFE_MOTORS as MOTORS, PRIMARIES};
 use pmsm_host_sim::observer::ObserverKind;
 use pmsm_host_sim::report::summary::Summary;
 use pmsm_host_sim::sim::Run;
 use pmsm_sensorless::drive::{DriveConfig, Fault, Mode, Reason, SafeState};
-use pmsm_sensorless::motor::preset;
 
 /// When the load reverses \[s].
 const REVERSE_S: f64 = 2.0;
@@ -31,7 +30,7 @@ fn peak_speed(r: &Run, t0: f64) -> (f64, f64) {
 /// the whole current limit on the d axis, `0.95 V/(√3 N (ψ_f − L i_max))`, `ψ_f − L i_max`
 /// at least `ψ_f/2` \[rpm].
 fn overspeed_bound_rpm(motor: &str) -> f64 {
-    let m = preset(motor).unwrap();
+    let m = board::motor(motor);
     let p = m.params;
     let i_max = f64::from(DriveConfig::new(&m).limits.i_max_a);
     let (psi, l) = (f64::from(p.flux_wb), f64::from(p.l_h));
@@ -40,7 +39,7 @@ fn overspeed_bound_rpm(motor: &str) -> f64 {
 
 /// The safe state the drive on `motor` chooses for `fault`.
 fn safe_state(motor: &str, fault: Fault) -> SafeState {
-    let m = preset(motor).unwrap();
+    let m = board::motor(motor);
     let drive = DriveConfig::new(&m).build_flux_primary().unwrap();
     drive.safe_state_for(fault)
 }

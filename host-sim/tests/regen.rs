@@ -9,15 +9,17 @@
 //! estimate pumped the 37.5 µF link from 200 V to the 250 V trip in 5 ms), with the sliding
 //! primary at 2.10 s, in the stop.
 
+mod board;
+
 use pmsm_host_sim::board::SimBoard;
 use pmsm_host_sim::observer::ObserverKind;
 use pmsm_host_sim::report::summary::Summary;
 use pmsm_host_sim::scenario::Spec;
 use pmsm_host_sim::sim::{run, Run, SimConfig};
 use pmsm_sensorless::drive::{DriveConfig, Mode, Reason};
-use pmsm_sensorless::motor::{preset, Motor};
+use pmsm_sensorless::motor::Motor;
 
-const MOTORS: [&str; 2] = ["sinano", "ortega-test-0.3kw"];
+use board::FAIL_SAFE_MOTORS as MOTORS;
 const PRIMARIES: [ObserverKind; 2] = [ObserverKind::SlidingTorque, ObserverKind::Flux];
 
 /// When the command steps to zero \[s].
@@ -31,7 +33,7 @@ fn board_link_run(
     observer: ObserverKind,
     link: impl Fn(&Motor, &mut pmsm_host_sim::board::DcLinkSpec),
 ) -> Run {
-    let m = preset(motor).unwrap();
+    let m = board::motor(motor);
     let spec = Spec::built_in(scenario).unwrap();
     let mut board = SimBoard::board_defaults(&m);
     board.dc_link = spec.dc_link(&m).unwrap();
@@ -75,7 +77,7 @@ fn assert_stopped(r: &Run, label: &str) {
 #[test]
 fn a_stop_into_a_supply_that_cannot_sink_keeps_the_bus_below_the_trip_without_a_resistor() {
     for motor in MOTORS {
-        let m = preset(motor).unwrap();
+        let m = board::motor(motor);
         let (v_start, v_full, trip) = band(&m);
         for observer in PRIMARIES {
             let r = board_link_run("stop-regen", motor, observer, |_, _| {});
@@ -110,7 +112,7 @@ fn a_stop_into_a_supply_that_cannot_sink_keeps_the_bus_below_the_trip_without_a_
 #[test]
 fn the_drives_brake_output_switches_a_resistor_below_the_limits_band() {
     for motor in MOTORS {
-        let m = preset(motor).unwrap();
+        let m = board::motor(motor);
         let (v_start, _, _) = band(&m);
         let v_n = f64::from(m.ratings.bus_v);
         let r_b = v_n * v_n / f64::from(m.ratings.power_w);

@@ -6,13 +6,13 @@
 
 mod board;
 
-use board::{board_run, MOTORS, PRIMARIES};
+use board::{board_run, FAIL_SAFE_MOTORS as MOTORS, PRIMARIES};
 use pmsm_host_sim::observer::ObserverKind;
 use pmsm_host_sim::report::summary::Summary;
 use pmsm_host_sim::scenario::Spec;
 use pmsm_host_sim::sim::{run, Run, SimConfig};
 use pmsm_sensorless::drive::{allows_short_circuit, DriveConfig, Fault, Mode, SafeState};
-use pmsm_sensorless::motor::{preset, ORTEGA_SIM_40KW};
+use pmsm_sensorless::motor::ORTEGA_SIM_40KW;
 
 const FAULTS: [Fault; 11] = [
     Fault::Overcurrent,
@@ -42,7 +42,7 @@ fn the_short_circuit_only_where_the_motor_and_the_fault_allow_it() {
         ("ortega-test-0.3kw", false),
         ("ortega-sim-40kw", true),
     ] {
-        let m = preset(motor).unwrap();
+        let m = board::motor(motor);
         let drive = DriveConfig::new(&m).build_flux_primary().unwrap();
         for f in FAULTS {
             let expected = if allowed && allows_short_circuit(f) {

@@ -14,6 +14,8 @@
 //!
 //! Each case prints the fault's latency and the true current's peak (`--nocapture`).
 
+mod board;
+
 use pmsm_host_sim::board::SimBoard;
 use pmsm_host_sim::observer::ObserverKind;
 use pmsm_host_sim::report::summary::Summary;
@@ -23,14 +25,14 @@ use pmsm_sensorless::drive::{DriveConfig, Fault, Limits, Mode, Reason};
 use pmsm_sensorless::motor::preset;
 
 /// The drive motors: the Sinano motor and Ortega's test motor.
-const MOTORS: [&str; 2] = ["sinano", "ortega-test-0.3kw"];
+use board::FAIL_SAFE_MOTORS as MOTORS;
 /// Both primaries.
 const PRIMARIES: [ObserverKind; 2] = [ObserverKind::SlidingTorque, ObserverKind::Flux];
 
 /// `scenario` on `motor` with `observer` primary on the board's defaults (seed 1), and the
 /// drive's limits.
 fn board_default_run(scenario: &str, motor: &str, observer: ObserverKind) -> (Run, Limits) {
-    let m = preset(motor).unwrap();
+    let m = board::motor(motor);
     let sc = Spec::built_in(scenario).unwrap().build(motor, m).unwrap();
     let cfg = SimConfig::on(SimBoard::board_defaults(&m), sc, observer);
     (run(cfg).unwrap(), DriveConfig::new(&m).limits)

@@ -22,11 +22,10 @@
 
 mod board;
 
-use board::{board_run, MOTORS, PRIMARIES};
+use board::{board_run, FAIL_SAFE_MOTORS as MOTORS, PRIMARIES};
 use pmsm_host_sim::report::summary::Summary;
 use pmsm_host_sim::sim::Run;
 use pmsm_sensorless::drive::{Mode, Reason};
-use pmsm_sensorless::motor::preset;
 
 /// The enable's time in the catch scenarios \[s] (the active-load ones are enabled from 0).
 const ENABLED_S: f64 = 0.05;
@@ -52,7 +51,7 @@ fn a_coasting_rotor_is_caught_without_terminal_sensing() {
         ("catch-no-terminal-neg100", -1.0),
     ] {
         for motor in MOTORS {
-            let m = preset(motor).unwrap();
+            let m = board::motor(motor);
             let rated_rpm = f64::from(m.ratings.speed_rpm);
             let rated_a = f64::from(m.rated_torque_current_a());
             for observer in PRIMARIES {
@@ -92,7 +91,7 @@ fn a_coasting_rotor_is_caught_without_terminal_sensing() {
 fn an_active_load_at_the_enable_is_never_handed_over_in_reverse() {
     for scenario in ["start-active-80", "start-active-120"] {
         for motor in MOTORS {
-            let m = preset(motor).unwrap();
+            let m = board::motor(motor);
             let rated_rpm = f64::from(m.ratings.speed_rpm);
             let handback_rpm = 0.06 * rated_rpm;
             for observer in PRIMARIES {

@@ -338,8 +338,13 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                     let sample = (i_ab, applied.v_ab);
                     (self.adaptation).track_flux(&mut obs.model, sample, d.omega_m, s.i_q_ref());
                 }
+                let [r_primary, r_monitor] = obs.health.residuals();
+                let residual = match obs.health.driving {
+                    Role::Primary => r_primary,
+                    Role::Monitor => r_monitor,
+                };
                 self.sensorless
-                    .tick(s, &self.foc, health, d, cmd_rpm, applied)
+                    .tick(s, &self.foc, (health, residual), d, cmd_rpm, applied)
             }
             // Returned above.
             ModeState::Idle

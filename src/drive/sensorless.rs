@@ -18,6 +18,10 @@ use crate::pi::{Held, PiState};
 use crate::units::{RAD_S_PER_RPM, RPM_PER_RAD_S};
 use core::hint::cold_path;
 
+/// The driving observer's residual (1: the edge of lock, `observer::EDGE_OF_LOCK`) above
+/// which a reversal inside the hand-over band hands the rotor to the open loop: half-way.
+const THROUGH_ZERO_RESIDUAL: f32 = 0.5;
+
 /// An over-speed is not counted as lost while the speed has fallen this share below its peak
 /// above the bound: the drive is bringing it back (five times the flux observer's speed noise
 /// at the test motor's 2,500 rpm bound with the board's 1 % current noise, ±40 rpm).
@@ -41,6 +45,8 @@ pub(super) struct Settings {
     /// over \[rpm]: the hand-over speed, where the observers were trusted to take over at the
     /// start (the hand-back speed is where they are already failing).
     pub(super) through_zero_rpm: f32,
+    /// Below this load-torque estimate \[N·m] a reversal is unloaded: a tenth of rated torque.
+    pub(super) through_zero_load_nm: f32,
     /// With a zero command, stopped below this estimated |speed| \[rpm].
     pub(super) stop_rpm: f32,
     /// The driving observer's |speed| above this many rpm per volt of the filtered measured
@@ -315,7 +321,7 @@ impl Settings {
         &self,
         s: &mut Sensorless,
         foc: &Foc,
-        (verdict, note): (Verdict, Option<Reason>),
+        ((verdict, note), residual): ((Verdict, Option<Reason>), f32),
         d: Driving,
         cmd_rpm: f32,
         applied: Applied,
@@ -338,13 +344,19 @@ impl Settings {
         // Through zero speed: the speed reference on its way to a command on the other side of
         // zero (a reversal, not a load pushing the rotor back; the reference beyond the stop
         // speed, not one seeded at a standing rotor), the rotor and the reference below the
-        // hand-over speed. No back-EMF observer holds the angle through zero speed
-        // (Ortega et al. Sec III: the flux observer needs ω ≠ 0; Horng & Chin Sec 4: K_s's
-        // window closes as ω → 0), so the I/f open loop carries the rotor through from the
-        // driving observer's frame and speed and hands over again on the other side.
+        // hand-over speed, and either no load or the driving observer past half-way to the
+        // edge of lock. No back-EMF observer holds the angle at zero speed (Ortega et al.
+        // Sec III: the flux observer needs ω ≠ 0; Horng & Chin Sec 4: K_s's window closes as
+        // ω → 0). A loaded rotor is carried through by its load's torque and the speed loop's
+        // current, and the observers hold it (issue #17's reversal under a brake, sensorless
+        // throughout); an unloaded one lingers near zero on the speed loop's small current
+        // and they drift. The I/f open loop then carries the rotor through from the driving
+        // observer's frame and speed and hands over again on the other side.
         let through_zero = cmd_rpm * s.speed_ref_rpm < 0.0 && s.speed_ref_rpm.abs() > self.stop_rpm;
         let band = self.through_zero_rpm;
-        if through_zero && s.speed_ref_rpm.abs() < band && speed_rpm.abs() < band {
+        let unloaded = s.ff_nm.abs() < self.through_zero_load_nm;
+        let failing = unloaded || residual > THROUGH_ZERO_RESIDUAL;
+        if through_zero && failing && s.speed_ref_rpm.abs() < band && speed_rpm.abs() < band {
             return Next::OpenLoop {
                 frame: d.frame,
                 omega_m,
