@@ -20,7 +20,8 @@
 //! is measured at a torque it notices. The back-EMF more than 0.6 rad off the frame for 20 ms
 //! is a lost rotor.
 
-use super::{back_emf, Identified, IdentifyError, Progress, Settings};
+use super::{back_emf, dead_time_applied, Identified, IdentifyError, Progress, Settings};
+use crate::dead_time::DeadTime;
 use crate::foc::{Foc, Reference, Request};
 use crate::frames::{AlphaBeta, Dq, SinCos};
 use crate::motor::MotorParams;
@@ -134,7 +135,15 @@ impl Mechanics {
     /// One step: the back-EMF summed in the frame, the frame turned, the torque current
     /// requested.
     #[inline(always)]
-    pub(in crate::drive) fn step(&mut self, i_ab: AlphaBeta, v_ab: AlphaBeta, n: f32) -> Request {
+    pub(in crate::drive) fn step(
+        &mut self,
+        i_ab: AlphaBeta,
+        v_ab: AlphaBeta,
+        dt: &DeadTime,
+        v_bus: f32,
+        n: f32,
+    ) -> Request {
+        let v_ab = dead_time_applied(v_ab, i_ab, self.i_prev, dt, v_bus);
         let e = back_emf(v_ab, i_ab, self.i_prev, self.r_ohm, self.l_over_t).to_dq(self.frame);
         self.i_prev = i_ab;
         self.e_sum = Dq::new(self.e_sum.d + e.d, self.e_sum.q + e.q);

@@ -43,8 +43,9 @@ pub(super) mod mechanics;
 pub(super) mod offset;
 pub(super) mod resistance;
 
-use crate::foc::Foc;
-use crate::frames::AlphaBeta;
+use crate::dead_time::DeadTime;
+use crate::foc::{Foc, Reference, Request};
+use crate::frames::{AlphaBeta, Dq};
 use crate::motor::{MotorParams, Ratings, TorqueConvention};
 use crate::param::{Allowed, ParamError};
 use core::f32::consts::TAU;
@@ -65,8 +66,14 @@ pub enum IdentifyError {
     /// The DC conductance differs between directions: a shorted winding (or phases shorted
     /// together).
     ShortedPhase,
-    /// No back-EMF while the current's frame spins: the rotor does not turn.
+    /// No back-EMF while the current's frame spins: the rotor does not turn, not even at the
+    /// start of the spin.
     BlockedRotor,
+    /// The rotor turned with the spin at its start (a back-EMF growing with the frame's
+    /// speed) but not at the measuring speed: it lags or slips (an inertia or a load the
+    /// spin's acceleration and current do not move, or a motor too fast for the control rate),
+    /// it is not blocked.
+    SpinNotFollowed,
     /// The back-EMF left the frame during the torque steps (the rotor was lost).
     LostRotor,
     /// The measured resistance is outside [`MotorParams::R_OHM`], or the bus cannot drive the
@@ -194,8 +201,8 @@ pub(super) struct Settings {
     pub(super) i_test_a: f32,
     /// The motor's current can be measured by the board (checked at the start).
     pub(super) sensable: bool,
-    /// Voltage ramp per millisecond \[V]: the rated bus's phase voltage in a second.
-    pub(super) v_ramp_per_ms: f32,
+    /// The rated bus's phase voltage `V_bus/√3` \[V] (the resistance ramp's scale).
+    pub(super) v_phase_rated: f32,
     /// Step period T \[s].
     pub(super) ts: f32,
     /// Current-loop bandwidth ω_c \[rad/s] and ω_c T.
@@ -233,7 +240,7 @@ impl Settings {
         Self {
             i_test_a: i,
             sensable: 2.25 * i <= cfg.sense_range_a && i >= 100.0 * cfg.sense_lsb_a,
-            v_ramp_per_ms: ratings.bus_v * crate::math::INV_SQRT3 * 1e-3,
+            v_phase_rated: ratings.bus_v * crate::math::INV_SQRT3,
             ts,
             w_c,
             w_c_ts: w_c * ts,
@@ -346,6 +353,68 @@ pub(super) fn back_emf(
         v_ab.alpha - half_r * (i_ab.alpha + i_prev.alpha) - l_over_t * (i_ab.alpha - i_prev.alpha),
         v_ab.beta - half_r * (i_ab.beta + i_prev.beta) - l_over_t * (i_ab.beta - i_prev.beta),
     )
+}
+
+/// The voltage the inverter applied over the period that just ended \[V]: the command `v_ab`
+/// whose dead time was compensated by the signs of the sample `i_prev` at the period's start
+/// ([`crate::dead_time`]), less the error the inverter made with the signs of the current
+/// that flowed, taken at the period's middle `(i_prev + i_ab)/2`: `v_ab + E(i_prev) − E(i_mid)`
+/// on the bus `v_bus` of the period.
+///
+/// Why (issue #26: ψ_f +0.2 to +2.8 % on every motor with dead time, 0.05 % without): while
+/// the frame turns, the compensation's signs lag the phase currents by half a period, so each
+/// zero crossing leaves a pulse of `±2 t_d f_pwm V_bus` of width `ω_e T/2` whose fundamental,
+/// `(4/π) t_d f_pwm V_bus · ω_e T/2`, lies 90° ahead of the current: along the back-EMF of
+/// the spin (current on d, EMF on q), in the same direction whichever the motor. As the EMF it
+/// grows with `ω_e`, so the two speeds of `flux.rs` cannot tell it from `ψ_f`: a bias of
+/// `(4/π) t_d f_pwm V_bus (T/2)/ψ_f`, positive, largest on low-ψ_f motors on high buses
+/// (maxon 645106 on 24 V: +1.5 %). The correction's cost is two dead-time errors per step
+/// (≈ 60 cycles), in the identification's steps only. Zero (exactly) without dead time.
+#[inline(always)]
+pub(super) fn dead_time_applied(
+    v_ab: AlphaBeta,
+    i_ab: AlphaBeta,
+    i_prev: AlphaBeta,
+    dt: &DeadTime,
+    v_bus: f32,
+) -> AlphaBeta {
+    let mid = AlphaBeta::new(0.5 * (i_ab.alpha + i_prev.alpha), 0.5 * (i_ab.beta + i_prev.beta));
+    let e_comp = dt.error(i_prev, v_bus);
+    let e_true = dt.error(mid, v_bus);
+    AlphaBeta::new(
+        v_ab.alpha + (e_comp.alpha - e_true.alpha),
+        v_ab.beta + (e_comp.beta - e_true.beta),
+    )
+}
+
+/// A voltage `request` whose dead time is to be compensated with the signs of the phase
+/// voltages of `v_dir` (the DC voltage of the resistance and inductance tests, whose phase
+/// currents have these signs) rather than those of the measured `i_ab`: the FOC adds
+/// `E(i_ab)` ([`crate::dead_time`]), so the reference gets `E(v_dir) − E(i_ab)` (resistance.rs
+/// says why: the measured signs are a negative resistance within the band). Each phase's sign
+/// of `v_dir` is that of its component scaled far beyond the band (`10⁹` A/V); a phase with no
+/// voltage gets none. Unchanged (exactly) without dead time, and where every measured current
+/// is beyond the band with the voltages' signs.
+#[inline(always)]
+pub(super) fn hold_signs(
+    request: Request,
+    dt: &DeadTime,
+    v_dir: AlphaBeta,
+    i_ab: AlphaBeta,
+    v_bus: f32,
+) -> Request {
+    let Reference::Voltage(v) = request.reference else {
+        return request;
+    };
+    let e_fix = dt.error(AlphaBeta::new(1e9 * v_dir.alpha, 1e9 * v_dir.beta), v_bus);
+    let e_meas = dt.error(i_ab, v_bus);
+    Request {
+        reference: Reference::Voltage(Dq::new(
+            v.d + (e_fix.alpha - e_meas.alpha),
+            v.q + (e_fix.beta - e_meas.beta),
+        )),
+        ..request
+    }
 }
 
 /// Natural logarithm of a positive normal `x` (f32, no tables): `x = m 2^e`, `m ∈ [1, 2)`,
@@ -505,11 +574,19 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         st.i_ab_last = i_ab;
         let id = &mut st.identify;
         let v_last = st.last.v_ab();
+        let v_bus_last = st.last.v_bus();
+        let dt = self.foc.dead_time();
         let request = match &mut id.phase {
-            Phase::Resistance(r) => r.step(i_ab),
-            Phase::Inductance(l) => l.step(i_ab),
-            Phase::Flux(f) => f.step(i_ab, v_last),
-            Phase::Mechanics(m) => m.step(i_ab, v_last, self.identify.n),
+            Phase::Resistance(r) => {
+                let (request, v_dir) = r.step(i_ab);
+                hold_signs(request, dt, v_dir, i_ab, input.v_bus)
+            }
+            Phase::Inductance(l) => {
+                let (request, v_dir) = l.step(i_ab);
+                hold_signs(request, dt, v_dir, i_ab, input.v_bus)
+            }
+            Phase::Flux(f) => f.step(i_ab, v_last, dt, v_bus_last),
+            Phase::Mechanics(m) => m.step(i_ab, v_last, dt, v_bus_last, self.identify.n),
         };
         let out = id
             .gains
