@@ -18,9 +18,12 @@
 //! (1.3 at τ = 7 ms, 3.2 at the 44 ms of a 18 mΩ, 0.8 mH traction motor), whatever `R`. From
 //! there an integral current controller whose gain is scaled from the measured resistance,
 //! `Δv = G (1.1·level − i) · v/i` per millisecond (the secant `v/i`; the rise capped at
-//! γ per ms): with the lag, `ω_n² = G/(τ·1 ms)` and `ζ = 1/(2 √(G τ/1 ms))`, so `G = 0.03`
+//! γ per ms, the fall at half the voltage): with the lag, `ω_n² = G/(τ·1 ms)` and `ζ = 1/(2 √(G τ/1 ms))`, so `G = 0.03`
 //! keeps `ζ ≥ 0.5` up to τ = 33 ms (0.44 at 44 ms) and settles a τ → 0 winding in
-//! `3·1 ms/G` = 100 ms; it lands the current in the window. This is the
+//! `3·1 ms/G` = 100 ms; it lands the current in the window. The secant overestimates `R` by
+//! the lag (`1 + γτ`) and the loop may overshoot: a level counts once its current is in the
+//! window and moves by less than 1 % of it per millisecond, and again after the settling
+//! time, else the ramp goes on. This is the
 //! ramp-to-current of ODrive's resistance measurement (`Motor::measure_phase_resistance`,
 //! an integrator `v += k_I (I_test − i) T`; ODrive fixes `k_I` at 1 V/(A·s), here it follows
 //! the measured `v/i`) made scale-free.
@@ -70,6 +73,9 @@ const DETECT: f32 = 0.1;
 /// fraction of the level: the window is `[1, 1.25]`).
 const GAIN: f32 = 0.03;
 const AIM: f32 = 1.1;
+/// A level is settled when its current moves by less than this fraction of it per
+/// millisecond; it is averaged when it is still in the window after `SETTLE_MS`.
+const SETTLED: f32 = 0.01;
 
 /// Where a level is.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -94,6 +100,8 @@ pub(in crate::drive) struct Resistance {
     /// Currents summed since the last tick (or over the average) \[A].
     sum_i: AlphaBeta,
     n: u32,
+    /// The last millisecond's current along the level's axis \[A].
+    along_prev: f32,
     /// Each level's voltage and mean current [V], \[A].
     points: [(AlphaBeta, AlphaBeta); 3],
 }
@@ -126,17 +134,21 @@ impl Resistance {
         let mean = AlphaBeta::new(self.sum_i.alpha * k, self.sum_i.beta * k);
         let on_beta = self.level == 2;
         let level_a = LEVELS[self.level.min(2)] * s.i_test_a;
+        // The current along the level's axis (on β, what the third level added).
+        let base = self.points[1].1;
+        let (along, across) = if on_beta {
+            (mean.beta - base.beta, mean.alpha - base.alpha)
+        } else {
+            (mean.alpha, mean.beta)
+        };
+        let in_window = along >= level_a && along <= 1.25 * level_a;
+        let rate = along - core::mem::replace(&mut self.along_prev, along);
         match self.sub {
             Sub::Ramp => {
                 self.clear();
-                // The current along the level's axis (on β, what the third level added).
-                let base = self.points[1].1;
-                let (along, across) = if on_beta {
-                    (mean.beta - base.beta, mean.alpha - base.alpha)
-                } else {
-                    (mean.alpha, mean.beta)
-                };
-                if along >= level_a && along <= 1.25 * level_a {
+                // In the window and settled (a winding's lag still carrying the current on
+                // moves it by more than 1 % of the level per millisecond).
+                if in_window && rate.abs() <= SETTLED * level_a {
                     self.sub = Sub::Settle(SETTLE_MS);
                     return Progress::Stay;
                 }
@@ -155,7 +167,7 @@ impl Resistance {
                 } else {
                     // Integral control, its gain from the secant resistance.
                     let dv = GAIN * (AIM * level_a - along) * (v_along / along);
-                    v_along + dv.min(GROWTH * v_along)
+                    v_along + dv.clamp(-0.5 * v_along, GROWTH * v_along)
                 };
                 let mut v = self.v_ab;
                 if on_beta {
@@ -175,7 +187,12 @@ impl Resistance {
             }
             Sub::Settle(0) => {
                 self.clear();
-                self.sub = Sub::Average(AVERAGE_MS);
+                // Still in the window after settling (else on with the ramp).
+                self.sub = if in_window {
+                    Sub::Average(AVERAGE_MS)
+                } else {
+                    Sub::Ramp
+                };
             }
             Sub::Settle(ms) => {
                 self.clear();
