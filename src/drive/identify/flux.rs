@@ -71,7 +71,6 @@ impl Window {
     }
 }
 
-
 /// Where the spin is (milliseconds left).
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Stage {

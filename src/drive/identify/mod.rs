@@ -378,7 +378,10 @@ pub(super) fn dead_time_applied(
     dt: &DeadTime,
     v_bus: f32,
 ) -> AlphaBeta {
-    let mid = AlphaBeta::new(0.5 * (i_ab.alpha + i_prev.alpha), 0.5 * (i_ab.beta + i_prev.beta));
+    let mid = AlphaBeta::new(
+        0.5 * (i_ab.alpha + i_prev.alpha),
+        0.5 * (i_ab.beta + i_prev.beta),
+    );
     let e_comp = dt.error(i_prev, v_bus);
     let e_true = dt.error(mid, v_bus);
     AlphaBeta::new(

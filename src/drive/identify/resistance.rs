@@ -21,9 +21,9 @@
 //! γ per ms, the fall at half the voltage): with the lag, `ω_n² = G/(τ·1 ms)` and `ζ = 1/(2 √(G τ/1 ms))`, so `G = 0.03`
 //! keeps `ζ ≥ 0.5` up to τ = 33 ms (0.44 at 44 ms) and settles a τ → 0 winding in
 //! `3·1 ms/G` = 100 ms; it lands the current in the window. The secant overestimates `R` by
-//! the lag (`1 + γτ`) and the loop may overshoot: a level counts once its current is in the
-//! window and moves by less than 1 % of it per millisecond, and again after the settling
-//! time, else the ramp goes on. This is the
+//! the lag (`1 + γτ`) and the loop may overshoot: a level is averaged only when its current is
+//! still in the window after the settling time, else the ramp goes on (for at most 2 s, then
+//! the level is taken where it is, and the winding check judges it). This is the
 //! ramp-to-current of ODrive's resistance measurement (`Motor::measure_phase_resistance`,
 //! an integrator `v += k_I (I_test − i) T`; ODrive fixes `k_I` at 1 V/(A·s), here it follows
 //! the measured `v/i`) made scale-free.
@@ -32,9 +32,10 @@
 //! ([`crate::dead_time`]) is a negative resistance of `t_d·f_pwm·V_bus/band` while a phase's
 //! current is within the compensation's band: on a motor whose `R` is below it (the 7 mΩ
 //! motor: ≈ 0.4 Ω) the current runs away as it crosses the band (`overcurrent`). The
-//! resistance and inductance tests therefore compensate with the signs of the voltage
-//! commanded (each phase current's sign is known: that of the DC voltage's phase
-//! component), not with the measured ones ([`super::hold_signs`]): the inverter's error is
+//! resistance and inductance tests therefore compensate with signs that do not follow each
+//! sample ([`super::hold_signs`]): those of the last millisecond's mean current once a tenth
+//! of the rated current flows (a faulty winding's phase currents need not have the voltage's
+//! signs), else those of the voltage commanded (the inductance test: of its DC voltage): the inverter's error is
 //! then the constant that the two-level difference cancels (the inverter-nonlinearity
 //! argument of the two-point DC test: Kim, Sul et al.; H.-W. Kim, M.-J. Youn, K.-Y. Cho,
 //! H.-S. Kim, "Nonlinearity estimation and compensation of PWM VSI for PMSM under
@@ -73,9 +74,10 @@ const DETECT: f32 = 0.1;
 /// fraction of the level: the window is `[1, 1.25]`).
 const GAIN: f32 = 0.03;
 const AIM: f32 = 1.1;
-/// A level is settled when its current moves by less than this fraction of it per
-/// millisecond; it is averaged when it is still in the window after `SETTLE_MS`.
-const SETTLED: f32 = 0.01;
+/// A level not held in its window within this time \[ms] is taken where its current is
+/// (a faulty winding's current may not settle along the level's axis; the conductance check
+/// then names the fault).
+const RAMP_MAX_MS: u32 = 2000;
 
 /// Where a level is.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -100,8 +102,11 @@ pub(in crate::drive) struct Resistance {
     /// Currents summed since the last tick (or over the average) \[A].
     sum_i: AlphaBeta,
     n: u32,
-    /// The last millisecond's current along the level's axis \[A].
-    along_prev: f32,
+    /// The direction whose phase signs the dead time's compensation takes: the last
+    /// millisecond's mean current once a tenth of the rated current flows, else the voltage.
+    sign_dir: AlphaBeta,
+    /// Milliseconds this level has ramped (its settling included).
+    ramp_ms: u32,
     /// Each level's voltage and mean current [V], \[A].
     points: [(AlphaBeta, AlphaBeta); 3],
 }
@@ -119,7 +124,12 @@ impl Resistance {
             omega_m: 0.0,
             reference: Reference::Voltage(Dq::new(self.v_ab.alpha, self.v_ab.beta)),
         };
-        (request, self.v_ab)
+        let dir = if self.sign_dir.alpha == 0.0 && self.sign_dir.beta == 0.0 {
+            self.v_ab
+        } else {
+            self.sign_dir
+        };
+        (request, dir)
     }
 
     /// The 1 kHz work: the ramp, the levels, the result. `v_max` \[V] the largest voltage the
@@ -142,18 +152,25 @@ impl Resistance {
             (mean.alpha, mean.beta)
         };
         let in_window = along >= level_a && along <= 1.25 * level_a;
-        let rate = along - core::mem::replace(&mut self.along_prev, along);
+        if self.n > 0 {
+            let flows = mean.alpha * mean.alpha + mean.beta * mean.beta
+                >= (DETECT * s.i_test_a) * (DETECT * s.i_test_a);
+            self.sign_dir = if flows { mean } else { AlphaBeta::default() };
+        }
         match self.sub {
             Sub::Ramp => {
                 self.clear();
-                // In the window and settled (a winding's lag still carrying the current on
-                // moves it by more than 1 % of the level per millisecond).
-                if in_window && rate.abs() <= SETTLED * level_a {
+                self.ramp_ms += 1;
+                if in_window || self.ramp_ms > RAMP_MAX_MS {
                     self.sub = Sub::Settle(SETTLE_MS);
                     return Progress::Stay;
                 }
                 // The voltage along the level's axis (on β, what the third level added).
-                let v_along = if on_beta { self.v_ab.beta } else { self.v_ab.alpha };
+                let v_along = if on_beta {
+                    self.v_ab.beta
+                } else {
+                    self.v_ab.alpha
+                };
                 let v_next = if along < DETECT * level_a {
                     if v_along > 0.0 {
                         v_along * (1.0 + GROWTH)
@@ -188,7 +205,7 @@ impl Resistance {
             Sub::Settle(0) => {
                 self.clear();
                 // Still in the window after settling (else on with the ramp).
-                self.sub = if in_window {
+                self.sub = if in_window || self.ramp_ms > RAMP_MAX_MS {
                     Sub::Average(AVERAGE_MS)
                 } else {
                     Sub::Ramp
@@ -196,6 +213,7 @@ impl Resistance {
             }
             Sub::Settle(ms) => {
                 self.clear();
+                self.ramp_ms += 1;
                 self.sub = Sub::Settle(ms - 1);
             }
             Sub::Average(ms) if ms > 1 => self.sub = Sub::Average(ms - 1),
@@ -205,6 +223,7 @@ impl Resistance {
                 }
                 self.clear();
                 self.sub = Sub::Ramp;
+                self.ramp_ms = 0;
                 self.level += 1;
                 if self.level == 3 {
                     return self.evaluate(s, result);
