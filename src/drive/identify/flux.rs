@@ -8,7 +8,7 @@
 //! measured there and again at 30 % of rated speed, each after 200 ms of settling.
 //!
 //! The voltage in the EMF is the one the inverter applied: the command corrected for the
-//! dead-time compensation's lag ([`super::dead_time_applied`]). What remains of the dead time's
+//! dead-time compensation's lag ([`super::inverter::dead_time_applied`]). What remains of the dead time's
 //! error near each current zero crossing is not a function of the sampled currents (a phase
 //! current held near zero by the dead time, "zero-current clamping", takes whatever error
 //! keeps it there): it remains as a bias on |e| that grows faster than the dead time
@@ -38,8 +38,9 @@
 //! move, a motor too fast for the control rate); one that never showed an EMF growing with the
 //! speed is blocked ([`IdentifyError::BlockedRotor`]).
 
+use super::inverter::dead_time_applied;
 use super::mechanics::Mechanics;
-use super::{back_emf, dead_time_applied, Identified, IdentifyError, Phase, Progress, Settings};
+use super::{back_emf, Identified, IdentifyError, Phase, Progress, Settings};
 use crate::dead_time::DeadTime;
 use crate::foc::{Foc, Reference, Request};
 use crate::frames::{AlphaBeta, Dq, SinCos};

@@ -87,7 +87,7 @@ impl Inductance {
     /// One step: the ripple of the sample `i_ab` \[A] summed; the injection's sign reversed.
     #[inline(always)]
     /// With the request, the DC voltage, whose signs the dead time's compensation takes
-    /// ([`super::hold_signs`]).
+    /// ([`super::inverter::hold_signs`]).
     pub(in crate::drive) fn step(&mut self, i_ab: AlphaBeta) -> (Request, AlphaBeta) {
         let sg = self.sign;
         self.acc = AlphaBeta::new(

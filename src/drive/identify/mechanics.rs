@@ -20,7 +20,8 @@
 //! is measured at a torque it notices. The back-EMF more than 0.6 rad off the frame for 20 ms
 //! is a lost rotor.
 
-use super::{back_emf, dead_time_applied, Identified, IdentifyError, Progress, Settings};
+use super::inverter::dead_time_applied;
+use super::{back_emf, Identified, IdentifyError, Progress, Settings};
 use crate::dead_time::DeadTime;
 use crate::foc::{Foc, Reference, Request};
 use crate::frames::{AlphaBeta, Dq, SinCos};

@@ -33,7 +33,7 @@
 //! current is within the compensation's band: on a motor whose `R` is below it (the 7 mΩ
 //! motor: ≈ 0.4 Ω) the current runs away as it crosses the band (`overcurrent`). The
 //! resistance and inductance tests therefore compensate with signs that do not follow each
-//! sample ([`super::hold_signs`]): those of the last millisecond's mean current once a tenth
+//! sample ([`super::inverter::hold_signs`]): those of the last millisecond's mean current once a tenth
 //! of the rated current flows (a faulty winding's phase currents need not have the voltage's
 //! signs), else those of the voltage commanded (the inductance test: of its DC voltage): the inverter's error is
 //! then the constant that the two-level difference cancels (the inverter-nonlinearity
@@ -113,7 +113,7 @@ pub(in crate::drive) struct Resistance {
 
 impl Resistance {
     /// One step: the sample `i_ab` \[A] summed; the voltage held, and the voltage whose signs
-    /// the dead time's compensation takes (itself: [`super::hold_signs`]).
+    /// the dead time's compensation takes (itself: [`super::inverter::hold_signs`]).
     #[inline(always)]
     pub(in crate::drive) fn step(&mut self, i_ab: AlphaBeta) -> (Request, AlphaBeta) {
         self.sum_i = AlphaBeta::new(self.sum_i.alpha + i_ab.alpha, self.sum_i.beta + i_ab.beta);
