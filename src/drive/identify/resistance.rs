@@ -192,7 +192,8 @@ impl Resistance {
                 } else {
                     v.alpha = v_next;
                 }
-                if !(v.alpha * v.alpha + v.beta * v.beta <= v_max * v_max) {
+                let within = v.alpha * v.alpha + v.beta * v.beta <= v_max * v_max;
+                if !within {
                     let open = along < 0.25 * level_a || across.abs() > 0.3 * along.abs();
                     return Progress::Fail(if open {
                         IdentifyError::OpenPhase
