@@ -37,6 +37,17 @@
 //! ([`IdentifyError::SpinNotFollowed`]: an inertia or load the spin's acceleration does not
 //! move, a motor too fast for the control rate); one that never showed an EMF growing with the
 //! speed is blocked ([`IdentifyError::BlockedRotor`]).
+//!
+//! The ramp watches the rotor follow (the frame's acceleration is fixed, rated speed per
+//! second, whatever the inertia): while the EMF is a tenth of the voltage or more and lags the
+//! frame's q axis by more than 0.6 rad (the rotor that far behind the current: its torque
+//! `c N ψ_f I sin λ` short of what the acceleration needs), the frame holds its speed that
+//! millisecond. A rotor of any inertia the current can move reaches the measuring speed (the
+//! 10-pole-pair EMRAX 228, J 0.025 kg·m², lost it without; a hub motor at 10× its J follows),
+//! at the acceleration it can take; the I/f start that adapts to the rotor's lag is the idea
+//! of closed-loop I/f starting, e.g. M. Fatu, R. Teodorescu, I. Boldea, G.-D. Andreescu,
+//! F. Blaabjerg, "I-F starting method with smooth transition to EMF based motion-sensorless
+//! vector control of PM synchronous motor/generator", IEEE PESC 2008.
 
 use super::inverter::dead_time_applied;
 use super::mechanics::Mechanics;
@@ -52,6 +63,9 @@ const HOLD: f32 = 0.3;
 const LOWER_MS: u32 = 100;
 const SETTLE_MS: u32 = 200;
 const MEASURE_MS: u32 = 500;
+/// The largest lag of the rotor behind the frame the ramp accelerates on \[rad].
+const LAG_MAX: f32 = 0.6;
+
 /// The start's watch: the first window's lowest frame speed, a fraction of the half spin
 /// speed (module doc).
 const WATCH_FROM: f32 = 0.25;
@@ -210,7 +224,14 @@ impl FluxSpin {
                 } else {
                     0.5 * s.omega_low_m
                 };
-                self.omega_m = (self.omega_m + s.accel_per_ms).min(target);
+                // The rotor watched: while its EMF lags the frame's q axis by more than
+                // LAG_MAX (the rotor behind the current by that much), the frame holds its
+                // speed and lets it catch up.
+                let lagging =
+                    e.magnitude() >= 0.1 * v.magnitude() && crate::math::atan2(e.d, e.q) > LAG_MAX;
+                if !lagging {
+                    self.omega_m = (self.omega_m + s.accel_per_ms).min(target);
+                }
                 self.step_rot = SinCos::of_small(s.n_ts * self.omega_m);
                 self.out_rot = foc.output_rotation(self.omega_m);
                 if self.omega_m >= target {
