@@ -171,7 +171,7 @@ impl Resistance {
                 } else {
                     self.v_ab.alpha
                 };
-                let v_next = if along < DETECT * level_a {
+                let v_next = if along < DETECT * level_a || v_along <= 0.0 {
                     if v_along > 0.0 {
                         v_along * (1.0 + GROWTH)
                     } else if on_beta {
@@ -184,7 +184,7 @@ impl Resistance {
                 } else {
                     // Integral control, its gain from the secant resistance.
                     let dv = GAIN * (AIM * level_a - along) * (v_along / along);
-                    v_along + dv.clamp(-0.5 * v_along, GROWTH * v_along)
+                    v_along + dv.max(-0.5 * v_along).min(GROWTH * v_along)
                 };
                 let mut v = self.v_ab;
                 if on_beta {
