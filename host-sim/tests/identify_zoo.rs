@@ -16,7 +16,7 @@ use std::path::Path;
 
 /// Zoo motors that do not identify within the bounds yet: the error they must end in (`None`:
 /// the identification completes, R, L and ψ_f within the bounds, J not yet) and why.
-const KNOWN: [(&str, Option<IdentifyError>, &str); 3] = [
+const KNOWN: [(&str, Option<IdentifyError>, &str); 2] = [
     (
         // Depends on the control-rate work (issue #26, "control rate from the motor"): ~4 kHz
         // electrical at rated speed against the fixed 4 kHz step; the rotor turns at the start
@@ -31,13 +31,6 @@ const KNOWN: [(&str, Option<IdentifyError>, &str); 3] = [
         "axial-emrax-228-mv",
         None,
         "torque steps' J",
-    ),
-    (
-        // The torque steps find no torque that moves the rotor measurably within their
-        // attempts (J 2.4e-6 kg·m², B 1.2e-5 N·m·s: friction dominates the steps).
-        "small-anaheim-bly171d-24v-4000",
-        Some(IdentifyError::InertiaOutOfRange),
-        "torque steps",
     ),
 ];
 

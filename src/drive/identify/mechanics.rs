@@ -16,7 +16,10 @@
 //! `J α_up + B ω̄_up = τ_up`, `J α_dn + B ω̄_dn = τ_dn`, solved for `J` \[kg·m²] and `B`
 //! \[N·m·s/rad]. `I_t` starts at 2 % of the rated current and doubles (up to the rated
 //! current) until a segment moves the speed by a third of the range in its 300 ms, and
-//! halves when a segment is over in less than 60 ms; so any inertia the rated torque can move
+//! halves when a segment is over in less than 60 ms (a braking segment halves only the
+//! braking current: on a motor whose friction is a large part of the torque, braking with the
+//! accelerating torque and the friction is over long before accelerating against it; the two
+//! equations take each segment's own mean `i_q`); so any inertia the rated torque can move
 //! is measured at a torque it notices. The back-EMF more than 0.6 rad off the frame for 20 ms
 //! is a lost rotor.
 
@@ -88,6 +91,8 @@ pub(in crate::drive) struct Mechanics {
     l_over_t: f32,
     /// Torque current \[A]; accelerating (else braking).
     i_t: f32,
+    /// The braking current's fraction of `i_t` (halved by a braking segment over too soon).
+    brake: f32,
     up: bool,
     ms: u32,
     fit: Fit,
@@ -123,6 +128,7 @@ impl Mechanics {
             r_ohm: m.r_ohm,
             l_over_t: m.l_h() / s.ts,
             i_t: 0.02 * s.i_test_a,
+            brake: 1.0,
             up: true,
             ms: 0,
             fit: Fit::default(),
@@ -151,7 +157,11 @@ impl Mechanics {
         self.iq_sum += i_ab.to_dq(self.frame).q;
         self.n += 1;
         self.frame = self.frame.rotated(self.step_rot);
-        let i_q = if self.up { self.i_t } else { -self.i_t };
+        let i_q = if self.up {
+            self.i_t
+        } else {
+            -self.brake * self.i_t
+        };
         Request {
             frame: self.frame,
             frame_out: self.frame.rotated(self.out_rot),
@@ -241,7 +251,9 @@ impl Mechanics {
             return Progress::Stay;
         }
         if too_short {
-            self.i_t *= 0.5;
+            // Braked too soon (friction adds to the braking torque): a new pair with half
+            // the braking current, the same accelerating one.
+            self.brake *= 0.5;
             self.up_valid = false;
             return Progress::Stay;
         }
