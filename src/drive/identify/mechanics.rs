@@ -16,9 +16,10 @@
 //! `J α_up + B ω̄_up = τ_up`, `J α_dn + B ω̄_dn = τ_dn`, solved for `J` \[kg·m²] and `B`
 //! \[N·m·s/rad]. `I_t` starts at 2 % of the rated current and doubles (up to the rated
 //! current) until a segment moves the speed by a third of the range in its 300 ms, and
-//! halves when a segment is over in less than 60 ms (a braking segment halves only the
-//! braking current: on a motor whose friction is a large part of the torque, braking with the
-//! accelerating torque and the friction is over long before accelerating against it; the two
+//! halves when a segment is over in less than 60 ms (a braking segment after an
+//! accelerating one that ran its whole 300 ms halves only the braking current: on a motor
+//! whose friction is a large part of the torque, braking with the accelerating torque and the
+//! friction is over long before accelerating against it; the two
 //! equations take each segment's own mean `i_q`); so any inertia the rated torque can move
 //! is measured at a torque it notices. The back-EMF more than 0.6 rad off the frame for 20 ms
 //! is a lost rotor.
@@ -93,6 +94,8 @@ pub(in crate::drive) struct Mechanics {
     i_t: f32,
     /// The braking current's fraction of `i_t` (halved by a braking segment over too soon).
     brake: f32,
+    /// The last accelerating segment ran its whole time without reaching its speed.
+    up_long: bool,
     up: bool,
     ms: u32,
     fit: Fit,
@@ -129,6 +132,7 @@ impl Mechanics {
             l_over_t: m.l_h() / s.ts,
             i_t: 0.02 * s.i_test_a,
             brake: 1.0,
+            up_long: false,
             up: true,
             ms: 0,
             fit: Fit::default(),
@@ -240,6 +244,7 @@ impl Mechanics {
                 self.i_t *= 2.0;
             } else {
                 self.up_result = (slope, w_mean, iq_mean);
+                self.up_long = !reached;
                 self.up_valid = true;
                 self.up = false;
             }
@@ -251,9 +256,14 @@ impl Mechanics {
             return Progress::Stay;
         }
         if too_short {
-            // Braked too soon (friction adds to the braking torque): a new pair with half
-            // the braking current, the same accelerating one.
-            self.brake *= 0.5;
+            // Braked too soon. After a long acceleration (the whole segment: friction is a
+            // large part of the torque and adds to the braking) a new pair with half the
+            // braking current, the same accelerating one; else with half of both.
+            if self.up_long {
+                self.brake *= 0.5;
+            } else {
+                self.i_t *= 0.5;
+            }
             self.up_valid = false;
             return Progress::Stay;
         }
