@@ -47,6 +47,7 @@ pub fn error_name(e: IdentifyError) -> &'static str {
         IdentifyError::OpenPhase => "open_phase",
         IdentifyError::ShortedPhase => "shorted_phase",
         IdentifyError::BlockedRotor => "blocked_rotor",
+        IdentifyError::SpinNotFollowed => "spin_not_followed",
         IdentifyError::LostRotor => "lost_rotor",
         IdentifyError::ResistanceOutOfRange => "resistance_out_of_range",
         IdentifyError::InductanceOutOfRange => "inductance_out_of_range",

@@ -129,6 +129,14 @@ impl<PS, MS> DriveState<PS, MS> {
         }
     }
 
+    /// What the identification has measured so far, also after it ended in an error (the
+    /// measurements not reached are 0): for a report of how far it got. The results proper
+    /// are [`DriveState::identified`].
+    #[cfg(feature = "identify")]
+    pub fn identified_so_far(&self) -> Identified {
+        self.identify.result
+    }
+
     /// The identified motor, once the identification is done (mode `Identified`).
     pub fn identified(&self) -> Option<Identified> {
         match self.mode {

@@ -55,6 +55,9 @@ pub struct IdentifyOutcome {
     pub identified: Option<Identified>,
     /// The drive's fault, when one ended it.
     pub fault: Option<Fault>,
+    /// What was measured before the end (zeros for the measurements not reached): R and L of
+    /// a run that ended in the spin.
+    pub so_far: Identified,
     /// Simulated time from the command to the result (or the fault) \[s].
     pub duration_s: f64,
     /// Every mode change with its time \[s].
@@ -129,6 +132,7 @@ pub fn run(cfg: &IdentifyRun) -> anyhow::Result<IdentifyOutcome> {
         truth,
         identified: st.identified(),
         fault: st.fault(),
+        so_far: st.identified_so_far(),
         duration_s: k as f64 * ts,
         transitions,
     })

@@ -86,7 +86,9 @@ impl Inductance {
 
     /// One step: the ripple of the sample `i_ab` \[A] summed; the injection's sign reversed.
     #[inline(always)]
-    pub(in crate::drive) fn step(&mut self, i_ab: AlphaBeta) -> Request {
+    /// With the request, the DC voltage, whose signs the dead time's compensation takes
+    /// ([`super::inverter::hold_signs`]).
+    pub(in crate::drive) fn step(&mut self, i_ab: AlphaBeta) -> (Request, AlphaBeta) {
         let sg = self.sign;
         self.acc = AlphaBeta::new(
             self.acc.alpha + sg * (i_ab.alpha - self.i_prev.alpha),
@@ -102,12 +104,13 @@ impl Inductance {
         } else {
             Dq::new(self.base.alpha + h, self.base.beta)
         };
-        Request {
+        let request = Request {
             frame: SinCos::ZERO,
             frame_out: SinCos::ZERO,
             omega_m: 0.0,
             reference: Reference::Voltage(v),
-        }
+        };
+        (request, self.base)
     }
 
     /// The 1 kHz work: the amplitude, the measurement, the result. `v_max` \[V] the largest

@@ -16,11 +16,17 @@
 //! `J α_up + B ω̄_up = τ_up`, `J α_dn + B ω̄_dn = τ_dn`, solved for `J` \[kg·m²] and `B`
 //! \[N·m·s/rad]. `I_t` starts at 2 % of the rated current and doubles (up to the rated
 //! current) until a segment moves the speed by a third of the range in its 300 ms, and
-//! halves when a segment is over in less than 60 ms; so any inertia the rated torque can move
+//! halves when a segment is over in less than 60 ms (a braking segment after an
+//! accelerating one that ran its whole 300 ms halves only the braking current: on a motor
+//! whose friction is a large part of the torque, braking with the accelerating torque and the
+//! friction is over long before accelerating against it; the two
+//! equations take each segment's own mean `i_q`); so any inertia the rated torque can move
 //! is measured at a torque it notices. The back-EMF more than 0.6 rad off the frame for 20 ms
 //! is a lost rotor.
 
+use super::inverter::dead_time_applied;
 use super::{back_emf, Identified, IdentifyError, Progress, Settings};
+use crate::dead_time::DeadTime;
 use crate::foc::{Foc, Reference, Request};
 use crate::frames::{AlphaBeta, Dq, SinCos};
 use crate::motor::MotorParams;
@@ -86,6 +92,10 @@ pub(in crate::drive) struct Mechanics {
     l_over_t: f32,
     /// Torque current \[A]; accelerating (else braking).
     i_t: f32,
+    /// The braking current's fraction of `i_t` (halved by a braking segment over too soon).
+    brake: f32,
+    /// The last accelerating segment ran its whole time without reaching its speed.
+    up_long: bool,
     up: bool,
     ms: u32,
     fit: Fit,
@@ -121,6 +131,8 @@ impl Mechanics {
             r_ohm: m.r_ohm,
             l_over_t: m.l_h() / s.ts,
             i_t: 0.02 * s.i_test_a,
+            brake: 1.0,
+            up_long: false,
             up: true,
             ms: 0,
             fit: Fit::default(),
@@ -134,14 +146,26 @@ impl Mechanics {
     /// One step: the back-EMF summed in the frame, the frame turned, the torque current
     /// requested.
     #[inline(always)]
-    pub(in crate::drive) fn step(&mut self, i_ab: AlphaBeta, v_ab: AlphaBeta, n: f32) -> Request {
+    pub(in crate::drive) fn step(
+        &mut self,
+        i_ab: AlphaBeta,
+        v_ab: AlphaBeta,
+        dt: &DeadTime,
+        v_bus: f32,
+        n: f32,
+    ) -> Request {
+        let v_ab = dead_time_applied(v_ab, i_ab, self.i_prev, dt, v_bus);
         let e = back_emf(v_ab, i_ab, self.i_prev, self.r_ohm, self.l_over_t).to_dq(self.frame);
         self.i_prev = i_ab;
         self.e_sum = Dq::new(self.e_sum.d + e.d, self.e_sum.q + e.q);
         self.iq_sum += i_ab.to_dq(self.frame).q;
         self.n += 1;
         self.frame = self.frame.rotated(self.step_rot);
-        let i_q = if self.up { self.i_t } else { -self.i_t };
+        let i_q = if self.up {
+            self.i_t
+        } else {
+            -self.brake * self.i_t
+        };
         Request {
             frame: self.frame,
             frame_out: self.frame.rotated(self.out_rot),
@@ -220,6 +244,7 @@ impl Mechanics {
                 self.i_t *= 2.0;
             } else {
                 self.up_result = (slope, w_mean, iq_mean);
+                self.up_long = !reached;
                 self.up_valid = true;
                 self.up = false;
             }
@@ -231,7 +256,14 @@ impl Mechanics {
             return Progress::Stay;
         }
         if too_short {
-            self.i_t *= 0.5;
+            // Braked too soon. After a long acceleration (the whole segment: friction is a
+            // large part of the torque and adds to the braking) a new pair with half the
+            // braking current, the same accelerating one; else with half of both.
+            if self.up_long {
+                self.brake *= 0.5;
+            } else {
+                self.i_t *= 0.5;
+            }
             self.up_valid = false;
             return Progress::Stay;
         }

@@ -39,6 +39,7 @@
 
 pub(super) mod flux;
 pub(super) mod inductance;
+pub(super) mod inverter;
 pub(super) mod mechanics;
 pub(super) mod offset;
 pub(super) mod resistance;
@@ -50,6 +51,7 @@ use crate::param::{Allowed, ParamError};
 use core::f32::consts::TAU;
 use flux::FluxSpin;
 use inductance::Inductance;
+use inverter::hold_signs;
 use mechanics::Mechanics;
 use resistance::Resistance;
 
@@ -65,8 +67,14 @@ pub enum IdentifyError {
     /// The DC conductance differs between directions: a shorted winding (or phases shorted
     /// together).
     ShortedPhase,
-    /// No back-EMF while the current's frame spins: the rotor does not turn.
+    /// No back-EMF while the current's frame spins: the rotor does not turn, not even at the
+    /// start of the spin.
     BlockedRotor,
+    /// The rotor turned with the spin at its start (a back-EMF growing with the frame's
+    /// speed) but not at the measuring speed: it lags or slips (an inertia or a load the
+    /// spin's acceleration and current do not move, or a motor too fast for the control rate),
+    /// it is not blocked.
+    SpinNotFollowed,
     /// The back-EMF left the frame during the torque steps (the rotor was lost).
     LostRotor,
     /// The measured resistance is outside [`MotorParams::R_OHM`], or the bus cannot drive the
@@ -194,8 +202,8 @@ pub(super) struct Settings {
     pub(super) i_test_a: f32,
     /// The motor's current can be measured by the board (checked at the start).
     pub(super) sensable: bool,
-    /// Voltage ramp per millisecond \[V]: the rated bus's phase voltage in a second.
-    pub(super) v_ramp_per_ms: f32,
+    /// The rated bus's phase voltage `V_bus/√3` \[V] (the resistance ramp's scale).
+    pub(super) v_phase_rated: f32,
     /// Step period T \[s].
     pub(super) ts: f32,
     /// Current-loop bandwidth ω_c \[rad/s] and ω_c T.
@@ -233,7 +241,7 @@ impl Settings {
         Self {
             i_test_a: i,
             sensable: 2.25 * i <= cfg.sense_range_a && i >= 100.0 * cfg.sense_lsb_a,
-            v_ramp_per_ms: ratings.bus_v * crate::math::INV_SQRT3 * 1e-3,
+            v_phase_rated: ratings.bus_v * crate::math::INV_SQRT3,
             ts,
             w_c,
             w_c_ts: w_c * ts,
@@ -506,11 +514,19 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         st.i_ab_last = i_ab;
         let id = &mut st.identify;
         let v_last = st.last.v_ab();
+        let v_bus_last = st.last.v_bus();
+        let dt = self.foc.dead_time();
         let request = match &mut id.phase {
-            Phase::Resistance(r) => r.step(i_ab),
-            Phase::Inductance(l) => l.step(i_ab),
-            Phase::Flux(f) => f.step(i_ab, v_last),
-            Phase::Mechanics(m) => m.step(i_ab, v_last, self.identify.n),
+            Phase::Resistance(r) => {
+                let (request, v_dir) = r.step(i_ab);
+                hold_signs(request, dt, v_dir, i_ab, input.v_bus)
+            }
+            Phase::Inductance(l) => {
+                let (request, v_dir) = l.step(i_ab);
+                hold_signs(request, dt, v_dir, i_ab, input.v_bus)
+            }
+            Phase::Flux(f) => f.step(i_ab, v_last, dt, v_bus_last),
+            Phase::Mechanics(m) => m.step(i_ab, v_last, dt, v_bus_last, self.identify.n),
         };
         let out = id
             .gains

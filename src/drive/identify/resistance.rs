@@ -6,9 +6,40 @@
 //! currents `I1`, `I2`; `R = (V2 − V1)/(I2 − I1)` \[Ω]. The inverter's dead-time error and any
 //! current or voltage offset are the same at both levels (every phase current keeps its sign:
 //! phase a carries `I`, b and c `−I/2`, all beyond the compensation's band) and cancel. The
-//! levels are half the rated current and the rated current (each to within +25 %), reached by
-//! ramping the voltage (a rated bus's phase voltage per second, back down when the current
-//! jumped beyond), each held to settle (100 ms) and averaged (100 ms).
+//! levels are half the rated current and the rated current (each to within +25 %), each held
+//! to settle (100 ms) and averaged (100 ms).
+//!
+//! Reaching a level on a motor of unknown resistance (a 470 V bus and 7 mΩ: the rated
+//! current needs 1 % of the phase voltage, less than the dead time's error, so a ramp scaled
+//! from the bus overshoots it many times over): the voltage grows geometrically, 10 % per
+//! millisecond (γ = 0.05/ms) from `10⁻⁴` of the rated bus's phase voltage, until a tenth of
+//! the level flows; a geometric ramp `e^{γt}` through the winding's lag `τ = L/R` gives the
+//! current `v/(R (1 + γτ))`, so the voltage is never more than `1 + γτ` ahead of what flows
+//! (1.3 at τ = 7 ms, 3.2 at the 44 ms of a 18 mΩ, 0.8 mH traction motor), whatever `R`. From
+//! there an integral current controller whose gain is scaled from the measured resistance,
+//! `Δv = G (1.1·level − i) · v/i` per millisecond (the secant `v/i`; the rise capped at
+//! γ per ms, the fall at half the voltage): with the lag, `ω_n² = G/(τ·1 ms)` and `ζ = 1/(2 √(G τ/1 ms))`, so `G = 0.03`
+//! keeps `ζ ≥ 0.5` up to τ = 33 ms (0.44 at 44 ms) and settles a τ → 0 winding in
+//! `3·1 ms/G` = 100 ms; it lands the current in the window. The secant overestimates `R` by
+//! the lag (`1 + γτ`) and the loop may overshoot: a level is averaged only when its current is
+//! still in the window after the settling time, else the ramp goes on (for at most 2 s, then
+//! the level is taken where it is, and the winding check judges it). This is the
+//! ramp-to-current of ODrive's resistance measurement (`Motor::measure_phase_resistance`,
+//! an integrator `v += k_I (I_test − i) T`; ODrive fixes `k_I` at 1 V/(A·s), here it follows
+//! the measured `v/i`) made scale-free.
+//!
+//! The dead-time compensation by the sign of the measured current
+//! ([`crate::dead_time`]) is a negative resistance of `t_d·f_pwm·V_bus/band` while a phase's
+//! current is within the compensation's band: on a motor whose `R` is below it (the 7 mΩ
+//! motor: ≈ 0.4 Ω) the current runs away as it crosses the band (`overcurrent`). The
+//! resistance and inductance tests therefore compensate with signs that do not follow each
+//! sample ([`super::inverter::hold_signs`]): those of the last millisecond's mean current once a tenth
+//! of the rated current flows (a faulty winding's phase currents need not have the voltage's
+//! signs), else those of the voltage commanded (the inductance test: of its DC voltage): the inverter's error is
+//! then the constant that the two-level difference cancels (the inverter-nonlinearity
+//! argument of the two-point DC test: Kim, Sul et al.; H.-W. Kim, M.-J. Youn, K.-Y. Cho,
+//! H.-S. Kim, "Nonlinearity estimation and compensation of PWM VSI for PMSM under
+//! resistance and flux linkage uncertainty", IEEE Trans. Control Syst. Technol. 14(4), 2006).
 //!
 //! The winding check: a third level adds 0.3 × rated current on the β axis (the rotor turns
 //! by 17° electrical, and the DC test does not care), so that the 2×2 DC conductance
@@ -34,6 +65,19 @@ const SETTLE_MS: u32 = 100;
 const AVERAGE_MS: u32 = 100;
 /// Levels: fractions of the rated current (α, α, then added on β).
 const LEVELS: [f32; 3] = [0.5, 1.0, 0.3];
+/// The ramp's first voltage, a fraction of the rated bus's phase voltage (module doc).
+const V_START: f32 = 1e-4;
+/// Geometric growth per millisecond while the current is below `DETECT` of the level (γ).
+const GROWTH: f32 = 0.05;
+const DETECT: f32 = 0.1;
+/// The integral controller's gain per millisecond (times the secant `v/i`) and its aim (a
+/// fraction of the level: the window is `[1, 1.25]`).
+const GAIN: f32 = 0.03;
+const AIM: f32 = 1.1;
+/// A level not held in its window within this time \[ms] is taken where its current is
+/// (a faulty winding's current may not settle along the level's axis; the conductance check
+/// then names the fault).
+const RAMP_MAX_MS: u32 = 2000;
 
 /// Where a level is.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -58,22 +102,34 @@ pub(in crate::drive) struct Resistance {
     /// Currents summed since the last tick (or over the average) \[A].
     sum_i: AlphaBeta,
     n: u32,
+    /// The direction whose phase signs the dead time's compensation takes: the last
+    /// millisecond's mean current once a tenth of the rated current flows, else the voltage.
+    sign_dir: AlphaBeta,
+    /// Milliseconds this level has ramped (its settling included).
+    ramp_ms: u32,
     /// Each level's voltage and mean current [V], \[A].
     points: [(AlphaBeta, AlphaBeta); 3],
 }
 
 impl Resistance {
-    /// One step: the sample `i_ab` \[A] summed; the voltage held.
+    /// One step: the sample `i_ab` \[A] summed; the voltage held, and the voltage whose signs
+    /// the dead time's compensation takes (itself: [`super::inverter::hold_signs`]).
     #[inline(always)]
-    pub(in crate::drive) fn step(&mut self, i_ab: AlphaBeta) -> Request {
+    pub(in crate::drive) fn step(&mut self, i_ab: AlphaBeta) -> (Request, AlphaBeta) {
         self.sum_i = AlphaBeta::new(self.sum_i.alpha + i_ab.alpha, self.sum_i.beta + i_ab.beta);
         self.n += 1;
-        Request {
+        let request = Request {
             frame: SinCos::ZERO,
             frame_out: SinCos::ZERO,
             omega_m: 0.0,
             reference: Reference::Voltage(Dq::new(self.v_ab.alpha, self.v_ab.beta)),
-        }
+        };
+        let dir = if self.sign_dir.alpha == 0.0 && self.sign_dir.beta == 0.0 {
+            self.v_ab
+        } else {
+            self.sign_dir
+        };
+        (request, dir)
     }
 
     /// The 1 kHz work: the ramp, the levels, the result. `v_max` \[V] the largest voltage the
@@ -88,35 +144,56 @@ impl Resistance {
         let mean = AlphaBeta::new(self.sum_i.alpha * k, self.sum_i.beta * k);
         let on_beta = self.level == 2;
         let level_a = LEVELS[self.level.min(2)] * s.i_test_a;
+        // The current along the level's axis (on β, what the third level added).
+        let base = self.points[1].1;
+        let (along, across) = if on_beta {
+            (mean.beta - base.beta, mean.alpha - base.alpha)
+        } else {
+            (mean.alpha, mean.beta)
+        };
+        let in_window = along >= level_a && along <= 1.25 * level_a;
+        if self.n > 0 {
+            let flows = mean.alpha * mean.alpha + mean.beta * mean.beta
+                >= (DETECT * s.i_test_a) * (DETECT * s.i_test_a);
+            self.sign_dir = if flows { mean } else { AlphaBeta::default() };
+        }
         match self.sub {
             Sub::Ramp => {
                 self.clear();
-                // The current along the level's axis (on β, what the third level added).
-                let base = self.points[1].1;
-                let (along, across) = if on_beta {
-                    (mean.beta - base.beta, mean.alpha - base.alpha)
-                } else {
-                    (mean.alpha, mean.beta)
-                };
-                if along >= level_a && along <= 1.25 * level_a {
+                self.ramp_ms += 1;
+                if in_window || self.ramp_ms > RAMP_MAX_MS {
                     self.sub = Sub::Settle(SETTLE_MS);
                     return Progress::Stay;
                 }
-                // Up to the level, or back down to it when the current jumped beyond (the
-                // dead-time compensation takes hold once a current flows: a step of up to
-                // 2·t_d·f_pwm·V_bus).
-                let dv = if along < level_a {
-                    s.v_ramp_per_ms
+                // The voltage along the level's axis (on β, what the third level added).
+                let v_along = if on_beta {
+                    self.v_ab.beta
                 } else {
-                    -s.v_ramp_per_ms
+                    self.v_ab.alpha
+                };
+                let v_next = if along < DETECT * level_a || v_along <= 0.0 {
+                    if v_along > 0.0 {
+                        v_along * (1.0 + GROWTH)
+                    } else if on_beta {
+                        // From a hundredth of the second level's voltage (the third level
+                        // needs about 0.3 of it).
+                        V_START * 1e2 * self.points[1].0.alpha
+                    } else {
+                        V_START * s.v_phase_rated
+                    }
+                } else {
+                    // Integral control, its gain from the secant resistance.
+                    let dv = GAIN * (AIM * level_a - along) * (v_along / along);
+                    v_along + dv.max(-0.5 * v_along).min(GROWTH * v_along)
                 };
                 let mut v = self.v_ab;
                 if on_beta {
-                    v.beta += dv;
+                    v.beta = v_next;
                 } else {
-                    v.alpha += dv;
+                    v.alpha = v_next;
                 }
-                if v.alpha * v.alpha + v.beta * v.beta > v_max * v_max {
+                let within = v.alpha * v.alpha + v.beta * v.beta <= v_max * v_max;
+                if !within {
                     let open = along < 0.25 * level_a || across.abs() > 0.3 * along.abs();
                     return Progress::Fail(if open {
                         IdentifyError::OpenPhase
@@ -128,10 +205,16 @@ impl Resistance {
             }
             Sub::Settle(0) => {
                 self.clear();
-                self.sub = Sub::Average(AVERAGE_MS);
+                // Still in the window after settling (else on with the ramp).
+                self.sub = if in_window || self.ramp_ms > RAMP_MAX_MS {
+                    Sub::Average(AVERAGE_MS)
+                } else {
+                    Sub::Ramp
+                };
             }
             Sub::Settle(ms) => {
                 self.clear();
+                self.ramp_ms += 1;
                 self.sub = Sub::Settle(ms - 1);
             }
             Sub::Average(ms) if ms > 1 => self.sub = Sub::Average(ms - 1),
@@ -141,6 +224,7 @@ impl Resistance {
                 }
                 self.clear();
                 self.sub = Sub::Ramp;
+                self.ramp_ms = 0;
                 self.level += 1;
                 if self.level == 3 {
                     return self.evaluate(s, result);
