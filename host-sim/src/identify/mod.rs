@@ -14,9 +14,10 @@ pub use crate::board::MotorFault;
 use crate::board::{BoardStage, SimBoard};
 use pmsm_plant::PlantParams;
 use pmsm_sensorless::control::{Commands, Control};
-use pmsm_sensorless::drive::identify::placeholder;
+use pmsm_sensorless::drive::identify::{placeholder, SPIN_SPEED_SHARE};
 use pmsm_sensorless::drive::{DriveConfig, Fault, Identified, Mode, Transition};
 use pmsm_sensorless::motor::Motor;
+use pmsm_sensorless::rate::{control_rate, CpuBudget};
 
 /// Everything one identification run needs.
 #[derive(Clone, Debug)]
@@ -69,11 +70,15 @@ const SUBSTEPS: usize = 25;
 
 /// The drive's configuration for identifying `motor` on `board`, as a board has it: built on
 /// the placeholder motor of its pole pairs and ratings (`identify::placeholder`), with the
-/// board's PWM, dead time and current sensing.
+/// board's PWM, dead time and current sensing, at the identification's control rate (20
+/// samples per electrical period at its spin speed, `identify::SPIN_SPEED_SHARE`).
 pub fn drive_config(motor: &Motor, board: &SimBoard) -> DriveConfig {
     let user = placeholder(motor.params.pole_pairs, motor.ratings, motor.params.torque);
     let mut dc = DriveConfig::new(&user);
     board.configure_drive(&mut dc);
+    let spin_rpm = SPIN_SPEED_SHARE * motor.ratings.speed_rpm;
+    let pole_pairs = motor.params.pole_pairs;
+    dc.rate_hz = control_rate(pole_pairs, spin_rpm, board.pwm_hz as f32, &CpuBudget::BOARD).rate_hz;
     if let Some(r) = board.sense_range_a {
         dc.identify.sense_range_a = r as f32;
     }
