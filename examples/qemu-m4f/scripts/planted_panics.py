@@ -20,7 +20,7 @@ import tempfile
 # (file, the function's signature up to its opening brace, which occurrence, what it is)
 PLACES = [
     ("src/observer/sliding.rs", "fn update(&self, st: &mut SlidingState, i_ab: AlphaBeta, v_ab: AlphaBeta) -> bool {", 2, "SlidingObserver as an Observer: update"),
-    ("src/observer/sliding.rs", "fn sin_cos_output(&self, st: &SlidingState, _frame: SinCos, _lead: SinCos) -> SinCos {", 1, "SlidingObserver: the controller's angle (sliding primary)"),
+    ("src/observer/sliding.rs", "fn sin_cos_output(&self, st: &SlidingState, frame: SinCos, lead: SinCos) -> SinCos {", 1, "SlidingObserver: the controller's angle (sliding primary)"),
     ("src/observer/sliding.rs", "fn residual(&self, st: &SlidingState) -> f32 {", 1, "SlidingObserver: residual"),
     ("src/observer/mod.rs", "fn sin_cos_output(&self, _st: &Self::State, frame: SinCos, lead: SinCos) -> SinCos {", 1, "Observer default: the controller's angle (flux primary)"),
     ("src/observer/flux_speed.rs", "fn update(&self, st: &mut FluxPllState, i_ab: AlphaBeta, v_ab: AlphaBeta) -> bool {", 1, "FluxPll: update"),
@@ -54,7 +54,7 @@ PLACES = [
     ("src/drive/mod.rs", "fn observe(&self, st: &mut StateOf<P, M>, i_ab: AlphaBeta, v: AlphaBeta) -> bool {", 1, "Drive::observe"),
     ("src/drive/mod.rs", "fn control(", 1, "Drive::control"),
     ("src/drive/mod.rs", "pub fn tick(", 1, "Drive::tick, the 1 kHz task"),
-    ("src/drive/state.rs", "pub(super) fn task_stalled(&mut self) -> bool {", 1, "the task-stall count (steps since the 1 kHz task)"),
+    ("src/drive/state.rs", "pub(super) fn task_stalled(&mut self, schedule: &Schedule) -> bool {", 1, "the task-stall count (steps since the 1 kHz task)"),
     ("src/drive/plausibility.rs", "pub(super) fn implausible(&self, count: &mut u8, i_abc: Abc) -> bool {", 1, "the current sensors' phase-sum check"),
     ("src/drive/observers.rs", "pub(super) fn supervise(", 1, "Drive::supervise"),
     ("src/load_observer.rs", "pub fn update(", 1, "the speed loop's load-torque observer"),
