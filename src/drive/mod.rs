@@ -250,12 +250,10 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         let to = st.mode();
         // The brake chopper's gate from the bus, in every mode (`regen.rs`).
         st.brake = self.sensorless.regen.brake(st.brake, input.v_bus);
+        let faulted = to == Mode::Fault;
         DriveOutput {
-            duties: if to == Mode::Fault { None } else { duties },
-            short_circuit: match st.mode {
-                ModeState::Fault(f) => self.safe_state.for_fault(f) == SafeState::ShortCircuit,
-                _ => false,
-            },
+            duties: if faulted { None } else { duties },
+            short_circuit: faulted && self.short_circuit(st),
             brake: st.brake,
             transition: reason
                 .filter(|_| to != from)
@@ -575,6 +573,15 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             Reason::Caught
         };
         Outcome::Switch(request, mode, reason)
+    }
+}
+
+impl<P: Observer, M: Observer> Drive<P, M> {
+    /// A faulted state's safe state is the active short circuit (`safe_state.rs`).
+    // Out of line: only a faulted step asks.
+    #[inline(never)]
+    fn short_circuit(&self, st: &StateOf<P, M>) -> bool {
+        matches!(st.mode, ModeState::Fault(f) if self.safe_state.for_fault(f) == SafeState::ShortCircuit)
     }
 }
 
