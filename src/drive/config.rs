@@ -457,7 +457,6 @@ impl DriveConfig {
                 handover_decay: 1.0 - slots * ts * TAU * self.speed_bandwidth_hz / 5.0,
                 handback_rpm: s.handback_rpm,
                 through_zero_rpm: s.handover_rpm,
-                through_zero_load_nm: 0.1 * self.ratings.torque_nm,
                 stop_rpm: s.stop_rpm,
                 // `FIELD_WEAKENING_MARGIN v_bus/(√3 N (ψ_f − L i_max))` per volt (`sensorless.rs`).
                 overspeed_rpm_per_v: FIELD_WEAKENING_MARGIN * m.bus_limited_rpm(1.0) * m.flux_wb

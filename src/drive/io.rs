@@ -207,10 +207,6 @@ pub struct Telemetry {
     /// The current loop's voltage was at its limit through the last millisecond (the speed
     /// loop's integrator held against more motoring current, field weakening acting).
     pub voltage_limited: bool,
-    /// Derated by the bus: the field weakening acting, the current at its limit and the speed
-    /// short of its reference: the load's torque beyond the torque-speed envelope at the
-    /// reference (`DriveConfig::torque_speed_limit_rpm`, `derating.rs`).
-    pub derated: bool,
 }
 
 /// Result of one step.

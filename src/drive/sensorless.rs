@@ -45,8 +45,6 @@ pub(super) struct Settings {
     /// over \[rpm]: the hand-over speed, where the observers were trusted to take over at the
     /// start (the hand-back speed is where they are already failing).
     pub(super) through_zero_rpm: f32,
-    /// Below this load-torque estimate \[N·m] a reversal is unloaded: a tenth of rated torque.
-    pub(super) through_zero_load_nm: f32,
     /// With a zero command, stopped below this estimated |speed| \[rpm].
     pub(super) stop_rpm: f32,
     /// The driving observer's |speed| above this many rpm per volt of the filtered measured
@@ -319,18 +317,14 @@ impl Settings {
         // Through zero speed: the speed reference on its way to a command on the other side of
         // zero (a reversal, not a load pushing the rotor back; the reference beyond the stop
         // speed, not one seeded at a standing rotor), the rotor and the reference below the
-        // hand-over speed, and either no load or the driving observer past half-way to the
-        // edge of lock. No back-EMF observer holds the angle at zero speed (Ortega et al.
-        // Sec III: the flux observer needs ω ≠ 0; Horng & Chin Sec 4: K_s's window closes as
-        // ω → 0). A loaded rotor is carried through by its load's torque and the speed loop's
-        // current, and the observers hold it (issue #17's reversal under a brake, sensorless
-        // throughout); an unloaded one lingers near zero on the speed loop's small current
-        // and they drift. The I/f open loop then carries the rotor through from the driving
-        // observer's frame and speed and hands over again on the other side.
+        // hand-over speed, and the driving observer past half-way to the edge of lock. The
+        // observers carry most reversals through zero (issue #17's under a brake; a direct
+        // reversal, `tests/drive.rs`); where one drifts (a rotor lingering near zero speed),
+        // the I/f open loop carries the rotor through from the driving observer's frame and
+        // speed and hands over again on the other side.
         let through_zero = cmd_rpm * s.speed_ref_rpm < 0.0 && s.speed_ref_rpm.abs() > self.stop_rpm;
         let band = self.through_zero_rpm;
-        let unloaded = s.ff_nm.abs() < self.through_zero_load_nm;
-        let failing = unloaded || residual > THROUGH_ZERO_RESIDUAL;
+        let failing = residual > THROUGH_ZERO_RESIDUAL;
         if through_zero && failing && s.speed_ref_rpm.abs() < band && speed_rpm.abs() < band {
             return Next::OpenLoop {
                 frame: d.frame,

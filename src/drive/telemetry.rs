@@ -83,10 +83,6 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             }
             ModeState::Sensorless(s) => (theta_d, omega_d, s.speed_ref_rpm()),
         };
-        let derated = match &st.mode {
-            ModeState::Sensorless(s) => self.sensorless.derated(s, omega_d),
-            _ => false,
-        };
         let i_dq = st.i_ab_last.to_dq(SinCos::of(theta));
         Telemetry {
             speed_ref_rpm,
@@ -101,13 +97,32 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 .load_nm(&ps)
                 .map(|t| model.torque_from_observer(t)),
             voltage_limited: st.last.limited(),
-            derated,
             driving,
             residual_primary,
             residual_monitor,
             disagreement_deg: v.disagreement() * DEG_PER_RAD,
             speed_disagreement_rpm: v.speed_disagreement_rpm(),
             ..off
+        }
+    }
+
+    /// Derated by the bus (`derating.rs`): in sensorless control with the field weakening
+    /// acting, the current at its limit and the speed short of its reference (not in
+    /// [`Telemetry`], which stays a small record: a log asks for it beside).
+    pub fn derated(&self, st: &StateOf<P, M>) -> bool {
+        match &st.mode {
+            ModeState::Sensorless(s) => {
+                let mut ps = st.obs.primary;
+                self.primary.read_out(&mut ps, ReadOut::Angle);
+                let mut ms = st.obs.monitor;
+                self.monitor.read_out(&mut ms, ReadOut::Angle);
+                let omega_m = match st.obs.health.driving {
+                    super::Role::Primary => self.primary.omega_m(&ps),
+                    super::Role::Monitor => self.monitor.omega_m(&ms),
+                };
+                self.sensorless.derated(s, omega_m)
+            }
+            _ => false,
         }
     }
 }

@@ -49,6 +49,8 @@ pub(super) trait SimDrive {
     ) -> [Option<Transition>; 2];
     /// [`Drive::telemetry`](pmsm_sensorless::drive::Drive::telemetry).
     fn telemetry(&self) -> Telemetry;
+    /// [`Drive::derated`](pmsm_sensorless::drive::Drive::derated).
+    fn derated(&self) -> bool;
     /// The voltage the last step's duties apply \[V].
     fn v_ab_applied(&self) -> AlphaBeta;
     /// The current sensors' offsets the drive measured [A, αβ].
@@ -114,6 +116,9 @@ impl<P: Observer, M: Observer> SimDrive for Control<P, M, Latch> {
     }
     fn telemetry(&self) -> Telemetry {
         Control::telemetry(self)
+    }
+    fn derated(&self) -> bool {
+        self.drive().derated(self.state())
     }
     fn v_ab_applied(&self) -> AlphaBeta {
         self.state().v_ab_applied()
@@ -298,7 +303,7 @@ impl Controller {
                     r_ohm: tel.r_ohm as f64,
                     flux_wb: tel.flux_wb as f64,
                     voltage_limited: tel.voltage_limited,
-                    derated: tel.derated,
+                    derated: drive.derated(),
                 };
                 // The angle the controller runs on: the driving observer's while sensorless.
                 let sensorless = tel.mode == Mode::Sensorless;
