@@ -7,26 +7,13 @@
 mod board;
 
 use board::{board_run, FAIL_SAFE_MOTORS as MOTORS, PRIMARIES};
+use pmsm_host_sim::names::FAULTS;
 use pmsm_host_sim::observer::ObserverKind;
 use pmsm_host_sim::report::summary::Summary;
 use pmsm_host_sim::scenario::Spec;
 use pmsm_host_sim::sim::{run, Run, SimConfig};
 use pmsm_sensorless::drive::{allows_short_circuit, DriveConfig, Fault, Mode, SafeState};
 use pmsm_sensorless::motor::ORTEGA_SIM_40KW;
-
-const FAULTS: [Fault; 11] = [
-    Fault::Overcurrent,
-    Fault::BusUndervoltage,
-    Fault::BusOvervoltage,
-    Fault::InvalidInput,
-    Fault::ObserverLoss,
-    Fault::Stall,
-    Fault::Overrun,
-    Fault::AdcOffset,
-    Fault::HardwareOvercurrent,
-    Fault::OverTemperature,
-    Fault::TaskStall,
-];
 
 /// When the task stalls \[s].
 const FAULT_S: f64 = 2.0;
@@ -63,7 +50,8 @@ fn the_short_circuit_only_where_the_motor_and_the_fault_allow_it() {
             Fault::BusOvervoltage,
             Fault::ObserverLoss,
             Fault::Stall,
-            Fault::TaskStall
+            Fault::TaskStall,
+            Fault::Overspeed
         ]
     );
     assert!(allows_short_circuit(Fault::Overspeed));
