@@ -40,6 +40,7 @@ mod adaptation;
 mod align;
 mod applied;
 mod catch;
+mod catch_zero;
 mod config;
 mod config_observers;
 mod config_rate;
@@ -74,8 +75,9 @@ use crate::frames::{AlphaBeta, Dq};
 use crate::observer::{Observer, ReadOut, Rotor};
 use align::Align;
 use catch::{Catch, Seen};
+use catch_zero::{CatchZero, Probe};
 use core::hint::cold_path;
-use mode::Next;
+use mode::{against, Entry, Next};
 use observers::AngleSample;
 use open_loop::OpenLoop;
 use state::ModeState;
@@ -112,6 +114,11 @@ pub struct Drive<P, M> {
     identify: identify::Settings,
     /// An offset beyond this is implausible (`Fault::AdcOffset`) \[A].
     identify_offset_limit_a: f32,
+    /// The catch without terminal sensing, and the alignment's watch of the back-EMF (last,
+    /// like the identification's: the running drive's step reads none of it).
+    catch_zero: catch_zero::Settings,
+    /// The board senses the terminal voltage (`PowerStageConfig::terminal_sensing`).
+    terminal_sensing: bool,
 }
 
 /// What a mode's step decided.
@@ -160,9 +167,12 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                     // The idle samples' offsets are no amplifier's: refuse the start.
                     reason = Some(enter_fault(st, Fault::AdcOffset));
                 } else {
-                    // With the terminal voltage sensed, first see whether the rotor turns.
+                    // With the terminal voltage sensed, first see whether the rotor turns; on a
+                    // board without it, with the currents regulated to zero.
                     let mode = if input.v_ab_terminal.is_some() {
                         ModeState::Catch(Catch::default())
+                    } else if !self.terminal_sensing {
+                        ModeState::CatchZero(CatchZero::default())
                     } else {
                         ModeState::Align(Align::default())
                     };
@@ -173,6 +183,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             }
             ModeState::Idle => {}
             ModeState::Catch(_)
+            | ModeState::CatchZero(_)
             | ModeState::Align(_)
             | ModeState::OpenLoop(_)
             | ModeState::Sensorless(_)
@@ -200,6 +211,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 duties
             }
             ModeState::Catch(_)
+            | ModeState::CatchZero(_)
             | ModeState::Align(_)
             | ModeState::OpenLoop(_)
             | ModeState::Sensorless(_) => {
@@ -226,7 +238,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                         _ => st.last.v_ab(),
                     };
                     let ok = self.observe(st, i_ab, v_ab);
-                    let (duties, r) = self.control(st, input.v_bus, i_ab, input.v_ab_terminal, ok);
+                    let (duties, r) = self.control(st, input, i_ab, cmd.speed_rpm, ok);
                     if r.is_some() {
                         reason = r;
                     }
@@ -277,7 +289,10 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             // Without the feature `identify` the mode is never entered.
             #[cfg(not(feature = "identify"))]
             ModeState::Identify => return None,
-            ModeState::Catch(_) | ModeState::OpenLoop(_) | ModeState::Sensorless(_) => {}
+            ModeState::Catch(_)
+            | ModeState::CatchZero(_)
+            | ModeState::OpenLoop(_)
+            | ModeState::Sensorless(_) => {}
         }
         st.last.close_millisecond(&self.schedule);
         let obs = &mut st.obs;
@@ -297,6 +312,12 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 self.supervise(obs, i_ab, 0.0);
                 let driving = obs.health.usable().then(|| self.driving_now(obs));
                 self.catch.tick(c, &self.foc, driving)
+            }
+            ModeState::CatchZero(c) if !c.seeded() => Next::Stay,
+            ModeState::CatchZero(c) => {
+                self.supervise(obs, i_ab, 0.0);
+                let driving = obs.health.usable().then(|| self.driving_now(obs));
+                self.catch_zero.tick(c, &self.foc, driving)
             }
             ModeState::OpenLoop(ol) => {
                 let (verdict, _) = self.supervise(obs, i_ab, 0.0);
@@ -375,6 +396,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             omega_m: rotor.omega_m,
             i_dq: Dq::new(0.0, i_q),
             load_nm: d.load_nm,
+            ref_omega_m: rotor.omega_m,
         };
         st.mode = ModeState::Sensorless(self.sensorless.enter(&self.foc, entry));
         st
@@ -400,11 +422,12 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     fn control(
         &self,
         st: &mut StateOf<P, M>,
-        v_bus: f32,
+        input: &DriveInput,
         i_ab: AlphaBeta,
-        v_terminal: Option<AlphaBeta>,
+        cmd_rpm: f32,
         observers_ok: bool,
     ) -> (Option<crate::svpwm::Duties>, Option<Reason>) {
+        let (v_bus, v_terminal) = (input.v_bus, input.v_ab_terminal);
         let outcome = match &mut st.mode {
             ModeState::Catch(c) => {
                 // PWM off; the observers ran on the terminal voltage (their update refuses a
@@ -427,9 +450,35 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                     (None, Some(enter_fault(st, Fault::InvalidInput)))
                 };
             }
+            ModeState::CatchZero(_) if !observers_ok => Outcome::Fault(Fault::ObserverLoss),
+            ModeState::CatchZero(c) => {
+                cold_path();
+                match self
+                    .catch_zero
+                    .probe(c, &mut st.watch, i_ab, st.last.v_ab())
+                {
+                    Probe::Run(request) => Outcome::Run(request),
+                    Probe::AtRest => {
+                        st.mode = ModeState::Align(Align::default());
+                        st.watch = catch_zero::Watch::default();
+                        return (None, Some(Reason::AtRest));
+                    }
+                    Probe::Rotor(rotor, request) => {
+                        let driven = c.is_driven();
+                        self.caught_probe(st, i_ab, rotor, cmd_rpm, driven, request)
+                    }
+                }
+            }
             ModeState::Align(a) => {
+                // A rotor the current does not hold: caught, then closed loop.
+                self.catch_zero.watch(&mut st.watch, i_ab, st.last.v_ab());
+                let turning = st.watch.turn().abs() >= catch_zero::TURN_ALIGN;
                 let (request, done) = self.align.step(a, i_ab, st.last.v_ab());
-                if done {
+                if turning {
+                    cold_path();
+                    let c = CatchZero::driven();
+                    Outcome::Switch(request, ModeState::CatchZero(c), Reason::Turning)
+                } else if done {
                     cold_path();
                     // The resistance of this start (kept unless implausible).
                     let r_ohm = self.align.resistance(a);
@@ -482,6 +531,48 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     /// The safe state this drive chooses for `fault` on its motor (`safe_state.rs`).
     pub fn safe_state_for(&self, fault: Fault) -> SafeState {
         self.safe_state.for_fault(fault)
+    }
+}
+
+impl<P: Observer, M: Observer> Drive<P, M> {
+    /// The probe saw the rotor `rotor` (`i_ab` the currents now \[A], `request` this step's
+    /// voltage): a rotor turning with the command waits at zero current for an observer to
+    /// lock on its own evidence; one turning against the command `cmd_rpm` \[rpm], or
+    /// `driven` by a load (seen turning in the alignment), is taken over in closed loop now,
+    /// the observers trusted at the probe's estimate (as at the aligned rotor) and the speed
+    /// reference from zero (`Entry::reference`): a load is fought within the current limit,
+    /// not left to drag the rotor while the observers lock.
+    // Out of line, like the other mode changes: once per start.
+    #[inline(never)]
+    fn caught_probe(
+        &self,
+        st: &mut StateOf<P, M>,
+        i_ab: AlphaBeta,
+        rotor: Rotor,
+        cmd_rpm: f32,
+        driven: bool,
+        request: Request,
+    ) -> Outcome {
+        let backwards = against(rotor.omega_m, cmd_rpm);
+        if !(driven || backwards) {
+            self.seed_caught(&mut st.obs, i_ab, rotor);
+            return Outcome::Run(request);
+        }
+        self.seed_observers(&mut st.obs, Seed::BOTH, i_ab, rotor);
+        st.obs.health = Health::AT_KNOWN_STATE;
+        let entry = Entry {
+            omega_m: rotor.omega_m,
+            i_dq: Dq::default(),
+            load_nm: None,
+            ref_omega_m: Entry::reference(rotor.omega_m, cmd_rpm),
+        };
+        let mode = ModeState::Sensorless(self.sensorless.enter(&self.foc, entry));
+        let reason = if backwards {
+            Reason::AgainstCommand
+        } else {
+            Reason::Caught
+        };
+        Outcome::Switch(request, mode, reason)
     }
 }
 

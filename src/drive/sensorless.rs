@@ -79,14 +79,28 @@ pub(super) struct Settings {
 }
 
 /// Sensorless stall: the driving observer's speed below half the slewed reference (or turning
-/// the wrong way) for `checks` in a row with the speed loop's command at its limit. (A rotor
-/// blocked before it turned never leaves the open loop: it is not seen following the ramp.)
+/// the wrong way) for `checks` in a row with the speed loop's command at its limit, and not
+/// gaining `gain_rpm` toward the reference over them: a rotor taken over turning against the
+/// command (`Reason::AgainstCommand`) is braked at the limit for longer than that, but it
+/// gains; a blocked one does not. (A rotor blocked before it turned never leaves the open
+/// loop: it is not seen following the ramp.)
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Stall {
     /// Checks of collapsed speed at the current limit before a stall.
     pub(super) checks: u32,
     /// |i_q command| at or above this is the speed loop at its limit \[A].
     pub(super) i_limit_a: f32,
+    /// The speed a rotor that has not stalled gains toward the reference over `checks`
+    /// \[rpm]: the hand-back speed.
+    pub(super) gain_rpm: f32,
+}
+
+/// The stall check's state: consecutive checks of collapsed speed, and the speed along the
+/// reference at the first of them \[rpm].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(super) struct StallCount {
+    count: u32,
+    along_from_rpm: f32,
 }
 
 impl Stall {
@@ -95,7 +109,7 @@ impl Stall {
     #[inline(always)]
     pub(super) fn stalled(
         &self,
-        count: &mut u32,
+        c: &mut StallCount,
         omega_m: f32,
         speed_ref_rpm: f32,
         i_q_ref_a: f32,
@@ -103,8 +117,19 @@ impl Stall {
         let speed = omega_m * RPM_PER_RAD_S;
         let along = if speed_ref_rpm < 0.0 { -speed } else { speed };
         let at_limit = i_q_ref_a.abs() >= self.i_limit_a;
-        *count = consecutive(*count, along < 0.5 * speed_ref_rpm.abs() && at_limit);
-        *count >= self.checks
+        c.count = consecutive(c.count, along < 0.5 * speed_ref_rpm.abs() && at_limit);
+        if c.count == 1 {
+            c.along_from_rpm = along;
+        }
+        if c.count < self.checks {
+            return false;
+        }
+        if along - c.along_from_rpm >= self.gain_rpm {
+            // Gaining on the reference: not stalled; judged again from here.
+            c.count = 0;
+            return false;
+        }
+        true
     }
 }
 
@@ -167,7 +192,7 @@ pub(super) struct Sensorless {
     /// 1 kHz).
     out_rot: SinCos,
     /// Consecutive checks of a collapsed speed at the current limit.
-    stall: u32,
+    stall: StallCount,
     /// Consecutive checks of an over-speed.
     overspeed: u32,
     /// The highest |speed| since it passed the over-speed bound (0 below it) \[rpm].
@@ -203,7 +228,7 @@ impl Sensorless {
 impl Settings {
     /// Sensorless control of a rotor at `e.omega_m` \[rad/s] carrying the current `e.i_dq` \[A]
     /// in the driving observer's frame, `e.load_nm` its load estimate \[N·m] if it has one:
-    /// the reference there, the command at `i_dq.q`, the load-torque observer at the torque
+    /// the reference at `e.ref_omega_m` (the rotor's speed, or zero against the command), the command at `i_dq.q`, the load-torque observer at the torque
     /// it makes, the speed PI's integrator at what the feed-forward (the driving observer's
     /// load, else the load-torque observer's) leaves of the command. A d current (the
     /// open loop's, at the hand-over) is kept and decays over `handover_decay`'s
@@ -222,7 +247,7 @@ impl Settings {
         let ff_nm = e.load_nm.unwrap_or(torque);
         let ff_a = foc.current_for_torque(ff_nm);
         Sensorless {
-            speed_ref_rpm: omega_m * RPM_PER_RAD_S,
+            speed_ref_rpm: e.ref_omega_m * RPM_PER_RAD_S,
             speed_pi: PiState {
                 integral: i_dq.q - ff_a,
             },
@@ -231,7 +256,7 @@ impl Settings {
             i_d_handover: i_dq.d,
             i_d_ref: i_dq.d,
             out_rot: foc.output_rotation(omega_m),
-            stall: 0,
+            stall: StallCount::default(),
             overspeed: 0,
             overspeed_peak_rpm: 0.0,
             load,
