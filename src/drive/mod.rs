@@ -129,6 +129,8 @@ enum Outcome {
     Switch(Request, ModeState, Reason),
     /// Stop switching: a fault.
     Fault(Fault),
+    /// PWM off in this step (catching), with the mode change's reason if any.
+    Off(Option<Reason>),
 }
 
 impl<P: Observer, M: Observer> Drive<P, M> {
@@ -427,32 +429,90 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         cmd_rpm: f32,
         observers_ok: bool,
     ) -> (Option<crate::svpwm::Duties>, Option<Reason>) {
-        let (v_bus, v_terminal) = (input.v_bus, input.v_ab_terminal);
+        let v_bus = input.v_bus;
         let outcome = match &mut st.mode {
+            ModeState::Sensorless(s) if observers_ok => {
+                let (frame, frame_out, omega_m, _) = self.driving(&st.obs, s.out_rot());
+                Outcome::Run(self.sensorless.step(s, frame, frame_out, omega_m, v_bus))
+            }
+            ModeState::Sensorless(_) => Outcome::Fault(Fault::ObserverLoss),
+            ModeState::OpenLoop(ol) => Outcome::Run(self.open_loop.step(ol)),
+            // The catch and the alignment: out of line, off the running drive's path.
+            ModeState::Catch(_) | ModeState::CatchZero(_) | ModeState::Align(_) => {
+                self.starting(st, input, i_ab, cmd_rpm, observers_ok)
+            }
+            // Not running: `Drive::step` does not call this in these modes.
+            ModeState::Idle
+            | ModeState::Fault(_)
+            | ModeState::Calibrate
+            | ModeState::Identify
+            | ModeState::Identified => return (None, None),
+        };
+        let (request, reason) = match outcome {
+            Outcome::Run(request) => (request, None),
+            Outcome::Switch(request, mode, reason) => {
+                cold_path();
+                st.mode = mode;
+                (request, Some(reason))
+            }
+            Outcome::Fault(f) => return (None, Some(enter_fault(st, f))),
+            Outcome::Off(reason) => return (None, reason),
+        };
+        let out = self.foc.run(&mut st.current, &request, i_ab, v_bus);
+        st.last.record(&out, v_bus, self.delay_periods);
+        (Some(out.duties), reason)
+    }
+
+    /// The safe state the drive holds the stage in while faulted (`safe_state.rs`): every
+    /// switch off, or the active short circuit where the fault and the motor allow it.
+    pub fn safe_state(&self, st: &StateOf<P, M>) -> Option<SafeState> {
+        st.fault().map(|f| self.safe_state.for_fault(f))
+    }
+
+    /// The safe state this drive chooses for `fault` on its motor (`safe_state.rs`).
+    pub fn safe_state_for(&self, fault: Fault) -> SafeState {
+        self.safe_state.for_fault(fault)
+    }
+}
+
+impl<P: Observer, M: Observer> Drive<P, M> {
+    /// The step of the catch (PWM off on the terminal voltage, or the currents regulated to
+    /// zero without it) and of the alignment (watching for a rotor the current does not
+    /// hold). Out of line: the running drive's step stays short.
+    #[inline(never)]
+    fn starting(
+        &self,
+        st: &mut StateOf<P, M>,
+        input: &DriveInput,
+        i_ab: AlphaBeta,
+        cmd_rpm: f32,
+        observers_ok: bool,
+    ) -> Outcome {
+        let v_terminal = input.v_ab_terminal;
+        match &mut st.mode {
             ModeState::Catch(c) => {
                 // PWM off; the observers ran on the terminal voltage (their update refuses a
                 // non-finite one), checked before the catch reads it (`protection.rs`).
                 if !protection::terminal_valid(&self.limits, v_terminal) {
-                    return (None, Some(enter_fault(st, Fault::InvalidInput)));
+                    return Outcome::Fault(Fault::InvalidInput);
                 }
                 let v_ab = v_terminal.unwrap_or_default();
                 match self.catch.step(c, v_ab) {
                     Seen::AtRest => {
                         st.mode = ModeState::Align(Align::default());
-                        return (None, Some(Reason::AtRest));
+                        return Outcome::Off(Some(Reason::AtRest));
                     }
                     Seen::Rotor(rotor) => self.seed_caught(&mut st.obs, i_ab, rotor),
                     Seen::Wait => {}
                 }
-                return if observers_ok {
-                    (None, None)
+                if observers_ok {
+                    Outcome::Off(None)
                 } else {
-                    (None, Some(enter_fault(st, Fault::InvalidInput)))
-                };
+                    Outcome::Fault(Fault::InvalidInput)
+                }
             }
             ModeState::CatchZero(_) if !observers_ok => Outcome::Fault(Fault::ObserverLoss),
             ModeState::CatchZero(c) => {
-                cold_path();
                 match self
                     .catch_zero
                     .probe(c, &mut st.watch, i_ab, st.last.v_ab())
@@ -461,7 +521,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                     Probe::AtRest => {
                         st.mode = ModeState::Align(Align::default());
                         st.watch = catch_zero::Watch::default();
-                        return (None, Some(Reason::AtRest));
+                        Outcome::Off(Some(Reason::AtRest))
                     }
                     Probe::Rotor(rotor, request) => {
                         let driven = c.is_driven();
@@ -495,42 +555,9 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                     Outcome::Run(request)
                 }
             }
-            ModeState::OpenLoop(ol) => Outcome::Run(self.open_loop.step(ol)),
-            ModeState::Sensorless(s) if observers_ok => {
-                let (frame, frame_out, omega_m, _) = self.driving(&st.obs, s.out_rot());
-                Outcome::Run(self.sensorless.step(s, frame, frame_out, omega_m, v_bus))
-            }
-            ModeState::Sensorless(_) => Outcome::Fault(Fault::ObserverLoss),
-            // Not running: `Drive::step` does not call this in these modes.
-            ModeState::Idle
-            | ModeState::Fault(_)
-            | ModeState::Calibrate
-            | ModeState::Identify
-            | ModeState::Identified => return (None, None),
-        };
-        let (request, reason) = match outcome {
-            Outcome::Run(request) => (request, None),
-            Outcome::Switch(request, mode, reason) => {
-                cold_path();
-                st.mode = mode;
-                (request, Some(reason))
-            }
-            Outcome::Fault(f) => return (None, Some(enter_fault(st, f))),
-        };
-        let out = self.foc.run(&mut st.current, &request, i_ab, v_bus);
-        st.last.record(&out, v_bus, self.delay_periods);
-        (Some(out.duties), reason)
-    }
-
-    /// The safe state the drive holds the stage in while faulted (`safe_state.rs`): every
-    /// switch off, or the active short circuit where the fault and the motor allow it.
-    pub fn safe_state(&self, st: &StateOf<P, M>) -> Option<SafeState> {
-        st.fault().map(|f| self.safe_state.for_fault(f))
-    }
-
-    /// The safe state this drive chooses for `fault` on its motor (`safe_state.rs`).
-    pub fn safe_state_for(&self, fault: Fault) -> SafeState {
-        self.safe_state.for_fault(fault)
+            // `control` calls this in the three modes above only.
+            _ => Outcome::Off(None),
+        }
     }
 }
 
