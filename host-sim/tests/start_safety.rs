@@ -1,5 +1,6 @@
 //! Issue #27's start safety, with the board's defaults (20 kHz PWM, 500 ns dead time, 1 % of
-//! rated current noise), both primaries, the Sinano motor and Ortega's test motor, on a board
+//! rated current noise), both primaries, the Sinano motor, Ortega's test motor and the EMRAX
+//! 228 (`board::FAIL_SAFE_MOTORS`), on a board
 //! without terminal-voltage sensing (`terminal_sensing = false`, as the B-G431B-ESC1's
 //! firmware):
 //! - re-enabling on a rotor coasting at ±50 % and ±100 % of rated speed
@@ -10,8 +11,12 @@
 //!   first period applies zero volts, knowing nothing of the rotor, and its current,
 //!   `i₁ ≤ N ψ_f |ω_m| T/L` at the enable's speed, is the one a catch without terminal sensing
 //!   cannot avoid at this control rate: the peak is below the rated-torque current or, where
-//!   `i₁`'s bound is above it (Ortega's test motor at rated speed: 9.6 A against 6.8 A), within
-//!   that bound;
+//!   `i₁`'s bound is above it, within that bound. That is the EMRAX at ±100 %: at its highest
+//!   rate (the PWM's 20 kHz, T = 50 µs) one period of zero volts at rated speed raises
+//!   `N ψ_f ω_m T/L = 10 · 0.0374 Wb · 576 rad/s · 50 µs / 48.3 µH ≈ 223 A` against its
+//!   200 A rated-torque current; it peaks at 214 A (107 % of the rated-torque current, 84 %
+//!   of the datasheet's continuous 180 A rms). Below it takes a zero vector shorter than a
+//!   switching period, or the terminal voltage sensed;
 //! - a start lifting an active load of 0.8 and 1.2 of rated torque, there before the enable
 //!   (`host-sim/scenarios/start-active-{80,120}.toml`): never handed over in reverse (no
 //!   open-loop hand-over while the rotor turns against the command beyond the hand-back
