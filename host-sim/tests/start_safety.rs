@@ -20,7 +20,8 @@
 //! - a start lifting an active load of 0.8 and 1.2 of rated torque, there before the enable
 //!   (`host-sim/scenarios/start-active-{80,120}.toml`): never handed over in reverse (no
 //!   open-loop hand-over while the rotor turns against the command beyond the hand-back
-//!   speed), the load lifted to the command; the reverse excursion is printed;
+//!   speed), the load lifted to the command; the reverse excursion within the energy bound
+//!   of `reverse_bound_rpm`, and printed;
 //! - an enable storm and a fault cleared and re-enabled (`enable-storm.toml`,
 //!   `fault-clear-recatch.toml`, the scenario files' `enable` and `clear_fault` events):
 //!   every re-enable catches the coasting rotor.
@@ -30,7 +31,7 @@ mod board;
 use board::{board_run, FAIL_SAFE_MOTORS as MOTORS, PRIMARIES};
 use pmsm_host_sim::report::summary::Summary;
 use pmsm_host_sim::sim::Run;
-use pmsm_sensorless::drive::{Mode, Reason};
+use pmsm_sensorless::drive::{DriveConfig, Mode, Reason};
 
 /// The enable's time in the catch scenarios \[s] (the active-load ones are enabled from 0).
 const ENABLED_S: f64 = 0.05;
@@ -92,11 +93,30 @@ fn a_coasting_rotor_is_caught_without_terminal_sensing() {
     }
 }
 
+/// The bound on the reverse excursion of a start under the active load `load` (a fraction of
+/// rated torque) on `motor` \[rpm]: the alignment's watch takes the rotor into closed loop
+/// once the back-EMF has turned half an electrical turn (`catch_zero::TURN_ALIGN`), after at
+/// most half a turn to pass the aligned angle, one electrical turn `2π/N` of travel in all;
+/// over it the load and at most the alignment's torque `c N ψ_f i_align` accelerate the rotor,
+/// so `½ J ω² ≤ (τ_L + c N ψ_f i_align) 2π/N`. Beyond it the closed loop brakes with the
+/// whole current limit, which lifts the load (`i_max` is 1.5 × the rated-torque current).
+fn reverse_bound_rpm(motor: &str, load: f64) -> f64 {
+    let m = board::motor(motor);
+    let p = m.params;
+    let k_t = f64::from(p.torque_constant());
+    let i_align = f64::from(DriveConfig::new(&m).start.align_current_a);
+    let tau_l = load * f64::from(m.ratings.torque_nm);
+    let travel = 2.0 * std::f64::consts::PI / f64::from(p.pole_pairs);
+    let omega = (2.0 * (tau_l + k_t * i_align) * travel / f64::from(p.j_kgm2)).sqrt();
+    omega * 60.0 / (2.0 * std::f64::consts::PI)
+}
+
 #[test]
 fn an_active_load_at_the_enable_is_never_handed_over_in_reverse() {
-    for scenario in ["start-active-80", "start-active-120"] {
+    for (scenario, load) in [("start-active-80", 0.8), ("start-active-120", 1.2)] {
         for motor in MOTORS {
             let m = board::motor(motor);
+            let bound_rpm = reverse_bound_rpm(motor, load);
             let rated_rpm = f64::from(m.ratings.speed_rpm);
             let handback_rpm = 0.06 * rated_rpm;
             for observer in PRIMARIES {
@@ -110,11 +130,12 @@ fn an_active_load_at_the_enable_is_never_handed_over_in_reverse() {
                     .map(|(t, tr)| format!("{t:.4} {:?}->{:?} {:?}", tr.from, tr.to, tr.reason))
                     .collect();
                 println!(
-                    "{label}: reverse excursion {reverse:.1} rpm ({:.1} % of rated), peak current {peak:.2} A; {}",
+                    "{label}: reverse excursion {reverse:.1} rpm ({:.1} % of rated; bound {bound_rpm:.0} rpm), peak current {peak:.2} A; {}",
                     100.0 * reverse / rated_rpm,
                     path.join(", ")
                 );
                 assert!(s.pass, "{label}: {:?}", s.reasons);
+                assert!(reverse < bound_rpm, "{label}: {reverse} rpm");
                 // No hand-over of the open loop with the rotor turning backwards.
                 for (t, tr) in &r.transitions {
                     if tr.reason == Reason::HandOver {
