@@ -52,8 +52,8 @@ fn safe_state(motor: &str, fault: Fault) -> SafeState {
 /// sliding primary's lagging speed estimate delayed the braking command until the rising
 /// back-EMF had the field weakening take the whole current limit, the command was clamped
 /// to zero and the rotor ran to 2,448 rpm and `overspeed`. Peaks (1 % noise, seed 1):
-/// Sinano 1,772 rpm sliding, 1,732 flux; Ortega's test motor 1,279 / 1,206; the EMRAX 228
-/// 5,797 rpm (1.05 x rated) with both (the sliding observer never locks on its 200 A
+/// Sinano 1,770 rpm sliding, 1,726 flux; Ortega's test motor 1,293 / 1,205; the EMRAX 228
+/// 5,796 rpm (1.05 x rated) with both (the sliding observer never locks on its 200 A
 /// currents with the paper's `K_s`: the flux monitor drives it from the hand-over). Every
 /// peak below the over-speed bound at the rated bus ([`overspeed_bound_rpm`]).
 #[test]

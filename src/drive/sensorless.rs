@@ -68,7 +68,7 @@ pub(super) struct Settings {
     /// drive is winning: the speed fallen more than [`RECOVERING`] below its peak since it
     /// passed the bound. An overhauling load reversed at rated speed on the Sinano motor
     /// (`overhaul-hold`: ±0.8 of rated torque, 165 rpm per ms on its small rotor) takes the
-    /// rotor to 1,730 rpm (1,772 with the sliding primary), above the bound at its 48 V (1,142 rpm) for 20 ms, while the
+    /// rotor to 1,730 rpm (1,770 with the sliding primary), above the bound at its 48 V (1,142 rpm) for 20 ms, while the
     /// speed loop brings it back; a load beyond the current limit raises the speed to the
     /// end.
     pub(super) overspeed_checks: u32,
