@@ -344,7 +344,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                     Role::Monitor => r_monitor,
                 };
                 self.sensorless
-                    .tick(s, &self.foc, (health, residual), d, cmd_rpm, applied)
+                    .tick(s, &self.foc, (health, residual), d, cmd_rpm, applied, i_ab)
             }
             // Returned above.
             ModeState::Idle
