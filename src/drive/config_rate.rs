@@ -34,12 +34,14 @@ pub struct PowerStageConfig {
     /// electrical period). Default 0: the sample, the computation and the update at one
     /// instant, the simulator's and the papers' timing.
     pub update_delay_s: f32,
-    /// The board senses the terminal voltage while the PWM is off (phase-voltage dividers):
-    /// an enable passing [`DriveInput::v_ab_terminal`](crate::power_stage::DriveInput) watches a
-    /// coasting rotor with the PWM off (`catch.rs`); one without it aligns. `false`: the
-    /// board has no such sensing (the B-G431B-ESC1's firmware passes none), and an enable
-    /// first regulates the currents to zero to see whether the rotor turns, and catches it
-    /// so (`catch_zero.rs`). Default true.
+    /// The board senses the terminal voltage while the PWM is off (phase-voltage dividers),
+    /// at any speed the motor reaches. An enable passing
+    /// [`DriveInput::v_ab_terminal`](crate::power_stage::DriveInput) watches a coasting rotor
+    /// with the PWM off (`catch.rs`); one passing none (a board without the sensing, or
+    /// whose dividers clip: the B-G431B-ESC1's at 18.3 V) first regulates the currents to
+    /// zero to see whether the rotor turns, and catches it so (`catch_zero.rs`). `false`:
+    /// the control rate is chosen for that catch too ([`DriveConfig::rate_choice`]).
+    /// Default true.
     pub terminal_sensing: bool,
 }
 

@@ -117,8 +117,6 @@ pub struct Drive<P, M> {
     /// The catch without terminal sensing, and the alignment's watch of the back-EMF (last,
     /// like the identification's: the running drive's step reads none of it).
     catch_zero: catch_zero::Settings,
-    /// The board senses the terminal voltage (`PowerStageConfig::terminal_sensing`).
-    terminal_sensing: bool,
 }
 
 /// What a mode's step decided.
@@ -169,14 +167,13 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                     // The idle samples' offsets are no amplifier's: refuse the start.
                     reason = Some(enter_fault(st, Fault::AdcOffset));
                 } else {
-                    // With the terminal voltage sensed, first see whether the rotor turns; on a
-                    // board without it, with the currents regulated to zero.
+                    // First see whether the rotor turns: with the terminal voltage where the
+                    // board senses it now, else with the currents regulated to zero (a board
+                    // without the sensing, or whose dividers clip at this rotor's speed).
                     let mode = if input.v_ab_terminal.is_some() {
                         ModeState::Catch(Catch::default())
-                    } else if !self.terminal_sensing {
-                        ModeState::CatchZero(CatchZero::default())
                     } else {
-                        ModeState::Align(Align::default())
+                        ModeState::CatchZero(CatchZero::default())
                     };
                     st.restart(mode);
                     self.adaptation.ensure(&mut st.obs.model);
@@ -496,7 +493,13 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 if !protection::terminal_valid(&self.limits, v_terminal) {
                     return Outcome::Fault(Fault::InvalidInput);
                 }
-                let v_ab = v_terminal.unwrap_or_default();
+                let Some(v_ab) = v_terminal else {
+                    // The terminal voltage no longer sensed (a board's dividers clipped): the
+                    // catch goes on with the currents regulated to zero.
+                    st.mode = ModeState::CatchZero(CatchZero::default());
+                    st.watch = catch_zero::Watch::default();
+                    return Outcome::Off(None);
+                };
                 match self.catch.step(c, v_ab) {
                     Seen::AtRest => {
                         st.mode = ModeState::Align(Align::default());
