@@ -429,6 +429,7 @@ impl DriveConfig {
                     timeout_checks: 5 * slot_cycles(h.lock_time_s).max(1),
                 },
             ),
+            terminal_sensing: self.power_stage.terminal_sensing,
             #[cfg(feature = "identify")]
             identify: identify::Settings::new(
                 &self.ratings,

@@ -34,14 +34,15 @@ pub struct PowerStageConfig {
     /// electrical period). Default 0: the sample, the computation and the update at one
     /// instant, the simulator's and the papers' timing.
     pub update_delay_s: f32,
-    /// The board senses the terminal voltage while the PWM is off (phase-voltage dividers),
-    /// at any speed the motor reaches. An enable passing
+    /// The board senses the terminal voltage while the PWM is off (phase-voltage dividers)
+    /// at every speed the motor reaches: an enable passing
     /// [`DriveInput::v_ab_terminal`](crate::power_stage::DriveInput) watches a coasting rotor
-    /// with the PWM off (`catch.rs`); one passing none (a board without the sensing, or
-    /// whose dividers clip: the B-G431B-ESC1's at 18.3 V) first regulates the currents to
-    /// zero to see whether the rotor turns, and catches it so (`catch_zero.rs`). `false`:
-    /// the control rate is chosen for that catch too ([`DriveConfig::rate_choice`]).
-    /// Default true.
+    /// with the PWM off (`catch.rs`); one passing none aligns. `false`: a board without the
+    /// sensing, or whose dividers clip within the motor's speeds (the B-G431B-ESC1's at
+    /// 18.3 V): an enable passing none first regulates the currents to zero to see whether
+    /// the rotor turns, and catches it so (`catch_zero.rs`), and the control rate is chosen
+    /// for that catch too ([`DriveConfig::rate_choice`]). A catch whose terminal voltage stops
+    /// goes on so on either board. Default true.
     pub terminal_sensing: bool,
 }
 

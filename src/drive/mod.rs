@@ -117,6 +117,8 @@ pub struct Drive<P, M> {
     /// The catch without terminal sensing, and the alignment's watch of the back-EMF (last,
     /// like the identification's: the running drive's step reads none of it).
     catch_zero: catch_zero::Settings,
+    /// The board senses the terminal voltage (`PowerStageConfig::terminal_sensing`).
+    terminal_sensing: bool,
 }
 
 /// What a mode's step decided.
@@ -167,13 +169,15 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                     // The idle samples' offsets are no amplifier's: refuse the start.
                     reason = Some(enter_fault(st, Fault::AdcOffset));
                 } else {
-                    // First see whether the rotor turns: with the terminal voltage where the
-                    // board senses it now, else with the currents regulated to zero (a board
-                    // without the sensing, or whose dividers clip at this rotor's speed).
+                    // With the terminal voltage sensed, first see whether the rotor turns; on a
+                    // board that does not sense it at every speed, with the currents
+                    // regulated to zero.
                     let mode = if input.v_ab_terminal.is_some() {
                         ModeState::Catch(Catch::default())
-                    } else {
+                    } else if !self.terminal_sensing {
                         ModeState::CatchZero(CatchZero::default())
+                    } else {
+                        ModeState::Align(Align::default())
                     };
                     st.restart(mode);
                     self.adaptation.ensure(&mut st.obs.model);
