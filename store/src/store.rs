@@ -156,7 +156,8 @@ impl Store {
         let at = if end + need <= page {
             self.region.page_base(p, page) + end
         } else {
-            let next = (p + 1) % self.region.pages;
+            // The next page of the ring (p + 1 mod pages, without a division).
+            let next = if p + 1 < self.region.pages { p + 1 } else { 0 };
             let base = self.region.page_base(next, page);
             flash.erase(base, base + page).map_err(flash_error)?;
             base
