@@ -323,3 +323,48 @@ fn every_request_fits_the_device_buffer() {
     .unwrap();
     assert!(n <= MAX_FRAME);
 }
+
+/// Identified within the bounds `host-sim/tests/identify.rs` holds the core's identification
+/// to (R and ψ_f 3 %, L 5 %, J 10 %), over the link; the motor file written is one
+/// `pmsm-sim --motor-file` reads, and loaded and saved it is the device's configuration.
+#[test]
+fn the_motor_is_identified_over_the_link_and_saved() {
+    let served = device(HORNG_SINANO, true);
+    let mut c = link(&served);
+    let motor = ops::identify(&mut c, Duration::from_secs(120)).unwrap();
+    let (t, m) = (HORNG_SINANO.params, motor.params);
+    let pct = |id: f32, truth: f32| 100.0 * (id - truth) / truth;
+    eprintln!(
+        "identified over the link: R {:+.2} %, L {:+.2} %, flux {:+.2} %, J {:+.2} %",
+        pct(m.r_ohm, t.r_ohm),
+        pct(m.l_h, t.l_h),
+        pct(m.flux_wb, t.flux_wb),
+        pct(m.j_kgm2, t.j_kgm2)
+    );
+    assert!(pct(m.r_ohm, t.r_ohm).abs() < 3.0, "R {m:?}");
+    assert!(pct(m.l_h, t.l_h).abs() < 5.0, "L {m:?}");
+    assert!(pct(m.flux_wb, t.flux_wb).abs() < 3.0, "flux {m:?}");
+    assert!(pct(m.j_kgm2, t.j_kgm2).abs() < 10.0, "J {m:?}");
+    let text = ops::motor_toml("sinano-identified", &motor);
+    let (name, parsed) = pmsm_host_sim::motor_file::parse(&text).unwrap();
+    assert_eq!(name, "sinano-identified");
+    assert_eq!(parsed.params, motor.params);
+    assert_eq!(parsed.ratings, motor.ratings);
+    // The drive idle again, configured as before; the identified motor loaded and saved.
+    let dir = std::env::temp_dir().join(format!("pmsm-tool-identify-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("identified.toml");
+    std::fs::write(&file, &text).unwrap();
+    ops::load_motor(&mut c, &file).unwrap();
+    ops::config_save(&mut c).unwrap();
+    let saved = served.device.lock().unwrap().flash().unwrap();
+    assert_eq!(saved.motor, (&parsed).into());
+    // And it runs on it.
+    ops::run(&mut c, 500.0, 1.5, 20).unwrap();
+    let records = ops::record(&mut c, 50, 0.5).unwrap();
+    assert!(records
+        .iter()
+        .all(|r| ((r.speed_rpm - 500.0) / 500.0).abs() < 0.02));
+    ops::stop(&mut c).unwrap();
+    std::fs::remove_dir_all(&dir).unwrap();
+}
