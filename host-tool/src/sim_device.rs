@@ -11,7 +11,7 @@
 use pmsm_host_sim::board::{BoardStage, SimBoard};
 use pmsm_host_sim::plant::PlantParams;
 use pmsm_host_sim::sim::SimConfig;
-use pmsm_link::{Device, LinkError, Settings};
+use pmsm_link::{Device, DeviceError, Settings};
 use pmsm_sensorless::drive::identify::{placeholder, SPIN_SPEED_SHARE};
 use pmsm_sensorless::drive::{Command, Drive, Identified, Mode, StateOf, Telemetry, Transition};
 use pmsm_sensorless::motor::Motor;
@@ -105,7 +105,7 @@ impl SimDevice {
         self.t_s
     }
 
-    /// The plant's mechanical speed [rpm] (the truth).
+    /// The plant's mechanical speed \[rpm] (the truth).
     pub fn plant_speed_rpm(&self) -> f64 {
         self.stage.plant().state.omega_m * 30.0 / std::f64::consts::PI
     }
@@ -183,7 +183,7 @@ impl Device for SimDevice {
         self.settings
     }
 
-    fn apply(&mut self, settings: &Settings) -> Result<(), LinkError> {
+    fn apply(&mut self, settings: &Settings) -> Result<(), DeviceError> {
         let restart = !self.running()
             && self
                 .settings
@@ -205,7 +205,7 @@ impl Device for SimDevice {
         Settings::for_motor(motor, Some(&board))
     }
 
-    fn save(&mut self) -> Result<(), LinkError> {
+    fn save(&mut self) -> Result<(), DeviceError> {
         self.flash = self.settings;
         Ok(())
     }
@@ -218,21 +218,21 @@ impl Device for SimDevice {
             )
     }
 
-    fn enable(&mut self, on: bool) -> Result<(), LinkError> {
+    fn enable(&mut self, on: bool) -> Result<(), DeviceError> {
         self.cmd.enable = on;
         Ok(())
     }
 
-    fn set_speed(&mut self, rpm: f32) -> Result<(), LinkError> {
+    fn set_speed(&mut self, rpm: f32) -> Result<(), DeviceError> {
         self.cmd.speed_rpm = rpm;
         Ok(())
     }
 
-    fn start_identification(&mut self) -> Result<(), LinkError> {
+    fn start_identification(&mut self) -> Result<(), DeviceError> {
         if self.running() {
-            return Err(LinkError::Refused(pmsm_link::msg::reason(
+            return Err(DeviceError::Refused(
                 "the identification starts from idle, disabled",
-            )));
+            ));
         }
         // The drive of the placeholder motor of the configured (or the bench motor's) pole
         // pairs and ratings, at the identification's rate (`pmsm_host_sim::identify`).
@@ -258,9 +258,7 @@ impl Device for SimDevice {
             &CpuBudget::BOARD,
         )
         .rate_hz;
-        let drive = dc
-            .build_flux_primary()
-            .map_err(|e| pmsm_link::server::rejected(&e))?;
+        let drive = dc.build_flux_primary().map_err(DeviceError::Rejected)?;
         self.state = StateOf::<FluxPll, SlidingObserver>::default();
         self.transitions
             .extend(drive.start_identification(&mut self.state));
@@ -280,7 +278,7 @@ impl Device for SimDevice {
         self.state.identified().map(|i: Identified| i)
     }
 
-    fn clear_fault(&mut self) -> Result<(), LinkError> {
+    fn clear_fault(&mut self) -> Result<(), DeviceError> {
         self.clear = true;
         Ok(())
     }

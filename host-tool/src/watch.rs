@@ -130,7 +130,10 @@ fn draw(f: &mut Frame, records: &VecDeque<Telemetry>) {
 }
 
 /// A line chart of `lines` over the window, its y range from the data.
-fn plot(f: &mut Frame, area: Rect, title: &str, lines: &[(&str, Color, Vec<(f64, f64)>)]) {
+/// One plotted line: its name, colour and points (time \[s] before now, value).
+type Series<'a> = (&'a str, Color, Vec<(f64, f64)>);
+
+fn plot(f: &mut Frame, area: Rect, title: &str, lines: &[Series]) {
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     for (_, _, pts) in lines {
         for &(_, y) in pts.iter().filter(|p| p.1.is_finite()) {

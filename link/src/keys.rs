@@ -148,7 +148,7 @@ impl Key {
                 // Whole and within u32: the core's range check follows.
                 // Whole and within u32 (the cast back is exact): the core's range check follows.
                 let n = value as u32;
-                if !(value.is_finite() && value >= 0.0 && value < 4.0e9 && n as f32 == value) {
+                if !(value.is_finite() && (0.0..4.0e9).contains(&value) && n as f32 == value) {
                     return Err(KeyError::NotWhole);
                 }
                 s.motor.pole_pairs = n;

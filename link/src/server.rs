@@ -23,6 +23,30 @@ use pmsm_sensorless::drive as core_drive;
 use pmsm_sensorless::motor::Motor;
 use pmsm_sensorless::param::ParamError;
 
+/// Why a [`Device`] did not do what it was asked (the server answers it as a [`LinkError`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum DeviceError {
+    /// Not now, and why (the identification asked outside idle, ...).
+    Refused(&'static str),
+    /// The non-volatile store failed.
+    Storage,
+    /// No valid configuration.
+    NotConfigured,
+    /// A value the core refused.
+    Rejected(ParamError),
+}
+
+impl From<DeviceError> for LinkError {
+    fn from(e: DeviceError) -> Self {
+        match e {
+            DeviceError::Refused(why) => LinkError::Refused(reason(why)),
+            DeviceError::Storage => LinkError::Storage,
+            DeviceError::NotConfigured => LinkError::NotConfigured,
+            DeviceError::Rejected(e) => rejected(&e),
+        }
+    }
+}
+
 /// What the firmware (or a simulated device) gives the link. Every method is called from the
 /// server's context (the main loop), never from the control interrupt.
 pub trait Device {
@@ -33,7 +57,7 @@ pub trait Device {
     /// Puts `settings` in force (already validated by the core; while the drive runs they
     /// differ from those in force only in settings not [`Key::locked_while_running`]). Not
     /// saved until [`Device::save`].
-    fn apply(&mut self, settings: &Settings) -> Result<(), LinkError>;
+    fn apply(&mut self, settings: &Settings) -> Result<(), DeviceError>;
 
     /// The settings for a new `motor` (validated): by default the core's defaults for it on
     /// the power stage and current sensing of the settings in force ([`Settings::for_motor`]).
@@ -43,25 +67,25 @@ pub trait Device {
     }
 
     /// Writes the settings in force to the non-volatile store.
-    fn save(&mut self) -> Result<(), LinkError>;
+    fn save(&mut self) -> Result<(), DeviceError>;
 
     /// The drive runs: enabled, or in any mode but idle, fault or identified.
     fn running(&self) -> bool;
 
     /// The enable command.
-    fn enable(&mut self, on: bool) -> Result<(), LinkError>;
+    fn enable(&mut self, on: bool) -> Result<(), DeviceError>;
 
     /// The speed command [rpm, mechanical] (finite, within the rated speed: checked).
-    fn set_speed(&mut self, rpm: f32) -> Result<(), LinkError>;
+    fn set_speed(&mut self, rpm: f32) -> Result<(), DeviceError>;
 
     /// Starts the identification (`Drive::start_identification` from idle).
-    fn start_identification(&mut self) -> Result<(), LinkError>;
+    fn start_identification(&mut self) -> Result<(), DeviceError>;
 
     /// The identified motor, once the identification is done.
     fn identified(&self) -> Option<core_drive::Identified>;
 
     /// Clears a latched fault.
-    fn clear_fault(&mut self) -> Result<(), LinkError>;
+    fn clear_fault(&mut self) -> Result<(), DeviceError>;
 
     /// The drive's telemetry record now (`Drive::telemetry`).
     fn telemetry(&self) -> core_drive::Telemetry;
@@ -240,12 +264,14 @@ impl core::fmt::Write for Truncating {
 }
 
 /// The settings in force, or [`LinkError::NotConfigured`].
+#[allow(clippy::result_large_err)] // The wire's error, built once per request.
 fn configured<D: Device>(dev: &D) -> Result<Settings, LinkError> {
     dev.settings().ok_or(LinkError::NotConfigured)
 }
 
 /// Validates `new` and puts it in force: while running, refused if a setting locked while
 /// running differs from the one in force (`old`).
+#[allow(clippy::result_large_err)] // The wire's error, built once per request.
 fn change<D: Device>(dev: &mut D, old: Option<Settings>, new: &Settings) -> Result<(), LinkError> {
     if dev.running() {
         let changed = Key::ALL.iter().find(|k| {
@@ -259,10 +285,11 @@ fn change<D: Device>(dev: &mut D, old: Option<Settings>, new: &Settings) -> Resu
         }
     }
     new.validate().map_err(|e| rejected(&e))?;
-    dev.apply(new)
+    dev.apply(new).map_err(LinkError::from)
 }
 
 /// Answers one request.
+#[allow(clippy::result_large_err)] // The wire's error, built once per request.
 fn request<D: Device>(
     req: Request,
     stream: &mut Stream,
@@ -314,13 +341,15 @@ fn request<D: Device>(
         }
         Request::Save => {
             configured(dev)?;
-            dev.save().map(|()| Response::Ok)
+            dev.save().map(|()| Response::Ok).map_err(LinkError::from)
         }
         Request::Enable(on) => {
             if on {
                 configured(dev)?;
             }
-            dev.enable(on).map(|()| Response::Ok)
+            dev.enable(on)
+                .map(|()| Response::Ok)
+                .map_err(LinkError::from)
         }
         Request::Speed(rpm) => {
             let rated = configured(dev)?.motor.ratings.speed_rpm;
@@ -333,15 +362,23 @@ fn request<D: Device>(
                     reason: why.0,
                 });
             }
-            dev.set_speed(rpm).map(|()| Response::Ok)
+            dev.set_speed(rpm)
+                .map(|()| Response::Ok)
+                .map_err(LinkError::from)
         }
-        Request::Identify => dev.start_identification().map(|()| Response::Ok),
+        Request::Identify => dev
+            .start_identification()
+            .map(|()| Response::Ok)
+            .map_err(LinkError::from),
         Request::GetIdentified => Ok(Response::Identify {
             mode: dev.telemetry().mode.into(),
             result: dev.identified().map(Into::into),
         }),
         Request::GetFault => Ok(Response::Fault(dev.telemetry().fault.map(Into::into))),
-        Request::ClearFault => dev.clear_fault().map(|()| Response::Ok),
+        Request::ClearFault => dev
+            .clear_fault()
+            .map(|()| Response::Ok)
+            .map_err(LinkError::from),
         Request::Stream(hz) => {
             if hz > MAX_STREAM_HZ {
                 return Err(LinkError::Rejected {

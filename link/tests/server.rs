@@ -3,10 +3,13 @@
 //! write while running of a setting that must not change then, a wrong protocol version)
 //! answered and changing nothing.
 
+#![allow(clippy::result_large_err)] // The wire error, as the server answers it.
+
 use pmsm_link::frame::{self, MAX_FRAME, MAX_PAYLOAD};
 use pmsm_link::msg::{Event, FieldName, MAX_STREAM_HZ};
 use pmsm_link::settings::MotorSettings;
 use pmsm_link::wire::{self, Mode};
+use pmsm_link::DeviceError;
 use pmsm_link::*;
 use pmsm_sensorless::drive::{self as core_drive, Fault, Reason, Transition};
 use pmsm_sensorless::motor::{HORNG_SINANO, ORTEGA_TEST_0P3KW};
@@ -48,34 +51,34 @@ impl Device for Mock {
     fn settings(&self) -> Option<Settings> {
         self.settings
     }
-    fn apply(&mut self, s: &Settings) -> Result<(), LinkError> {
+    fn apply(&mut self, s: &Settings) -> Result<(), DeviceError> {
         self.settings = Some(*s);
         self.applied += 1;
         Ok(())
     }
-    fn save(&mut self) -> Result<(), LinkError> {
+    fn save(&mut self) -> Result<(), DeviceError> {
         self.saved = self.settings;
         Ok(())
     }
     fn running(&self) -> bool {
         self.enabled
     }
-    fn enable(&mut self, on: bool) -> Result<(), LinkError> {
+    fn enable(&mut self, on: bool) -> Result<(), DeviceError> {
         self.enabled = on;
         Ok(())
     }
-    fn set_speed(&mut self, rpm: f32) -> Result<(), LinkError> {
+    fn set_speed(&mut self, rpm: f32) -> Result<(), DeviceError> {
         self.speed_rpm = rpm;
         Ok(())
     }
-    fn start_identification(&mut self) -> Result<(), LinkError> {
+    fn start_identification(&mut self) -> Result<(), DeviceError> {
         self.identify += 1;
         Ok(())
     }
     fn identified(&self) -> Option<core_drive::Identified> {
         None
     }
-    fn clear_fault(&mut self) -> Result<(), LinkError> {
+    fn clear_fault(&mut self) -> Result<(), DeviceError> {
         self.cleared += 1;
         self.fault = None;
         Ok(())
