@@ -22,10 +22,11 @@ pub enum KeyError {
 
 impl KeyError {
     /// What the key accepts.
-    pub fn allowed(self) -> &'static str {
+    pub fn range(self) -> crate::msg::Range {
+        use crate::msg::Range;
         match self {
-            Self::NotWhole => "a whole number",
-            Self::NotConvention => "0 (three-phase) or 1 (papers)",
+            Self::NotWhole => Range::between(1.0, 4.0e9, "a whole number"),
+            Self::NotConvention => Range::between(0.0, 1.0, "0 three-phase or 1 papers"),
         }
     }
 }

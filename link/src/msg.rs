@@ -153,7 +153,7 @@ pub enum LinkError {
         /// The value given (or derived).
         value: f32,
         /// What the field may be.
-        reason: Reason,
+        allowed: Range,
     },
     /// A setting that must not change while the drive runs.
     BusyWhileRunning {
@@ -184,6 +184,84 @@ pub enum LinkError {
     Storage,
 }
 
+/// The values a setting may take (the core's `param::Allowed`), as numbers: the device
+/// formats no float (its flash), the host prints it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Range {
+    /// Lower bound (may be −∞).
+    pub min: f32,
+    /// Whether `min` itself is allowed.
+    pub min_included: bool,
+    /// Upper bound (may be +∞).
+    pub max: f32,
+    /// Whether `max` itself is allowed.
+    pub max_included: bool,
+    /// Where a bound comes from, or what the setting takes, else empty.
+    pub why: Reason,
+}
+
+impl From<&pmsm_sensorless::param::Allowed> for Range {
+    fn from(a: &pmsm_sensorless::param::Allowed) -> Self {
+        Self {
+            min: a.min,
+            min_included: a.min_included,
+            max: a.max,
+            max_included: a.max_included,
+            why: reason(a.why),
+        }
+    }
+}
+
+impl Range {
+    /// `[min, max]` with `why`.
+    pub fn between(min: f32, max: f32, why: &str) -> Self {
+        Self {
+            min,
+            min_included: true,
+            max,
+            max_included: true,
+            why: reason(why),
+        }
+    }
+}
+
+/// A number as the core prints it (`param.rs`): plain from 0.001 to 10⁶, else in exponent
+/// form.
+struct Num(f32);
+
+impl core::fmt::Display for Num {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        let a = self.0.abs();
+        if a == 0.0 || !a.is_finite() || (1e-3..1e6).contains(&a) {
+            write!(f, "{}", self.0)
+        } else {
+            write!(f, "{:e}", self.0)
+        }
+    }
+}
+
+/// As the core's `Allowed` prints: `[1e-4, 1000]`, `(3.5, 14] (i_max_a..4 x it)`.
+impl core::fmt::Display for Range {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        let open = if self.min_included { '[' } else { '(' };
+        let close = if self.max_included { ']' } else { ')' };
+        if self.min == f32::NEG_INFINITY {
+            write!(f, "(-inf, ")?;
+        } else {
+            write!(f, "{open}{}, ", Num(self.min))?;
+        }
+        if self.max == f32::INFINITY {
+            write!(f, "inf)")?;
+        } else {
+            write!(f, "{}{close}", Num(self.max))?;
+        }
+        if !self.why.is_empty() {
+            write!(f, " ({})", self.why)?;
+        }
+        Ok(())
+    }
+}
+
 /// `text` in a [`Reason`], cut at its capacity (on a character boundary).
 pub fn reason(text: &str) -> Reason {
     let mut r = Reason::new();
@@ -212,8 +290,8 @@ impl core::fmt::Display for LinkError {
             Self::Rejected {
                 field,
                 value,
-                reason,
-            } => write!(f, "rejected: {field} = {value}: allowed {reason}"),
+                allowed,
+            } => write!(f, "rejected: {field} = {}: allowed {allowed}", Num(*value)),
             Self::BusyWhileRunning { field } => {
                 write!(f, "{field} cannot change while the drive runs: disable it first")
             }

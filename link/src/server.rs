@@ -12,12 +12,11 @@
 use crate::frame::{self, FrameError, FrameReader, Pushed, MAX_FRAME};
 use crate::keys::Key;
 use crate::msg::{
-    field_name, reason, DeviceMsg, Event, HostMsg, LinkError, Request, Response, MAX_STREAM_HZ,
-    PROTOCOL_VERSION,
+    field_name, reason, DeviceMsg, Event, HostMsg, LinkError, Range, Request, Response,
+    MAX_STREAM_HZ, PROTOCOL_VERSION,
 };
 use crate::settings::Settings;
 use crate::wire::{Reason, Telemetry};
-use core::fmt::Write as _;
 use embedded_io::{ReadReady, Write};
 use pmsm_sensorless::drive as core_drive;
 use pmsm_sensorless::motor::Motor;
@@ -238,28 +237,12 @@ fn handle_frame<D: Device>(frame: &mut [u8], stream: &mut Stream, dev: &mut D) -
     }
 }
 
-/// The core's refusal as the link's.
+/// The core's refusal as the link's (its range as numbers: nothing formatted here).
 pub fn rejected(e: &ParamError) -> LinkError {
-    let mut why = Truncating(reason(""));
-    let _ = write!(why, "{}", e.allowed);
     LinkError::Rejected {
         field: field_name(e.field),
         value: e.value,
-        reason: why.0,
-    }
-}
-
-/// A `fmt::Write` into a bounded string that keeps what fits.
-struct Truncating(crate::msg::Reason);
-
-impl core::fmt::Write for Truncating {
-    fn write_str(&mut self, s: &str) -> core::fmt::Result {
-        for c in s.chars() {
-            if self.0.push(c).is_err() {
-                break;
-            }
-        }
-        Ok(())
+        allowed: Range::from(&e.allowed),
     }
 }
 
@@ -324,7 +307,7 @@ fn request<D: Device>(
             key.set(&mut new, value).map_err(|e| LinkError::Rejected {
                 field: field_name(key.name()),
                 value,
-                reason: reason(e.allowed()),
+                allowed: e.range(),
             })?;
             change(dev, Some(old), &new).map(|()| Response::Ok)
         }
@@ -354,12 +337,10 @@ fn request<D: Device>(
         Request::Speed(rpm) => {
             let rated = configured(dev)?.motor.ratings.speed_rpm;
             if !(rpm.is_finite() && rpm.abs() <= rated) {
-                let mut why = Truncating(reason(""));
-                let _ = write!(why, "[-{rated}, {rated}] (the rated speed)");
                 return Err(LinkError::Rejected {
                     field: field_name("speed_rpm"),
                     value: rpm,
-                    reason: why.0,
+                    allowed: Range::between(-rated, rated, "the rated speed"),
                 });
             }
             dev.set_speed(rpm)
@@ -384,7 +365,7 @@ fn request<D: Device>(
                 return Err(LinkError::Rejected {
                     field: field_name("stream_hz"),
                     value: f32::from(hz),
-                    reason: reason("0 (off) to 1000"),
+                    allowed: Range::between(0.0, f32::from(MAX_STREAM_HZ), "0: off"),
                 });
             }
             *stream = Stream {

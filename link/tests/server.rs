@@ -199,7 +199,7 @@ fn every_message_fits_a_frame() {
         result: Err(LinkError::Rejected {
             field: name(&"x".repeat(40)),
             value: f32::NAN,
-            reason: pmsm_link::msg::reason(&"y".repeat(200)),
+            allowed: pmsm_link::msg::Range::between(f32::MIN, f32::MAX, &"y".repeat(200)),
         }),
     };
     assert!(postcard::to_allocvec(&rejected).unwrap().len() <= MAX_PAYLOAD);
@@ -572,4 +572,17 @@ fn the_core_types_convert_both_ways() {
             ..ORTEGA_TEST_0P3KW
         }
     );
+}
+
+#[test]
+fn a_refusal_prints_as_the_core_prints_it() {
+    let mut s = Settings::for_motor(&HORNG_SINANO, None);
+    for (key, value) in [(Key::ROhm, -3.0), (Key::ITripA, 1e9), (Key::LH, 1e-12)] {
+        key.set(&mut s, value).unwrap();
+        let core = s.validate().unwrap_err();
+        let link = pmsm_link::server::rejected(&core);
+        assert_eq!(link.to_string(), format!("rejected: {core}"));
+        key.set(&mut s, key.get(&Settings::for_motor(&HORNG_SINANO, None)))
+            .unwrap();
+    }
 }
