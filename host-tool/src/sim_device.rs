@@ -279,7 +279,10 @@ impl Device for SimDevice {
     }
 
     fn clear_fault(&mut self) -> Result<(), DeviceError> {
+        // Taken by the next step, run now: the answer that follows sees it (a board's next
+        // step is 250 µs away).
         self.clear = true;
+        self.step();
         Ok(())
     }
 

@@ -171,3 +171,57 @@ fn plot(f: &mut Frame, area: Rect, title: &str, lines: &[Series]) {
         );
     f.render_widget(chart, area);
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use pmsm_link::wire::{Mode, Role};
+    use ratatui::backend::TestBackend;
+    use ratatui::Terminal;
+
+    /// A screen drawn from a second of records shows the mode, the speed and the three plots.
+    #[test]
+    fn the_screen_shows_mode_speed_and_three_plots() {
+        let records: VecDeque<Telemetry> = (0..100u32)
+            .map(|k| Telemetry {
+                t_ms: 10 * k,
+                mode: Mode::Sensorless,
+                fault: None,
+                speed_ref_rpm: 500.0,
+                speed_rpm: 500.0 + (k % 7) as f32,
+                theta_e_primary: 0.0,
+                theta_e_monitor: 0.0,
+                theta_e_control: 0.0,
+                i_d: 0.0,
+                i_q: 0.3,
+                load_nm: None,
+                driving: Role::Primary,
+                residual_primary: 0.1,
+                residual_monitor: 0.2,
+                disagreement_deg: 0.0,
+                speed_disagreement_rpm: 0.0,
+                r_ohm: 2.5,
+                flux_wb: 0.058,
+                voltage_limited: false,
+            })
+            .collect();
+        let mut t = Terminal::new(TestBackend::new(120, 40)).unwrap();
+        t.draw(|f| draw(f, &records)).unwrap();
+        let screen: String = t
+            .backend()
+            .buffer()
+            .content()
+            .iter()
+            .map(|c| c.symbol())
+            .collect();
+        for text in [
+            "mode Sensorless",
+            "speed 501.0 rpm",
+            "speed [rpm]",
+            "currents [A]",
+            "residuals",
+        ] {
+            assert!(screen.contains(text), "{text}");
+        }
+    }
+}
