@@ -176,3 +176,11 @@ pub fn control_rate(pole_pairs: u32, speed_rpm: f32, pwm_hz: f32, cpu: &CpuBudge
         bound,
     }
 }
+
+/// The smallest rate of [`control_rate`]'s set (a multiple of 1 kHz from 4 kHz up that divides
+/// `pwm_hz`, within `cpu`) at or above `floor_hz`, else the highest of the set \[Hz]: the rule
+/// for a one-pole-pair motor whose 20 samples per period are `floor_hz`.
+pub fn rate_at_least(floor_hz: f32, pwm_hz: f32, cpu: &CpuBudget) -> f32 {
+    let speed_rpm = floor_hz / SAMPLES_PER_PERIOD_MIN * 60.0;
+    control_rate(1, speed_rpm, pwm_hz, cpu).rate_hz
+}

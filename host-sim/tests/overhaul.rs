@@ -2,13 +2,12 @@
 //! bus): an overhauling load reversing at rated speed within the current limit
 //! (`scenarios/overhaul-hold.toml`, +0.8 → −0.8 of rated torque) held by braking, and one
 //! beyond it (`scenarios/fault-overspeed.toml`, −1.7) faulted `overspeed` with the safe state,
-//! on the Sinano motor and Ortega's test motor, both primaries, the board's defaults (1 %
-//! noise).
+//! on the Sinano motor, Ortega's test motor and the EMRAX 228, both primaries, the board's
+//! defaults (1 % noise).
 
 mod board;
 
 use board::{board_run, FAIL_SAFE_MOTORS as MOTORS, PRIMARIES};
-use pmsm_host_sim::observer::ObserverKind;
 use pmsm_host_sim::report::summary::Summary;
 use pmsm_host_sim::sim::Run;
 use pmsm_sensorless::drive::{DriveConfig, Fault, Mode, Reason, SafeState};
@@ -45,12 +44,18 @@ fn safe_state(motor: &str, fault: Fault) -> SafeState {
 }
 
 /// Held: no fault, the window after the transient within 2 % of the command (the scenario's
-/// verdict), the peak speed reported. Except the Sinano motor with the sliding primary:
-/// there the sliding observer's estimate lags the rotor by 350 rpm in the transient (165 rpm
-/// per ms on its small rotor), the speed loop brakes late, the rotor passes 2,100 rpm, where
-/// even the whole current limit on the d axis no longer holds its back-EMF within the 48 V
-/// bus (`ψ_f − L i_max` = 0.031 Wb), and the drive faults `overspeed` (the safe outcome; the
-/// flux primary on the same motor holds it).
+/// verdict), every sample from 2.4 s within 5 % (the rotor's ripple with the board's noise),
+/// the peak speed reported, on every motor and both primaries. The Sinano motor's light rotor
+/// (J ω_rated/τ_rated = 9.7 ms) takes the reversal at 165 rpm per ms; its field weakening
+/// holds 3.6 A of its 4.5 A limit at rated speed under the lifted load. Braking takes the
+/// current before the field weakening (`sensorless.rs`, `braking_first`): before that the
+/// sliding primary's lagging speed estimate delayed the braking command until the rising
+/// back-EMF had the field weakening take the whole current limit, the command was clamped
+/// to zero and the rotor ran to 2,448 rpm and `overspeed`. Peaks (1 % noise, seed 1):
+/// Sinano 1,770 rpm sliding, 1,726 flux; Ortega's test motor 1,293 / 1,205; the EMRAX 228
+/// 5,796 rpm (1.05 x rated) with both (the sliding observer never locks on its 200 A
+/// currents with the paper's `K_s`: the flux monitor drives it from the hand-over). Every
+/// peak below the over-speed bound at the rated bus ([`overspeed_bound_rpm`]).
 #[test]
 fn an_overhauling_load_within_the_current_limit_is_held_at_the_command() {
     for motor in MOTORS {
@@ -72,12 +77,12 @@ fn an_overhauling_load_within_the_current_limit_is_held_at_the_command() {
                 peak / rated,
                 r.drive_fault
             );
-            if motor == "sinano" && observer == ObserverKind::SlidingTorque {
-                assert_eq!(r.drive_fault, Some(Fault::Overspeed), "{label}");
-                continue;
-            }
             assert!(s.pass, "{label}: {:?}", s.reasons);
             assert_eq!(r.drive_fault, None, "{label}");
+            assert!(
+                peak < overspeed_bound_rpm(motor),
+                "{label}: peak {peak} rpm"
+            );
             // Within 2 % of the command through the last window, sample by sample (true speed:
             // the rotor's ripple with the board's noise).
             assert!(held < 0.05 * rated, "{label}: {held} rpm");

@@ -146,3 +146,48 @@ fn a_bad_terminal_voltage_is_an_invalid_input_where_it_is_read() {
         }
     }
 }
+
+/// A board whose terminal sensing stops (the B-G431B-ESC1's dividers clip at 18.3 V, and its
+/// firmware then passes none): the catch goes on with the currents regulated to zero
+/// (`catch_zero.rs`), switching, never a catch on a voltage it does not have. An enable
+/// without one catches so on a board that does not sense it at every speed
+/// (`terminal_sensing` false, the B-G431B-ESC1's setting), and aligns on one that does.
+#[test]
+fn a_terminal_voltage_that_stops_leaves_the_catch_to_the_zero_current_probe() {
+    let motor = preset("sinano").unwrap();
+    let dc = DriveConfig::new(&motor);
+    assert!(dc.power_stage.terminal_sensing);
+    let v_bus = motor.ratings.bus_v;
+    let drive = dc.build_sliding_primary().unwrap();
+    let run = Command {
+        enable: true,
+        speed_rpm: 500.0,
+        clear_fault: false,
+    };
+    let mut st = Default::default();
+    let turning = Some(AlphaBeta::new(0.5 * v_bus, 0.0));
+    let out = drive.step(&mut st, &sample(v_bus, turning), &run);
+    assert_eq!(st.mode(), Mode::Catch);
+    assert!(out.duties.is_none());
+    // The reading stops: PWM off in this step, no fault.
+    let out = drive.step(&mut st, &sample(v_bus, None), &run);
+    assert_eq!(st.mode(), Mode::Catch);
+    assert!(out.duties.is_none() && out.transition.is_none());
+    // The zero-current probe switches from the next step on.
+    let out = drive.step(&mut st, &sample(v_bus, None), &run);
+    assert_eq!(st.mode(), Mode::Catch);
+    assert!(out.duties.is_some());
+    assert_finite(&drive.telemetry(&st), "catch without the terminal voltage");
+    // An enable without a reading: aligned where the board senses at every speed, the probe
+    // at once where it does not.
+    let mut st = Default::default();
+    drive.step(&mut st, &sample(v_bus, None), &run);
+    assert_eq!(st.mode(), Mode::Align);
+    let mut dc = DriveConfig::new(&motor);
+    dc.power_stage.terminal_sensing = false;
+    let drive = dc.build_sliding_primary().unwrap();
+    let mut st = Default::default();
+    let out = drive.step(&mut st, &sample(v_bus, None), &run);
+    assert_eq!(st.mode(), Mode::Catch);
+    assert!(out.duties.is_some());
+}

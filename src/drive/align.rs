@@ -15,6 +15,13 @@
 //! speed (a rotor pulled in late from 180°, where the current makes no torque, and still
 //! swinging), the measurement is refused. The current loop's answer to 1 % current noise is
 //! far below it (about 0.3 V on the Sinano motor, against 1.2 V).
+//!
+//! A rotor the current does not hold (an active load beyond the alignment's torque drags it)
+//! shows a back-EMF that turns on in one direction: the drive watches it every step
+//! (`catch_zero::Watch`, `DriveState::watch`) and, after a full electrical turn while measurable
+//! (`catch_zero::TURN_ALIGN`), catches the rotor with the currents regulated to zero and takes
+//! it over in closed loop (`Reason::Turning`), instead of starting an open loop the rotor does
+//! not follow.
 
 use crate::foc::{Reference, Request};
 use crate::frames::{AlphaBeta, Dq, SinCos};

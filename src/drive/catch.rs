@@ -7,7 +7,9 @@
 //! feed-forward applies the rotor's own voltage: no current step). A rotor whose back-EMF is
 //! below that of the slowest catch speed is taken as at rest and aligned. Needs a board that
 //! senses the terminal voltage ([`DriveInput::v_ab_terminal`](super::DriveInput)); without it
-//! an enable aligns.
+//! an enable aligns, or, on a board configured without terminal sensing
+//! (`PowerStageConfig::terminal_sensing` false), catches the rotor with its currents
+//! regulated to zero (`catch_zero.rs`).
 //!
 //! Reading the back-EMF of a coasting motor through the phase-voltage dividers before the
 //! switches start is the usual flying-start of sensorless drives (e.g. ST's motor-control
@@ -120,6 +122,7 @@ impl Settings {
                 omega_m: d.omega_m,
                 i_dq: Dq::new(0.0, i_q),
                 load_nm: d.load_nm,
+                ref_omega_m: d.omega_m,
             };
             return Next::Sensorless(entry, Reason::Caught);
         }

@@ -10,7 +10,9 @@ use super::identify::IdentifyConfig;
 use super::open_loop;
 use super::ramp::Ramp;
 use super::supervision;
-use super::{adaptation, align, catch, plausibility, regen, safe_state, sensorless, Drive};
+use super::{
+    adaptation, align, catch, catch_zero, plausibility, regen, safe_state, sensorless, Drive,
+};
 use crate::dead_time::DeadTimeConfig;
 use crate::foc::FocConfig;
 use crate::load_observer::LoadObserverConfig;
@@ -198,6 +200,7 @@ impl DriveConfig {
                 dead_time_band_a: 0.05 * i_rated,
                 duty_max: 1.0,
                 update_delay_s: 0.0,
+                terminal_sensing: true,
             },
             ratings: motor.ratings,
             // The drive's own sensing range; a board sets its own.
@@ -413,6 +416,20 @@ impl DriveConfig {
                 half_n_ts: 0.5 * m.n() * ts,
                 timeout_checks: 5 * slot_cycles(h.lock_time_s).max(1),
             },
+            catch_zero: catch_zero::Settings::new(
+                &m,
+                &catch_zero::From {
+                    rate_hz: rate,
+                    rated_torque_nm: self.ratings.torque_nm,
+                    bus_v: self.ratings.bus_v,
+                    handback_rpm: s.handback_rpm,
+                    dead_time_s: self.power_stage.dead_time_s,
+                    pwm_hz: self.power_stage.pwm_hz,
+                    dead_time_band_a: self.power_stage.dead_time_band_a,
+                    timeout_checks: 5 * slot_cycles(h.lock_time_s).max(1),
+                },
+            ),
+            terminal_sensing: self.power_stage.terminal_sensing,
             #[cfg(feature = "identify")]
             identify: identify::Settings::new(
                 &self.ratings,
@@ -441,6 +458,7 @@ impl DriveConfig {
                 )
                 .max(1),
                 pullout_checks: slot_cycles(h.lock_time_s).max(1),
+                reverse_checks: slot_cycles(h.failover_time_s).max(1),
                 handback_rpm: s.handback_rpm,
                 ramp,
             },
@@ -466,6 +484,7 @@ impl DriveConfig {
                 stall: sensorless::Stall {
                     checks: slot_cycles(h.stall_time_s).max(1),
                     i_limit_a: 0.99 * l.i_max_a,
+                    gain_rpm: s.handback_rpm,
                 },
                 regen: regen::Settings::new(
                     self.ratings.bus_v,

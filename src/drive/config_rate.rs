@@ -4,8 +4,9 @@
 
 use super::DriveConfig;
 use crate::param::ParamError;
-use crate::rate::{control_rate, CpuBudget, RateChoice};
+use crate::rate::{control_rate, rate_at_least, CpuBudget, RateChoice};
 use crate::schedule::Schedule;
+use crate::units::RAD_S_PER_RPM;
 
 /// The board's power stage as the drive compensates it (see [`crate::dead_time`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -33,6 +34,16 @@ pub struct PowerStageConfig {
     /// electrical period). Default 0: the sample, the computation and the update at one
     /// instant, the simulator's and the papers' timing.
     pub update_delay_s: f32,
+    /// The board senses the terminal voltage while the PWM is off (phase-voltage dividers)
+    /// at every speed the motor reaches: an enable passing
+    /// [`DriveInput::v_ab_terminal`](crate::power_stage::DriveInput) watches a coasting rotor
+    /// with the PWM off (`catch.rs`); one passing none aligns. `false`: a board without the
+    /// sensing, or whose dividers clip within the motor's speeds (the B-G431B-ESC1's at
+    /// 18.3 V): an enable passing none first regulates the currents to zero to see whether
+    /// the rotor turns, and catches it so (`catch_zero.rs`), and the control rate is chosen
+    /// for that catch too ([`DriveConfig::rate_choice`]). A catch whose terminal voltage stops
+    /// goes on so on either board. Default true.
+    pub terminal_sensing: bool,
 }
 
 impl DriveConfig {
@@ -40,13 +51,30 @@ impl DriveConfig {
     /// speed on this power stage's PWM within the board's CPU budget
     /// ([`CpuBudget::BOARD`]): the rate, the rate 20 samples per electrical period at rated
     /// speed need, and what bounds it below that.
+    ///
+    /// A board without terminal sensing also needs the catch's first period bounded: it
+    /// applies zero volts to a rotor not yet known (`catch_zero.rs`), and the current rises by
+    /// `N ψ_f ω_m T/L`; at rated speed that stays within the rated-torque current `I_r` at
+    /// `f ≥ N ψ_f ω_rated/(L I_r)`, the rate raised to the set's next one where needed.
     pub fn rate_choice(&self) -> RateChoice {
-        control_rate(
+        let mut c = control_rate(
             self.motor.pole_pairs,
             self.ratings.speed_rpm,
             self.power_stage.pwm_hz,
             &CpuBudget::BOARD,
-        )
+        );
+        if !self.power_stage.terminal_sensing {
+            let m = &self.motor;
+            let i_rated = self.ratings.torque_nm / m.torque_constant();
+            let emf_v = m.emf_constant() * self.ratings.speed_rpm * RAD_S_PER_RPM;
+            let floor_hz = emf_v / (m.l_h * i_rated);
+            let f = rate_at_least(floor_hz, self.power_stage.pwm_hz, &CpuBudget::BOARD);
+            if f > c.rate_hz {
+                c.samples_per_period *= f / c.rate_hz;
+                c.rate_hz = f;
+            }
+        }
+        c
     }
 
     /// Sets the step rate to [`DriveConfig::rate_choice`]'s (after a board has set its PWM

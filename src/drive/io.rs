@@ -105,6 +105,14 @@ pub enum Reason {
     Aligned,
     /// An observer is healthy on its own evidence: closed loop on it.
     HandOver,
+    /// The rotor turned against the command in the start (an active load beyond the
+    /// alignment's or the open loop's current drags it): closed loop at once, braking it at
+    /// the current limit before it follows the command.
+    AgainstCommand,
+    /// The rotor turned while being aligned (a load the alignment's current does not hold):
+    /// its back-EMF measured with the currents regulated to zero (`catch_zero.rs`), then
+    /// closed loop.
+    Turning,
     /// No observer healthy at low speed: back to open loop.
     HandBack,
     /// Stopped at zero speed (estimated) with a zero command.

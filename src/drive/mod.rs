@@ -40,6 +40,7 @@ mod adaptation;
 mod align;
 mod applied;
 mod catch;
+mod catch_zero;
 mod config;
 mod config_observers;
 mod config_rate;
@@ -74,8 +75,9 @@ use crate::frames::{AlphaBeta, Dq};
 use crate::observer::{Observer, ReadOut, Rotor};
 use align::Align;
 use catch::{Catch, Seen};
+use catch_zero::{CatchZero, Probe};
 use core::hint::cold_path;
-use mode::Next;
+use mode::{against, Entry, Next};
 use observers::AngleSample;
 use open_loop::OpenLoop;
 use state::ModeState;
@@ -112,6 +114,11 @@ pub struct Drive<P, M> {
     identify: identify::Settings,
     /// An offset beyond this is implausible (`Fault::AdcOffset`) \[A].
     identify_offset_limit_a: f32,
+    /// The catch without terminal sensing, and the alignment's watch of the back-EMF (last,
+    /// like the identification's: the running drive's step reads none of it).
+    catch_zero: catch_zero::Settings,
+    /// The board senses the terminal voltage (`PowerStageConfig::terminal_sensing`).
+    terminal_sensing: bool,
 }
 
 /// What a mode's step decided.
@@ -122,6 +129,8 @@ enum Outcome {
     Switch(Request, ModeState, Reason),
     /// Stop switching: a fault.
     Fault(Fault),
+    /// PWM off in this step (catching), with the mode change's reason if any.
+    Off(Option<Reason>),
 }
 
 impl<P: Observer, M: Observer> Drive<P, M> {
@@ -160,9 +169,13 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                     // The idle samples' offsets are no amplifier's: refuse the start.
                     reason = Some(enter_fault(st, Fault::AdcOffset));
                 } else {
-                    // With the terminal voltage sensed, first see whether the rotor turns.
+                    // With the terminal voltage sensed, first see whether the rotor turns; on a
+                    // board that does not sense it at every speed, with the currents
+                    // regulated to zero.
                     let mode = if input.v_ab_terminal.is_some() {
                         ModeState::Catch(Catch::default())
+                    } else if !self.terminal_sensing {
+                        ModeState::CatchZero(CatchZero::default())
                     } else {
                         ModeState::Align(Align::default())
                     };
@@ -173,6 +186,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             }
             ModeState::Idle => {}
             ModeState::Catch(_)
+            | ModeState::CatchZero(_)
             | ModeState::Align(_)
             | ModeState::OpenLoop(_)
             | ModeState::Sensorless(_)
@@ -200,6 +214,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 duties
             }
             ModeState::Catch(_)
+            | ModeState::CatchZero(_)
             | ModeState::Align(_)
             | ModeState::OpenLoop(_)
             | ModeState::Sensorless(_) => {
@@ -226,7 +241,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                         _ => st.last.v_ab(),
                     };
                     let ok = self.observe(st, i_ab, v_ab);
-                    let (duties, r) = self.control(st, input.v_bus, i_ab, input.v_ab_terminal, ok);
+                    let (duties, r) = self.control(st, input, i_ab, cmd.speed_rpm, ok);
                     if r.is_some() {
                         reason = r;
                     }
@@ -277,7 +292,10 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             // Without the feature `identify` the mode is never entered.
             #[cfg(not(feature = "identify"))]
             ModeState::Identify => return None,
-            ModeState::Catch(_) | ModeState::OpenLoop(_) | ModeState::Sensorless(_) => {}
+            ModeState::Catch(_)
+            | ModeState::CatchZero(_)
+            | ModeState::OpenLoop(_)
+            | ModeState::Sensorless(_) => {}
         }
         st.last.close_millisecond(&self.schedule);
         let obs = &mut st.obs;
@@ -297,6 +315,12 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 self.supervise(obs, i_ab, 0.0);
                 let driving = obs.health.usable().then(|| self.driving_now(obs));
                 self.catch.tick(c, &self.foc, driving)
+            }
+            ModeState::CatchZero(c) if !c.seeded() => Next::Stay,
+            ModeState::CatchZero(c) => {
+                self.supervise(obs, i_ab, 0.0);
+                let driving = obs.health.usable().then(|| self.driving_now(obs));
+                self.catch_zero.tick(c, &self.foc, driving)
             }
             ModeState::OpenLoop(ol) => {
                 let (verdict, _) = self.supervise(obs, i_ab, 0.0);
@@ -321,7 +345,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                     Role::Monitor => r_monitor,
                 };
                 self.sensorless
-                    .tick(s, &self.foc, (health, residual), d, cmd_rpm, applied)
+                    .tick(s, &self.foc, (health, residual), d, cmd_rpm, applied, i_ab)
             }
             // Returned above.
             ModeState::Idle
@@ -375,6 +399,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             omega_m: rotor.omega_m,
             i_dq: Dq::new(0.0, i_q),
             load_nm: d.load_nm,
+            ref_omega_m: rotor.omega_m,
         };
         st.mode = ModeState::Sensorless(self.sensorless.enter(&self.foc, entry));
         st
@@ -400,36 +425,127 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     fn control(
         &self,
         st: &mut StateOf<P, M>,
-        v_bus: f32,
+        input: &DriveInput,
         i_ab: AlphaBeta,
-        v_terminal: Option<AlphaBeta>,
+        cmd_rpm: f32,
         observers_ok: bool,
     ) -> (Option<crate::svpwm::Duties>, Option<Reason>) {
+        let v_bus = input.v_bus;
         let outcome = match &mut st.mode {
+            ModeState::Sensorless(s) if observers_ok => {
+                let (frame, frame_out, omega_m, _) = self.driving(&st.obs, s.out_rot());
+                Outcome::Run(self.sensorless.step(s, frame, frame_out, omega_m, v_bus))
+            }
+            ModeState::Sensorless(_) => Outcome::Fault(Fault::ObserverLoss),
+            ModeState::OpenLoop(ol) => Outcome::Run(self.open_loop.step(ol)),
+            // The catch and the alignment: out of line, off the running drive's path.
+            ModeState::Catch(_) | ModeState::CatchZero(_) | ModeState::Align(_) => {
+                self.starting(st, input, i_ab, cmd_rpm, observers_ok)
+            }
+            // Not running: `Drive::step` does not call this in these modes.
+            ModeState::Idle
+            | ModeState::Fault(_)
+            | ModeState::Calibrate
+            | ModeState::Identify
+            | ModeState::Identified => return (None, None),
+        };
+        let (request, reason) = match outcome {
+            Outcome::Run(request) => (request, None),
+            Outcome::Switch(request, mode, reason) => {
+                cold_path();
+                st.mode = mode;
+                (request, Some(reason))
+            }
+            Outcome::Fault(f) => return (None, Some(enter_fault(st, f))),
+            Outcome::Off(reason) => return (None, reason),
+        };
+        let out = self.foc.run(&mut st.current, &request, i_ab, v_bus);
+        st.last.record(&out, v_bus, self.delay_periods);
+        (Some(out.duties), reason)
+    }
+
+    /// The safe state the drive holds the stage in while faulted (`safe_state.rs`): every
+    /// switch off, or the active short circuit where the fault and the motor allow it.
+    pub fn safe_state(&self, st: &StateOf<P, M>) -> Option<SafeState> {
+        st.fault().map(|f| self.safe_state.for_fault(f))
+    }
+
+    /// The safe state this drive chooses for `fault` on its motor (`safe_state.rs`).
+    pub fn safe_state_for(&self, fault: Fault) -> SafeState {
+        self.safe_state.for_fault(fault)
+    }
+}
+
+impl<P: Observer, M: Observer> Drive<P, M> {
+    /// The step of the catch (PWM off on the terminal voltage, or the currents regulated to
+    /// zero without it) and of the alignment (watching for a rotor the current does not
+    /// hold). Out of line: the running drive's step stays short.
+    #[inline(never)]
+    fn starting(
+        &self,
+        st: &mut StateOf<P, M>,
+        input: &DriveInput,
+        i_ab: AlphaBeta,
+        cmd_rpm: f32,
+        observers_ok: bool,
+    ) -> Outcome {
+        let v_terminal = input.v_ab_terminal;
+        match &mut st.mode {
             ModeState::Catch(c) => {
                 // PWM off; the observers ran on the terminal voltage (their update refuses a
                 // non-finite one), checked before the catch reads it (`protection.rs`).
                 if !protection::terminal_valid(&self.limits, v_terminal) {
-                    return (None, Some(enter_fault(st, Fault::InvalidInput)));
+                    return Outcome::Fault(Fault::InvalidInput);
                 }
-                let v_ab = v_terminal.unwrap_or_default();
+                let Some(v_ab) = v_terminal else {
+                    // The terminal voltage no longer sensed (a board's dividers clipped): the
+                    // catch goes on with the currents regulated to zero.
+                    st.mode = ModeState::CatchZero(CatchZero::default());
+                    st.watch = catch_zero::Watch::default();
+                    return Outcome::Off(None);
+                };
                 match self.catch.step(c, v_ab) {
                     Seen::AtRest => {
                         st.mode = ModeState::Align(Align::default());
-                        return (None, Some(Reason::AtRest));
+                        return Outcome::Off(Some(Reason::AtRest));
                     }
                     Seen::Rotor(rotor) => self.seed_caught(&mut st.obs, i_ab, rotor),
                     Seen::Wait => {}
                 }
-                return if observers_ok {
-                    (None, None)
+                if observers_ok {
+                    Outcome::Off(None)
                 } else {
-                    (None, Some(enter_fault(st, Fault::InvalidInput)))
-                };
+                    Outcome::Fault(Fault::InvalidInput)
+                }
+            }
+            ModeState::CatchZero(_) if !observers_ok => Outcome::Fault(Fault::ObserverLoss),
+            ModeState::CatchZero(c) => {
+                match self
+                    .catch_zero
+                    .probe(c, &mut st.watch, i_ab, st.last.v_ab())
+                {
+                    Probe::Run(request) => Outcome::Run(request),
+                    Probe::AtRest => {
+                        st.mode = ModeState::Align(Align::default());
+                        st.watch = catch_zero::Watch::default();
+                        Outcome::Off(Some(Reason::AtRest))
+                    }
+                    Probe::Rotor(rotor, request) => {
+                        let driven = c.is_driven();
+                        self.caught_probe(st, i_ab, rotor, cmd_rpm, driven, request)
+                    }
+                }
             }
             ModeState::Align(a) => {
+                // A rotor the current does not hold: caught, then closed loop.
+                self.catch_zero.watch(&mut st.watch, i_ab, st.last.v_ab());
+                let turning = st.watch.turn().abs() >= catch_zero::TURN_ALIGN;
                 let (request, done) = self.align.step(a, i_ab, st.last.v_ab());
-                if done {
+                if turning {
+                    cold_path();
+                    let c = CatchZero::driven();
+                    Outcome::Switch(request, ModeState::CatchZero(c), Reason::Turning)
+                } else if done {
                     cold_path();
                     // The resistance of this start (kept unless implausible).
                     let r_ohm = self.align.resistance(a);
@@ -446,42 +562,51 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                     Outcome::Run(request)
                 }
             }
-            ModeState::OpenLoop(ol) => Outcome::Run(self.open_loop.step(ol)),
-            ModeState::Sensorless(s) if observers_ok => {
-                let (frame, frame_out, omega_m, _) = self.driving(&st.obs, s.out_rot());
-                Outcome::Run(self.sensorless.step(s, frame, frame_out, omega_m, v_bus))
-            }
-            ModeState::Sensorless(_) => Outcome::Fault(Fault::ObserverLoss),
-            // Not running: `Drive::step` does not call this in these modes.
-            ModeState::Idle
-            | ModeState::Fault(_)
-            | ModeState::Calibrate
-            | ModeState::Identify
-            | ModeState::Identified => return (None, None),
-        };
-        let (request, reason) = match outcome {
-            Outcome::Run(request) => (request, None),
-            Outcome::Switch(request, mode, reason) => {
-                cold_path();
-                st.mode = mode;
-                (request, Some(reason))
-            }
-            Outcome::Fault(f) => return (None, Some(enter_fault(st, f))),
-        };
-        let out = self.foc.run(&mut st.current, &request, i_ab, v_bus);
-        st.last.record(&out, v_bus, self.delay_periods);
-        (Some(out.duties), reason)
+            // `control` calls this in the three modes above only.
+            _ => Outcome::Off(None),
+        }
     }
+}
 
-    /// The safe state the drive holds the stage in while faulted (`safe_state.rs`): every
-    /// switch off, or the active short circuit where the fault and the motor allow it.
-    pub fn safe_state(&self, st: &StateOf<P, M>) -> Option<SafeState> {
-        st.fault().map(|f| self.safe_state.for_fault(f))
-    }
-
-    /// The safe state this drive chooses for `fault` on its motor (`safe_state.rs`).
-    pub fn safe_state_for(&self, fault: Fault) -> SafeState {
-        self.safe_state.for_fault(fault)
+impl<P: Observer, M: Observer> Drive<P, M> {
+    /// The probe saw the rotor `rotor` (`i_ab` the currents now \[A], `request` this step's
+    /// voltage): a rotor turning with the command waits at zero current for an observer to
+    /// lock on its own evidence; one turning against the command `cmd_rpm` \[rpm], or
+    /// `driven` by a load (seen turning in the alignment), is taken over in closed loop now,
+    /// the observers trusted at the probe's estimate (as at the aligned rotor) and the speed
+    /// reference from zero (`Entry::reference`): a load is fought within the current limit,
+    /// not left to drag the rotor while the observers lock.
+    // Out of line, like the other mode changes: once per start.
+    #[inline(never)]
+    fn caught_probe(
+        &self,
+        st: &mut StateOf<P, M>,
+        i_ab: AlphaBeta,
+        rotor: Rotor,
+        cmd_rpm: f32,
+        driven: bool,
+        request: Request,
+    ) -> Outcome {
+        let backwards = against(rotor.omega_m, cmd_rpm);
+        if !(driven || backwards) {
+            self.seed_caught(&mut st.obs, i_ab, rotor);
+            return Outcome::Run(request);
+        }
+        self.seed_observers(&mut st.obs, Seed::BOTH, i_ab, rotor);
+        st.obs.health = Health::AT_KNOWN_STATE;
+        let entry = Entry {
+            omega_m: rotor.omega_m,
+            i_dq: Dq::default(),
+            load_nm: None,
+            ref_omega_m: Entry::reference(rotor.omega_m, cmd_rpm),
+        };
+        let mode = ModeState::Sensorless(self.sensorless.enter(&self.foc, entry));
+        let reason = if backwards {
+            Reason::AgainstCommand
+        } else {
+            Reason::Caught
+        };
+        Outcome::Switch(request, mode, reason)
     }
 }
 

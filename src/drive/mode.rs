@@ -26,6 +26,28 @@ pub(super) struct Entry {
     pub(super) i_dq: Dq,
     /// The driving observer's load estimate \[N·m], if it has one.
     pub(super) load_nm: Option<f32>,
+    /// Where the speed reference starts [rad/s, mechanical]: the rotor's speed, or zero for a
+    /// rotor turning against the command (braked at the current limit first, never carried
+    /// on in reverse).
+    pub(super) ref_omega_m: f32,
+}
+
+impl Entry {
+    /// The reference's start for a rotor at `omega_m` \[rad/s] under the command `cmd_rpm`:
+    /// zero if the rotor turns against it ([`against`]), else its speed.
+    pub(super) fn reference(omega_m: f32, cmd_rpm: f32) -> f32 {
+        if against(omega_m, cmd_rpm) {
+            0.0
+        } else {
+            omega_m
+        }
+    }
+}
+
+/// The rotor at `omega_m` \[rad/s] turns against the command `cmd_rpm` (a zero command has no
+/// direction).
+pub(super) fn against(omega_m: f32, cmd_rpm: f32) -> bool {
+    (omega_m < 0.0 && cmd_rpm > 0.0) || (omega_m > 0.0 && cmd_rpm < 0.0)
 }
 
 /// What a mode's 1 kHz work decided.

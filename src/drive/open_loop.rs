@@ -11,8 +11,15 @@
 //! and the speed loop has up to `i_max_a`); a stall when no hand-over came within the time
 //! limit, at any speed (a blocked rotor at a small command); stopped when the ramp is at zero
 //! with a zero command.
+//!
+//! Never handed over in reverse: a usable observer that sees the rotor turn against the
+//! ramp's direction above the hand-back speed (an active load beyond the I/f current drags
+//! it backwards) for `reverse_checks` takes over in closed loop at once
+//! (`Reason::AgainstCommand`), its speed reference starting at zero so that the speed loop
+//! brakes the rotor with up to `i_max_a` before it follows the command; any hand-over of a
+//! rotor turning against the command starts the reference at zero too (`Entry::reference`).
 
-use super::mode::{Driving, Entry, Next};
+use super::mode::{against, Driving, Entry, Next};
 use super::ramp::Ramp;
 use super::supervision::{consecutive, Verdict};
 use super::{Fault, Reason};
@@ -34,6 +41,9 @@ pub(super) struct Settings {
     pub(super) timeout_checks: u32,
     /// Checks of a rotor pulled out of the ramp, or following it, before the hand-over.
     pub(super) pullout_checks: u32,
+    /// Checks of a rotor turning against the ramp before the closed loop takes it: the
+    /// supervision's failover time (a change the health check trusts that fast).
+    pub(super) reverse_checks: u32,
     /// Above this |ω_ol| a rotor off the ramp has pulled out (below it a rotor still
     /// accelerating from rest lags the ramp too) \[rpm]: the hand-back speed.
     pub(super) handback_rpm: f32,
@@ -60,6 +70,8 @@ pub(super) struct OpenLoop {
     following: u32,
     /// The user's command at the last check \[rpm] (`None` before the first).
     last_cmd_rpm: Option<f32>,
+    /// Consecutive checks with the rotor turning against the ramp.
+    reversed: u32,
 }
 
 impl OpenLoop {
@@ -73,6 +85,7 @@ impl OpenLoop {
         pulled_out: 0,
         following: 0,
         last_cmd_rpm: None,
+        reversed: 0,
     };
 
     /// sin/cos of θ_ol.
@@ -165,8 +178,30 @@ impl Settings {
             let reached = ol.speed_rpm.abs() >= self.handover_rpm.min(cmd_rpm.abs());
             ol.following = consecutive(ol.following, !off && ol.speed_rpm != 0.0);
             let seen_following = ol.following >= self.pullout_checks;
-            if (reached && seen_following) || ol.pulled_out >= self.pullout_checks {
-                return Next::Sensorless(self.handover(ol, d), Reason::HandOver);
+            // Turning against the ramp (or the command, at the ramp's start) above the
+            // hand-back speed: the closed loop takes it now, braking it first.
+            let direction = if ol.speed_rpm != 0.0 {
+                ol.speed_rpm
+            } else {
+                cmd_rpm
+            };
+            let backwards = against(d.omega_m, direction)
+                && d.omega_m.abs() * RPM_PER_RAD_S >= self.handback_rpm;
+            ol.reversed = consecutive(ol.reversed, backwards);
+            let reason = if ol.reversed >= self.reverse_checks {
+                Some(Reason::AgainstCommand)
+            } else if (reached && seen_following) || ol.pulled_out >= self.pullout_checks {
+                Some(Reason::HandOver)
+            } else {
+                None
+            };
+            if let Some(reason) = reason {
+                // Never carried on in reverse: against the command, the reference from zero.
+                let entry = Entry {
+                    ref_omega_m: Entry::reference(d.omega_m, cmd_rpm),
+                    ..self.handover(ol, d)
+                };
+                return Next::Sensorless(entry, reason);
             }
         }
         // No hand-over within the time limit, at any speed.
@@ -200,6 +235,7 @@ impl Settings {
             omega_m: d.omega_m,
             i_dq: Dq::new(i * cos_load_angle, i * sin_load_angle),
             load_nm: d.load_nm,
+            ref_omega_m: d.omega_m,
         }
     }
 }

@@ -68,7 +68,7 @@ pub(super) struct Settings {
     /// drive is winning: the speed fallen more than [`RECOVERING`] below its peak since it
     /// passed the bound. An overhauling load reversed at rated speed on the Sinano motor
     /// (`overhaul-hold`: ±0.8 of rated torque, 165 rpm per ms on its small rotor) takes the
-    /// rotor to 1,730 rpm, above the bound at its 48 V (1,142 rpm) for 20 ms, while the
+    /// rotor to 1,730 rpm (1,770 with the sliding primary), above the bound at its 48 V (1,142 rpm) for 20 ms, while the
     /// speed loop brings it back; a load beyond the current limit raises the speed to the
     /// end.
     pub(super) overspeed_checks: u32,
@@ -79,14 +79,28 @@ pub(super) struct Settings {
 }
 
 /// Sensorless stall: the driving observer's speed below half the slewed reference (or turning
-/// the wrong way) for `checks` in a row with the speed loop's command at its limit. (A rotor
-/// blocked before it turned never leaves the open loop: it is not seen following the ramp.)
+/// the wrong way) for `checks` in a row with the speed loop's command at its limit, and not
+/// gaining `gain_rpm` toward the reference over them: a rotor taken over turning against the
+/// command (`Reason::AgainstCommand`) is braked at the limit for longer than that, but it
+/// gains; a blocked one does not. (A rotor blocked before it turned never leaves the open
+/// loop: it is not seen following the ramp.)
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Stall {
     /// Checks of collapsed speed at the current limit before a stall.
     pub(super) checks: u32,
     /// |i_q command| at or above this is the speed loop at its limit \[A].
     pub(super) i_limit_a: f32,
+    /// The speed a rotor that has not stalled gains toward the reference over `checks`
+    /// \[rpm]: the hand-back speed.
+    pub(super) gain_rpm: f32,
+}
+
+/// The stall check's state: consecutive checks of collapsed speed, and the speed along the
+/// reference at the first of them \[rpm].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(super) struct StallCount {
+    count: u32,
+    along_from_rpm: f32,
 }
 
 impl Stall {
@@ -95,7 +109,7 @@ impl Stall {
     #[inline(always)]
     pub(super) fn stalled(
         &self,
-        count: &mut u32,
+        c: &mut StallCount,
         omega_m: f32,
         speed_ref_rpm: f32,
         i_q_ref_a: f32,
@@ -103,8 +117,19 @@ impl Stall {
         let speed = omega_m * RPM_PER_RAD_S;
         let along = if speed_ref_rpm < 0.0 { -speed } else { speed };
         let at_limit = i_q_ref_a.abs() >= self.i_limit_a;
-        *count = consecutive(*count, along < 0.5 * speed_ref_rpm.abs() && at_limit);
-        *count >= self.checks
+        c.count = consecutive(c.count, along < 0.5 * speed_ref_rpm.abs() && at_limit);
+        if c.count == 1 {
+            c.along_from_rpm = along;
+        }
+        if c.count < self.checks {
+            return false;
+        }
+        if along - c.along_from_rpm >= self.gain_rpm {
+            // Gaining on the reference: not stalled; judged again from here.
+            c.count = 0;
+            return false;
+        }
+        true
     }
 }
 
@@ -146,6 +171,32 @@ impl FieldWeakening {
     }
 }
 
+/// Braking before field weakening: a braking command `s.i_q_ref` beyond what the field
+/// weakening's d current leaves of the current limit `i_max_a` \[A] keeps it, and the d
+/// current (the field weakening's, and with it the hand-over's) is cut to what the braking
+/// leaves, `|i_d| ≤ √(i_max² − i_q²)`: `|i| ≤ i_max` still, and the field weakening's
+/// integrator starts again from there (no wind-up).
+///
+/// Why braking may take the current first (while motoring gets only what the field weakening
+/// leaves, Kim & Sul 1997): the stator voltage, Horng & Chin eqs (16)-(17) / Ortega eq (1)
+/// in the rotor frame at steady state, `v_d = R i_d − ω_e L i_q`, `v_q = R i_q + ω_e (ψ_f + L i_d)`, gives
+/// `|v|² = |v|²(i_q = 0) + 2 R ω_e ψ_f i_q + (R² + ω_e² L²) i_q²` (the cross terms in `i_d`
+/// cancel): a q current against the rotation (`ω_e i_q < 0`) needs `4 R |ω_e| ψ_f |i_q|`
+/// less of `|v|²` than the same current motoring, on every motor, and it slows the rotor,
+/// which lowers the back-EMF the field weakening answers. Left behind the field weakening,
+/// an overhauling load that accelerates the rotor faster than the speed loop answers
+/// (`overhaul-hold` on the Sinano motor: 165 rpm per ms after the load reverses) raises the
+/// back-EMF, the field weakening takes the whole current limit and the braking command is
+/// clamped to zero: the load runs the rotor away (to 2,448 rpm and `overspeed` with the
+/// sliding primary, whose speed estimate lags the rotor by 350 rpm and its angle then by 65°).
+#[inline(always)]
+fn braking_first(s: &mut Sensorless, i_max_a: f32) {
+    let i_d_max = sqrt_or_zero(i_max_a * i_max_a - s.i_q_ref * s.i_q_ref);
+    s.i_d_fw = max(s.i_d_fw, -i_d_max);
+    s.i_d_handover = clamp(s.i_d_handover, -i_d_max, i_d_max);
+    s.i_d_ref = clamp(s.i_d_fw + s.i_d_handover, -i_d_max, i_d_max);
+}
+
 /// The state of [`Mode::Sensorless`](super::Mode::Sensorless).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Sensorless {
@@ -167,7 +218,7 @@ pub(super) struct Sensorless {
     /// 1 kHz).
     out_rot: SinCos,
     /// Consecutive checks of a collapsed speed at the current limit.
-    stall: u32,
+    stall: StallCount,
     /// Consecutive checks of an over-speed.
     overspeed: u32,
     /// The highest |speed| since it passed the over-speed bound (0 below it) \[rpm].
@@ -203,7 +254,7 @@ impl Sensorless {
 impl Settings {
     /// Sensorless control of a rotor at `e.omega_m` \[rad/s] carrying the current `e.i_dq` \[A]
     /// in the driving observer's frame, `e.load_nm` its load estimate \[N·m] if it has one:
-    /// the reference there, the command at `i_dq.q`, the load-torque observer at the torque
+    /// the reference at `e.ref_omega_m` (the rotor's speed, or zero against the command), the command at `i_dq.q`, the load-torque observer at the torque
     /// it makes, the speed PI's integrator at what the feed-forward (the driving observer's
     /// load, else the load-torque observer's) leaves of the command. A d current (the
     /// open loop's, at the hand-over) is kept and decays over `handover_decay`'s
@@ -222,7 +273,7 @@ impl Settings {
         let ff_nm = e.load_nm.unwrap_or(torque);
         let ff_a = foc.current_for_torque(ff_nm);
         Sensorless {
-            speed_ref_rpm: omega_m * RPM_PER_RAD_S,
+            speed_ref_rpm: e.ref_omega_m * RPM_PER_RAD_S,
             speed_pi: PiState {
                 integral: i_dq.q - ff_a,
             },
@@ -231,7 +282,7 @@ impl Settings {
             i_d_handover: i_dq.d,
             i_d_ref: i_dq.d,
             out_rot: foc.output_rotation(omega_m),
-            stall: 0,
+            stall: StallCount::default(),
             overspeed: 0,
             overspeed_peak_rpm: 0.0,
             load,
@@ -298,6 +349,7 @@ impl Settings {
         d: Driving,
         cmd_rpm: f32,
         applied: Applied,
+        i_ab: AlphaBeta,
     ) -> Next {
         let cmd_rpm = self.ramp.command(cmd_rpm);
         let (omega_m, load_nm) = (d.omega_m, d.load_nm);
@@ -383,10 +435,12 @@ impl Settings {
             (true, true) => Held::Up,
             (true, false) => Held::Down,
         };
-        // The regeneration's bound on braking current (∞ unless the bus was high since the
-        // last run: then `min` leaves `i_q_max` as it is).
+        // Braking before field weakening: the braking side of the command may take the whole
+        // current limit, within the regeneration's bound (∞ unless the bus was high since the
+        // last run); the field weakening's d current gets what the braking leaves
+        // ([`braking_first`]).
         let braking_max = min(
-            i_q_max,
+            fw.i_max_a,
             core::mem::replace(&mut s.regen_iq_a, f32::INFINITY),
         );
         let bounds = if omega_m >= 0.0 {
@@ -400,6 +454,22 @@ impl Settings {
             ff_nm,
             Some((bounds, held)),
         );
+        if s.i_q_ref.abs() > i_q_max {
+            // Braking first only where it can hold the rotor within the current limit: the
+            // load the speed loop's own observer estimates within it, and the current loop
+            // keeping the measured current within it (the voltage still controls it). Else
+            // the field weakening's d current comes first, as for motoring: the current stays
+            // controlled and a load beyond the limit takes the rotor to the over-speed bound.
+            let i2 = i_ab.alpha * i_ab.alpha + i_ab.beta * i_ab.beta;
+            let i_max2 = fw.i_max_a * fw.i_max_a;
+            let load_a = foc.current_for_torque(own);
+            if i2 > i_max2 || load_a * load_a > i_max2 {
+                s.i_q_ref = clamp(s.i_q_ref, -i_q_max, i_q_max);
+                s.speed_pi.integral = clamp(s.speed_pi.integral, -i_q_max, i_q_max);
+            } else {
+                braking_first(s, fw.i_max_a);
+            }
+        }
         if (self.stall).stalled(&mut s.stall, omega_m, s.speed_ref_rpm, s.i_q_ref) {
             return Next::Fault(Fault::Stall);
         }

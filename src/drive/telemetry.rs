@@ -43,6 +43,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 };
             }
             ModeState::Catch(_)
+            | ModeState::CatchZero(_)
             | ModeState::Align(_)
             | ModeState::OpenLoop(_)
             | ModeState::Sensorless(_) => {}
@@ -75,7 +76,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             | ModeState::Identify
             | ModeState::Identified => return off,
             ModeState::Align(_) => (0.0, 0.0, 0.0),
-            ModeState::Catch(_) => (theta_d, omega_d, 0.0),
+            ModeState::Catch(_) | ModeState::CatchZero(_) => (theta_d, omega_d, 0.0),
             ModeState::OpenLoop(ol) => {
                 let f = ol.frame();
                 let speed = ol.speed_rpm();

@@ -22,8 +22,9 @@
 //! common mode, which the Clarke transform removes (`α = (2a − b − c)/3`, `β = (b − c)/√3`).
 //! A phase at the ADC's full scale (`4095 · V/LSB` = 18.4 V at 3.3 V) is clipped by the
 //! ADC or the clamp diode: the vector is then not the terminal voltage, and the reading is
-//! reported as not a number (the drive faults `InvalidInput` rather than catching a rotor
-//! from a clipped vector; a line-to-line back-EMF that high is 3/4 of a 24 V bus).
+//! reported as not a number, and the power stage passes the drive no terminal voltage: the
+//! drive then catches the rotor with its currents regulated to zero (`catch_zero.rs`) rather
+//! than from a clipped vector (a line-to-line back-EMF that high is 3/4 of a 24 V bus).
 
 use pmsm_sensorless::frames::{Abc, AlphaBeta};
 

@@ -57,6 +57,9 @@ pub fn drive_config() -> DriveConfig {
     cfg.power_stage.pwm_hz = s.pwm_hz as f32;
     cfg.power_stage.dead_time_s = s.dead_time_s();
     cfg.power_stage.duty_max = s.duty_max;
+    // The phase-voltage dividers clip at 18.3 V (`bemf.rs`), within a 24 V motor's speeds:
+    // an enable without a reading catches with the currents regulated to zero.
+    cfg.power_stage.terminal_sensing = false;
     cfg.limits.bus_max_v = cfg.limits.bus_max_v.min(BOARD_BUS_MAX_V);
     cfg.limits.i_sense_max_a = cfg.limits.i_sense_max_a.min(s.i_adc_range_a);
     // What the identification checks a motor's rated current against.

@@ -124,8 +124,12 @@ impl PowerStage for Esc1 {
             v_bus: s.v_bus,
             // With the outputs off the phase voltages are the motor's (its back-EMF): the
             // drive catches a turning rotor with them. With the PWM on they are the PWM's,
-            // and nothing reads them.
-            v_ab_terminal: if self.pwm.outputs_are_on() {
+            // and nothing reads them; a clipped reading (NaN, `bemf::terminal_v_ab`) is no
+            // terminal voltage either, and the drive catches the rotor with its currents
+            // regulated to zero instead (`catch_zero.rs`).
+            v_ab_terminal: if self.pwm.outputs_are_on()
+                || !(s.v_ab_terminal.alpha.is_finite() && s.v_ab_terminal.beta.is_finite())
+            {
                 None
             } else {
                 Some(s.v_ab_terminal)

@@ -116,11 +116,12 @@ impl SimBoard {
     }
 
     /// The board's power stage as the drive is told it: its PWM frequency, dead time and
-    /// update delay.
+    /// update delay, whether it senses the terminal voltage.
     pub fn configure_drive(&self, cfg: &mut DriveConfig) {
         cfg.power_stage.pwm_hz = self.pwm_hz as f32;
         cfg.power_stage.dead_time_s = self.dead_time_s as f32;
         cfg.power_stage.update_delay_s = self.update_delay_s as f32;
+        cfg.power_stage.terminal_sensing = self.sense_terminal_voltage;
     }
 
     /// Samples the board is idle before t = 0 at the control rate `rate_hz`.

@@ -135,8 +135,10 @@ fn flag_value(key: &str, v: &toml::Value) -> anyhow::Result<Option<String>> {
         toml::Value::Integer(i) => i.to_string(),
         toml::Value::Float(x) => x.to_string(),
         toml::Value::Boolean(true) => return Ok(None),
+        // A flag that takes a value (`terminal-sensing = [true, false]`).
+        toml::Value::Boolean(false) => "false".into(),
         other => bail!(
-            "{key}: a value must be a string, a number or true, not {}",
+            "{key}: a value must be a string, a number or a boolean, not {}",
             other.type_str()
         ),
     }))

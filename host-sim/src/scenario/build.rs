@@ -95,6 +95,8 @@ impl Spec {
         if !self.is_drive() {
             for (key, set) in [
                 ("enable", f.enable.is_some()),
+                ("clear_fault", f.clear_fault.is_some()),
+                ("terminal_sensing", f.terminal_sensing.is_some()),
                 ("inject", f.inject.is_some()),
                 ("expect_fault", f.expect_fault.is_some()),
             ] {
@@ -107,6 +109,11 @@ impl Spec {
             check_times("enable", e.iter().map(|p| p.0))?;
             script.enable = e.clone();
         }
+        if let Some(c) = &f.clear_fault {
+            check_times("clear_fault", c.iter().copied())?;
+            script.clear_fault = c.clone();
+        }
+        script.terminal_sensing = f.terminal_sensing;
         if let Some(i) = &f.inject {
             script.injection = Some(injection(i, motor, f.duration_s)?);
         }

@@ -6,7 +6,7 @@ use super::Scenario;
 use anyhow::Context;
 
 /// The built-in scenario files, in listing order.
-const BUILT_IN: [(&str, &str); 39] = [
+const BUILT_IN: [(&str, &str); 47] = [
     (
         "horng-ramp-brake",
         include_str!("../../scenarios/horng-ramp-brake.toml"),
@@ -162,6 +162,38 @@ const BUILT_IN: [(&str, &str); 39] = [
     (
         "stop-regen-brake",
         include_str!("../../scenarios/stop-regen-brake.toml"),
+    ),
+    (
+        "catch-no-terminal-50",
+        include_str!("../../scenarios/catch-no-terminal-50.toml"),
+    ),
+    (
+        "catch-no-terminal-neg50",
+        include_str!("../../scenarios/catch-no-terminal-neg50.toml"),
+    ),
+    (
+        "catch-no-terminal-100",
+        include_str!("../../scenarios/catch-no-terminal-100.toml"),
+    ),
+    (
+        "catch-no-terminal-neg100",
+        include_str!("../../scenarios/catch-no-terminal-neg100.toml"),
+    ),
+    (
+        "start-active-80",
+        include_str!("../../scenarios/start-active-80.toml"),
+    ),
+    (
+        "start-active-120",
+        include_str!("../../scenarios/start-active-120.toml"),
+    ),
+    (
+        "fault-clear-recatch",
+        include_str!("../../scenarios/fault-clear-recatch.toml"),
+    ),
+    (
+        "enable-storm",
+        include_str!("../../scenarios/enable-storm.toml"),
     ),
 ];
 

@@ -26,6 +26,8 @@ pub struct ScenarioFile {
     pub(super) initial_speed: Option<f64>,
     pub(super) initial_speed_rpm: Option<f64>,
     pub(super) enable: Option<Vec<(f64, bool)>>,
+    pub(super) clear_fault: Option<Vec<f64>>,
+    pub(super) terminal_sensing: Option<bool>,
     pub(super) min_speed: Option<f64>,
     pub(super) min_speed_rpm: Option<f64>,
     pub(super) i_max_a: Option<f64>,

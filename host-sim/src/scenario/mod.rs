@@ -19,6 +19,8 @@
 //! windows = [["loaded", 2.5, 3.0], ["released", 3.5, 4.0]]   # [name, t0, t1]
 //! initial_speed = 0.0             # the rotor coasts at this fraction of rated speed at t = 0
 //! enable = [[0.0, true], [3.0, false], [3.5, true]]          # enabled throughout by default
+//! clear_fault = [2.0]             # a latched fault cleared in the period at each time
+//! terminal_sensing = false        # the board senses no terminal voltage (default: it does)
 //! expect_fault = "stall"          # the run passes only if the drive faults so
 //! [inject]                        # a fault cause: kind = "plant" (factors r, l, flux),
 //! t = 1.8                         # "bus" (bus, a fraction of the rated bus, and `until`, the
@@ -159,10 +161,17 @@ pub struct DriveScript {
     /// The enable command: `(t [s], enabled)`, each holding until the next; enabled before
     /// the first.
     pub enable: Vec<(f64, bool)>,
+    /// The times \[s] at which a latched fault is cleared (the command `clear_fault` set for
+    /// the period containing each).
+    pub clear_fault: Vec<f64>,
     /// A fault cause injected during the run.
     pub injection: Option<Injection>,
     /// The fault the scenario expects (the run fails without it).
     pub expect_fault: Option<Fault>,
+    /// The board senses the terminal voltage (`None`: as the board says,
+    /// [`SimBoard::sense_terminal_voltage`](crate::board::SimBoard::sense_terminal_voltage));
+    /// `run --terminal-sensing` replaces it.
+    pub terminal_sensing: Option<bool>,
 }
 
 impl DriveScript {
@@ -170,8 +179,10 @@ impl DriveScript {
     pub fn enabled() -> Self {
         Self {
             enable: Vec::new(),
+            clear_fault: Vec::new(),
             injection: None,
             expect_fault: None,
+            terminal_sensing: None,
         }
     }
 
@@ -182,6 +193,11 @@ impl DriveScript {
             .rev()
             .find(|&&(tk, _)| tk <= t)
             .is_none_or(|&(_, on)| on)
+    }
+
+    /// The command `clear_fault` in the period `[t, t + ts)` \[s]: one of the times is in it.
+    pub fn clear_fault_in(&self, t: f64, ts: f64) -> bool {
+        self.clear_fault.iter().any(|&tc| tc >= t && tc < t + ts)
     }
 }
 

@@ -116,8 +116,12 @@ impl SimConfig {
         Self::on(board, scenario, observer)
     }
 
-    /// The defaults of [`SimConfig::new`] on `board`.
-    pub fn on(board: SimBoard, scenario: Scenario, observer: ObserverKind) -> Self {
+    /// The defaults of [`SimConfig::new`] on `board`, the scenario's `terminal_sensing`
+    /// over the board's.
+    pub fn on(mut board: SimBoard, scenario: Scenario, observer: ObserverKind) -> Self {
+        if let Some(sensed) = scenario.drive.as_ref().and_then(|d| d.terminal_sensing) {
+            board.sense_terminal_voltage = sensed;
+        }
         let rate_hz = Self::rate_for(&board, &scenario.motor);
         Self {
             scenario,

@@ -139,6 +139,8 @@ pub(super) struct Period {
     pub speed_cmd_rpm: f64,
     /// Drive runs: the enable command.
     pub enable: bool,
+    /// Drive runs: the command to clear a latched fault.
+    pub clear_fault: bool,
     /// The true rotor (the bare loop's encoder), load unknown (0).
     pub truth: Rotor,
     /// Bare runs: from this |true speed| on the observer runs on its own \[rad/s].
@@ -292,6 +294,7 @@ impl Controller {
                 let cmd = Commands {
                     enable: period.enable,
                     speed_rpm: period.speed_cmd_rpm as f32,
+                    clear_fault: period.clear_fault,
                     ..Commands::default()
                 };
                 let transitions = drive.run(stage, &cmd, !period.task_stalled);

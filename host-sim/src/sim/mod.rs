@@ -177,6 +177,10 @@ impl Sim {
                 .drive
                 .as_ref()
                 .is_some_and(|d| d.enable_at(t + 0.5 * self.ts)),
+            clear_fault: sc
+                .drive
+                .as_ref()
+                .is_some_and(|d| d.clear_fault_in(t, self.ts)),
             truth: Rotor {
                 theta_e: truth.theta_e as f32,
                 omega_m: truth.omega_m as f32,

@@ -468,6 +468,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             ModeState::Calibrate | ModeState::Identify => (None, None),
             // Not commissioning: `Drive::step` does not call this in these modes.
             ModeState::Catch(_)
+            | ModeState::CatchZero(_)
             | ModeState::Align(_)
             | ModeState::OpenLoop(_)
             | ModeState::Sensorless(_)

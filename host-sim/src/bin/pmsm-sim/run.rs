@@ -42,6 +42,12 @@ pub struct RunArgs {
     /// `ideal = true`).
     #[command(flatten)]
     board: BoardArgs,
+    /// The board senses the terminal voltage (`true` or `false`; the B-G431B-ESC1's
+    /// firmware passes none): without it an enable cannot watch a coasting rotor with the PWM
+    /// off and catches it with the currents regulated to zero (default: the scenario's
+    /// `terminal_sensing`, else true).
+    #[arg(long, value_name = "BOOL", num_args = 0..=1, default_missing_value = "true")]
+    terminal_sensing: Option<bool>,
     /// The board's DC link (default: the scenario's `[dc_link]`, else a stiff bus).
     #[command(flatten)]
     dc_link: DcLinkArgs,
@@ -142,6 +148,9 @@ pub fn prepare(args: &RunArgs) -> anyhow::Result<SimConfig> {
     }
     board.dc_link = args.dc_link.resolve(spec.dc_link(&m)?, &m)?;
     let mut cfg = SimConfig::on(board, sc, observer);
+    if let Some(sensed) = args.terminal_sensing {
+        cfg.board.sense_terminal_voltage = sensed;
+    }
     cfg.mismatch = args.mismatch;
     if let Some(path) = &args.drive_motor_file {
         let (_, d) = motor_file::load(path)?;
