@@ -58,11 +58,14 @@ pub fn parse_key(name: &str) -> Result<Key, ToolError> {
     })
 }
 
-/// A value as typed: a number, or for `torque_convention` also `three-phase` / `papers`.
+/// A value as typed: a number, or for `torque_convention` also `three-phase` / `papers`, for
+/// `power_stage.terminal_sensing` `yes` / `no`.
 pub fn parse_value(key: Key, text: &str) -> Result<f32, ToolError> {
     match (key, text) {
         (Key::TorqueConvention, "three-phase") => Ok(0.0),
         (Key::TorqueConvention, "papers") => Ok(1.0),
+        (Key::TerminalSensing, "no" | "false") => Ok(0.0),
+        (Key::TerminalSensing, "yes" | "true") => Ok(1.0),
         _ => text.trim().parse::<f32>().map_err(|_| {
             ToolError::Other(anyhow::anyhow!("{}: {text:?} is not a number", key.name()))
         }),
@@ -74,6 +77,8 @@ pub fn show_value(key: Key, value: f32) -> String {
     match key {
         Key::TorqueConvention if value == 0.0 => "three-phase".into(),
         Key::TorqueConvention => "papers".into(),
+        Key::TerminalSensing if value == 0.0 => "no".into(),
+        Key::TerminalSensing => "yes".into(),
         _ => format!("{value}"),
     }
 }

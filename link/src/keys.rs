@@ -1,7 +1,8 @@
 //! Each setting by name ([`Key`]): the names are the core's field names (`"r_ohm"`,
 //! `"ratings.bus_v"`, `"limits.i_trip_a"`: those a `ParamError` names), so a refusal's field
-//! is the key the user typed. Values are numbers (`f32`); `pole_pairs` takes a whole number
-//! and `torque_convention` 0 (three-phase) or 1 (papers).
+//! is the key the user typed. Values are numbers (`f32`); `pole_pairs` takes a whole number,
+//! `torque_convention` 0 (three-phase) or 1 (papers), `power_stage.terminal_sensing` 0 (no)
+//! or 1 (yes).
 //!
 //! A setting that shapes the built drive's schedule, model or stage ([`Key::locked_while_running`]:
 //! the motor's parameters and ratings, the control rate, the power stage and the current
@@ -18,6 +19,8 @@ pub enum KeyError {
     NotWhole,
     /// `torque_convention` must be 0 (three-phase) or 1 (papers).
     NotConvention,
+    /// `power_stage.terminal_sensing` must be 0 (no) or 1 (yes).
+    NotFlag,
 }
 
 impl KeyError {
@@ -27,6 +30,7 @@ impl KeyError {
         match self {
             Self::NotWhole => Range::between(1.0, 4.0e9, "a whole number"),
             Self::NotConvention => Range::between(0.0, 1.0, "0 three-phase or 1 papers"),
+            Self::NotFlag => Range::between(0.0, 1.0, "0 no or 1 yes"),
         }
     }
 }
@@ -40,6 +44,8 @@ macro_rules! keys {
             PolePairs,
             /// Torque convention: 0 three-phase, 1 papers.
             TorqueConvention,
+            /// `power_stage.terminal_sensing`: 0 no, 1 yes.
+            TerminalSensing,
             $(
                 #[doc = concat!("`", $name, "`.")]
                 $variant,
@@ -47,14 +53,20 @@ macro_rules! keys {
         }
 
         impl Key {
-            /// Every key, in the order of [`Settings`].
-            pub const ALL: &'static [Key] = &[Key::PolePairs, Key::TorqueConvention, $(Key::$variant,)*];
+            /// Every key, in the order of [`Settings`] (`power_stage.terminal_sensing` last).
+            pub const ALL: &'static [Key] = &[
+                Key::PolePairs,
+                Key::TorqueConvention,
+                $(Key::$variant,)*
+                Key::TerminalSensing,
+            ];
 
             /// The setting's name (the core's field name).
             pub const fn name(self) -> &'static str {
                 match self {
                     Key::PolePairs => "pole_pairs",
                     Key::TorqueConvention => "torque_convention",
+                    Key::TerminalSensing => "power_stage.terminal_sensing",
                     $(Key::$variant => $name,)*
                 }
             }
@@ -62,7 +74,7 @@ macro_rules! keys {
             /// Refused while the drive runs (module doc).
             pub const fn locked_while_running(self) -> bool {
                 match self {
-                    Key::PolePairs | Key::TorqueConvention => true,
+                    Key::PolePairs | Key::TorqueConvention | Key::TerminalSensing => true,
                     $(Key::$variant => $locked,)*
                 }
             }
@@ -70,7 +82,7 @@ macro_rules! keys {
             /// The `f32` this key names in `s` (`None` for the two non-`f32` keys).
             fn slot(self, s: &mut Settings) -> Option<&mut f32> {
                 match self {
-                    Key::PolePairs | Key::TorqueConvention => None,
+                    Key::PolePairs | Key::TorqueConvention | Key::TerminalSensing => None,
                     $(Key::$variant => Some(&mut s.$($field).+),)*
                 }
             }
@@ -134,6 +146,7 @@ impl Key {
                 Convention::ThreePhase => 0.0,
                 Convention::Papers => 1.0,
             },
+            Key::TerminalSensing => f32::from(u8::from(s.power_stage.terminal_sensing)),
             _ => {
                 let mut c = *s;
                 self.slot(&mut c).map_or(0.0, |v| *v)
@@ -161,6 +174,15 @@ impl Key {
                     Convention::Papers
                 } else {
                     return Err(KeyError::NotConvention);
+                };
+            }
+            Key::TerminalSensing => {
+                s.power_stage.terminal_sensing = if value == 0.0 {
+                    false
+                } else if value == 1.0 {
+                    true
+                } else {
+                    return Err(KeyError::NotFlag);
                 };
             }
             _ => {

@@ -112,6 +112,7 @@ pub struct PowerStageSettings {
     pub dead_time_band_a: f32,
     pub duty_max: f32,
     pub update_delay_s: f32,
+    pub terminal_sensing: bool,
 }
 
 /// `IdentifyConfig`: the board's current sensing.
@@ -229,6 +230,7 @@ impl From<&DriveConfig> for Settings {
                 dead_time_band_a: p.dead_time_band_a,
                 duty_max: p.duty_max,
                 update_delay_s: p.update_delay_s,
+                terminal_sensing: p.terminal_sensing,
             },
             identify: SensingSettings {
                 sense_range_a: c.identify.sense_range_a,
@@ -250,6 +252,7 @@ impl Settings {
             c.power_stage.dead_time_s = p.dead_time_s;
             c.power_stage.duty_max = p.duty_max;
             c.power_stage.update_delay_s = p.update_delay_s;
+            c.power_stage.terminal_sensing = p.terminal_sensing;
             c.identify = IdentifyConfig {
                 sense_range_a: b.identify.sense_range_a,
                 sense_lsb_a: b.identify.sense_lsb_a,
@@ -304,6 +307,7 @@ impl Settings {
                 dead_time_band_a: p.dead_time_band_a,
                 duty_max: p.duty_max,
                 update_delay_s: p.update_delay_s,
+                terminal_sensing: p.terminal_sensing,
             },
             ratings: m.ratings,
             identify: IdentifyConfig {

@@ -331,6 +331,7 @@ fn a_value_out_of_range_is_named_and_changes_nothing() {
         (Key::PolePairs, 2.5, "pole_pairs"),
         (Key::PolePairs, 0.0, "pole_pairs"),
         (Key::TorqueConvention, 2.0, "torque_convention"),
+        (Key::TerminalSensing, 0.5, "power_stage.terminal_sensing"),
         (Key::ITripA, 0.1, "limits.i_trip_a"),
         (Key::RateHz, 3500.0, "rate_hz"),
         // r_ohm within its own range, but the bus no longer drives rated torque through it.
