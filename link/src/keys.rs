@@ -23,18 +23,6 @@ pub enum KeyError {
     NotFlag,
 }
 
-impl KeyError {
-    /// What the key accepts.
-    pub fn range(self) -> crate::msg::Range {
-        use crate::msg::Range;
-        match self {
-            Self::NotWhole => Range::between(1.0, 4.0e9, "a whole number"),
-            Self::NotConvention => Range::between(0.0, 1.0, "0 three-phase or 1 papers"),
-            Self::NotFlag => Range::between(0.0, 1.0, "0 no or 1 yes"),
-        }
-    }
-}
-
 macro_rules! keys {
     ($( $variant:ident = $name:literal => $($field:ident).+ , $locked:literal ;)*) => {
         /// A setting (module doc).

@@ -10,7 +10,7 @@
 //! then ([`Key::locked_while_running`]).
 
 use crate::frame::{self, FrameError, FrameReader, Pushed, MAX_FRAME};
-use crate::keys::Key;
+use crate::keys::{Key, KeyError};
 use crate::msg::{
     field_name, reason, DeviceMsg, Event, HostMsg, LinkError, Range, Request, Response,
     MAX_STREAM_HZ, PROTOCOL_VERSION,
@@ -246,6 +246,15 @@ pub fn rejected(e: &ParamError) -> LinkError {
     }
 }
 
+/// What a key of a non-number type accepts.
+fn key_range(e: KeyError) -> Range {
+    match e {
+        KeyError::NotWhole => Range::between(1.0, 4.0e9, "a whole number"),
+        KeyError::NotConvention => Range::between(0.0, 1.0, "0 three-phase or 1 papers"),
+        KeyError::NotFlag => Range::between(0.0, 1.0, "0 no or 1 yes"),
+    }
+}
+
 /// The settings in force, or [`LinkError::NotConfigured`].
 #[allow(clippy::result_large_err)] // The wire's error, built once per request.
 fn configured<D: Device>(dev: &D) -> Result<Settings, LinkError> {
@@ -307,7 +316,7 @@ fn request<D: Device>(
             key.set(&mut new, value).map_err(|e| LinkError::Rejected {
                 field: field_name(key.name()),
                 value,
-                allowed: e.range(),
+                allowed: key_range(e),
             })?;
             change(dev, Some(old), &new).map(|()| Response::Ok)
         }
