@@ -10,7 +10,9 @@
 //! settings may change while it runs.
 
 use crate::settings::{Convention, Settings};
-use serde::{Deserialize, Serialize};
+use serde::de::{self, SeqAccess, Visitor};
+use serde::ser::SerializeTuple;
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 /// Why a value does not fit its key's type (before the core's validation).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -180,5 +182,43 @@ impl Key {
             }
         }
         Ok(())
+    }
+}
+
+/// [`Settings`] on the wire: every key's value (`f32`) in the order of [`Key::ALL`].
+impl Serialize for Settings {
+    fn serialize<S: Serializer>(&self, ser: S) -> Result<S::Ok, S::Error> {
+        let mut t = ser.serialize_tuple(Key::ALL.len())?;
+        for k in Key::ALL {
+            t.serialize_element(&k.get(self))?;
+        }
+        t.end()
+    }
+}
+
+/// Reads [`Settings`] as [`Key::ALL`]'s values. A value that does not fit its key's type
+/// (pole pairs not whole, a convention or flag not 0 or 1) leaves that setting at zero (the
+/// core's validation then names it: no pole pairs, ...) rather than failing the frame.
+impl<'de> Deserialize<'de> for Settings {
+    fn deserialize<D: Deserializer<'de>>(de: D) -> Result<Self, D::Error> {
+        struct Values;
+        impl<'de> Visitor<'de> for Values {
+            type Value = Settings;
+            fn expecting(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+                f.write_str("every setting's value")
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Settings, A::Error> {
+                let mut s = Settings::default();
+                for k in Key::ALL {
+                    let v: f32 = seq
+                        .next_element()?
+                        .ok_or_else(|| de::Error::custom("too few settings"))?;
+                    // A value of the wrong type: the setting stays at zero (doc above).
+                    let _ = k.set(&mut s, v);
+                }
+                Ok(s)
+            }
+        }
+        de.deserialize_tuple(Key::ALL.len(), Values)
     }
 }

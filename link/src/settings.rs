@@ -123,9 +123,11 @@ pub struct SensingSettings {
     pub sense_lsb_a: f32,
 }
 
-/// Every setting of a drive: a `Motor` and a `DriveConfig` (module doc).
+/// Every setting of a drive: a `Motor` and a `DriveConfig` (module doc). On the wire a
+/// tuple of every key's value in the order of `Key::ALL` (`keys.rs`): one loop, not a
+/// derived (de)serialiser per field, in the board's flash.
 #[allow(missing_docs)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Settings {
     pub motor: MotorSettings,
     pub rate_hz: f32,
