@@ -1,5 +1,6 @@
 //! Issue #27's fail-safe cases with the board's defaults (20 kHz PWM, 500 ns dead time, 1 % of
-//! rated current noise), both primaries, the Sinano motor and Ortega's test motor:
+//! rated current noise), both primaries, the Sinano motor, Ortega's test motor and the EMRAX
+//! 228 (`board::FAIL_SAFE_MOTORS`):
 //! - a stalled task (`host-sim/scenarios/fault-task-stall.toml`): the drive's 1 kHz task stops
 //!   at 1.8 s (the main loop stuck, the interrupt running: the control loop runs only its
 //!   step), at rated speed under half the rated load. The drive faults `task_stall` within

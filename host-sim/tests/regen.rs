@@ -1,8 +1,8 @@
 //! Issue #27, regeneration limited by the drive (`src/drive/regen.rs`): a stop from rated
 //! speed on a DC link whose supply cannot sink current (`scenarios/stop-regen.toml`, no brake
 //! resistor) and the same with a brake resistor switched by the drive's brake output
-//! (`scenarios/stop-regen-brake.toml`), on the Sinano motor and Ortega's test motor, both
-//! primaries, the board's defaults (1 % noise, 2 % offset, 500 ns dead time, 20 ms idle).
+//! (`scenarios/stop-regen-brake.toml`), on the Sinano motor and Ortega's test motor (the stop
+//! without a resistor on the EMRAX 228 too, the third of `FAIL_SAFE_MOTORS`), both primaries, the board's defaults (1 % noise, 2 % offset, 500 ns dead time, 20 ms idle).
 //!
 //! Before the limit, Ortega's test motor faulted `bus_overvoltage` in this scenario: with the
 //! flux primary at 0.59 s, while still accelerating (the speed loop's braking on its noisy

@@ -62,7 +62,7 @@ fn speed_at(r: &Run, t: f64) -> f64 {
     r.rows.iter().find(|row| row.t >= t).unwrap().speed_rpm
 }
 
-/// On the Sinano motor and Ortega's test motor (every switch off): `task_stall`, no voltage
+/// On the Sinano motor, Ortega's test motor and the EMRAX 228 (every switch off): `task_stall`, no voltage
 /// from then on, and the hanging load runs the rotor backwards: reported.
 #[test]
 fn a_fault_under_a_hanging_load_turns_every_switch_off_where_the_motor_refuses_the_short() {

@@ -1,7 +1,7 @@
 //! Issue #27's failed current sensors, with the board's defaults (`SimBoard::board_defaults`:
 //! 20 kHz PWM, 500 ns dead time, 1 % of rated current noise, a 2 % offset on phase a, the
-//! offsets measured in 20 ms of idle), both primaries, the Sinano motor and Ortega's test
-//! motor, at rated speed under 0.8 of the rated load (a brake), phase a's sensor failing at
+//! offsets measured in 20 ms of idle), both primaries, the Sinano motor, Ortega's test motor
+//! and the EMRAX 228 (`board::FAIL_SAFE_MOTORS`), at rated speed under 0.8 of the rated load (a brake), phase a's sensor failing at
 //! 2.0 s:
 //! - stuck at its last reading (`host-sim/scenarios/fault-sensor-stuck.toml`) or reading zero
 //!   (`fault-sensor-zero.toml`): the drive faults `current_sensor` (the phase currents' sum,
@@ -24,7 +24,7 @@ use pmsm_host_sim::sim::{run, Run, SimConfig};
 use pmsm_sensorless::drive::{DriveConfig, Fault, Limits, Mode, Reason};
 use pmsm_sensorless::motor::preset;
 
-/// The drive motors: the Sinano motor and Ortega's test motor.
+/// The Sinano motor, Ortega's test motor and the EMRAX 228.
 use board::FAIL_SAFE_MOTORS as MOTORS;
 /// Both primaries.
 const PRIMARIES: [ObserverKind; 2] = [ObserverKind::SlidingTorque, ObserverKind::Flux];
