@@ -23,6 +23,29 @@
 //! equations take each segment's own mean `i_q`); so any inertia the rated torque can move
 //! is measured at a torque it notices. The back-EMF more than 0.6 rad off the frame for 20 ms
 //! is a lost rotor.
+//!
+//! The PLL follows the segment's acceleration ([`Tracking::new`]). A critically damped type-2
+//! PLL (`ω_e = ω_i − k_p δ`, `ω_i −= k_i T δ`, `k_p = 2ω_n`, `k_i = ω_n²`) lags a constant
+//! electrical acceleration `α_e` by `δ = α_e/ω_n²` and meets a step of it without overshoot
+//! (F. M. Gardner, *Phaselock Techniques*, 3rd ed., Wiley 2005, ch. 2, the second-order loop's
+//! steady-state errors). The fastest segment the steps accept runs the range
+//! `Δω_m = ω_high − ω_low` in `T_short`, so `α_e ≤ N Δω_m/T_short`; its lag is held to
+//! `δ_acc` = 0.3 rad, half of the lost rotor's 0.6:
+//!
+//! ```text
+//! ω_n     = clamp( √(N Δω_m / (T₀ δ_acc)),  2π·40 Hz,  0.5/T_tick )     T₀ = 60 ms
+//! T_short = max( T₀,  N Δω_m / (δ_acc ω_n²) )
+//! ```
+//!
+//! 40 Hz and 60 ms serve every motor up to `N Δω_m = δ_acc T₀ (2π·40)²` = 1137 rad/s
+//! (600 Hz electrical at rated speed: every zoo motor but the drone and the EMRAX keeps them). The
+//! sampled loop (the EMF averaged over the 1 kHz tick's millisecond) has a double pole at
+//! `1 − ω_n T` without the averaging; with it the loop's damping falls above `ω_n T` ≈ 0.6 and it
+//! is unstable at 0.7: `ω_n T ≤ 0.5` (80 Hz). Where that bound holds `ω_n`, the shortest segment
+//! grows instead: the drone (N Δω_m = 7540 rad/s) at 80 Hz accepts segments of 100 ms or
+//! more, whose lag stays within `δ_acc` (at 40 Hz and 60 ms its fastest accepted segment lagged
+//! 2 rad, its rotor was lost and its current loop, fed the EMF on the wrong axis, tripped
+//! over-current).
 
 use super::inverter::dead_time_applied;
 use super::{back_emf, Identified, IdentifyError, Progress, Settings};
@@ -32,15 +55,51 @@ use crate::frames::{AlphaBeta, Dq, SinCos};
 use crate::motor::MotorParams;
 use core::f32::consts::TAU;
 
-/// PLL natural frequency \[rad/s] (40 Hz, critically damped) at 1 kHz.
-const PLL_WN: f32 = TAU * 40.0;
-const PLL_KP: f32 = 2.0 * PLL_WN;
-const PLL_KI_T: f32 = PLL_WN * PLL_WN * 1e-3;
+/// The PLL's lowest natural frequency \[rad/s] (40 Hz, critically damped) at 1 kHz.
+const PLL_WN_MIN: f32 = TAU * 40.0;
+/// The PLL's highest `ω_n T` at the 1 kHz tick (module doc).
+const PLL_WN_T_MAX: f32 = 0.5;
+/// The PLL's lag allowed under the fastest accepted segment's acceleration \[rad].
+const LAG_ACC: f32 = 0.3;
 /// Each segment's first milliseconds are not fitted; its longest duration \[ms].
 const SKIP_MS: u32 = 20;
 const SEGMENT_MS: u32 = 300;
-/// Fewest fitted milliseconds of a segment.
+/// Fewest fitted milliseconds of a segment, at the PLL's lowest natural frequency (`T₀` =
+/// 60 ms with the skipped ones).
 const MIN_POINTS: u32 = 40;
+
+/// The PLL's gains and the shortest segment, from the motor's torque-step range (module doc).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(in crate::drive) struct Tracking {
+    /// `k_p = 2ω_n` \[1/s] and `k_i T = ω_n² · 1 ms` \[1/s].
+    kp: f32,
+    ki_t: f32,
+    /// Fewest fitted milliseconds of a segment (`T_short` less the skipped ones).
+    min_points: f32,
+}
+
+impl Tracking {
+    /// For `n` pole pairs and the torque steps' speed range `range_m` [rad/s, mechanical].
+    pub(super) fn new(n: f32, range_m: f32) -> Self {
+        let range_e = n * range_m;
+        let t0_s = (SKIP_MS + MIN_POINTS) as f32 * 1e-3;
+        let wn_max = PLL_WN_T_MAX * crate::schedule::TICK_HZ;
+        let wn_acc = crate::math::sqrt_or_zero(range_e / (t0_s * LAG_ACC));
+        let wn = crate::math::clamp(wn_acc, PLL_WN_MIN, wn_max);
+        let t_short_s = crate::math::max(t0_s, range_e / (LAG_ACC * wn * wn));
+        let t_short_ms = t_short_s * 1e3;
+        // Whole milliseconds, rounded up; MIN_POINTS where T₀ holds.
+        let min_points = crate::math::max(
+            MIN_POINTS as f32,
+            crate::math::max(t_short_ms - SKIP_MS as f32 + 0.999, 0.0) as u32 as f32,
+        );
+        Self {
+            kp: 2.0 * wn,
+            ki_t: wn * wn * 1e-3,
+            min_points,
+        }
+    }
+}
 /// Attempts at finding the torque.
 const ATTEMPTS: u32 = 16;
 
@@ -197,8 +256,9 @@ impl Mechanics {
         if self.lost_ms > 20 || !delta.is_finite() {
             return Progress::Fail(IdentifyError::LostRotor);
         }
-        self.omega_i_e -= PLL_KI_T * delta;
-        self.omega_e = self.omega_i_e - PLL_KP * delta;
+        let pll = &s.tracking;
+        self.omega_i_e -= pll.ki_t * delta;
+        self.omega_e = self.omega_i_e - pll.kp * delta;
         self.step_rot = SinCos::of_small(self.omega_e * s.ts);
         self.out_rot = foc.output_rotation(self.omega_e / s.n);
         self.frame = self.frame.renormalized();
@@ -219,14 +279,14 @@ impl Mechanics {
         let fit = self.fit;
         self.fit = Fit::default();
         self.ms = 0;
-        let too_short = fit.n < MIN_POINTS as f32;
+        let too_short = fit.n < pll.min_points;
         let (slope, w_mean, iq_mean, span) = if too_short {
             (0.0, 0.0, 0.0, 0.0)
         } else {
             fit.result()
         };
         // The PLL integrator lags a steady acceleration by kp/ki·α: the mean speed corrected.
-        let w_mean = w_mean + PLL_KP / (PLL_KI_T * 1e3) * slope;
+        let w_mean = w_mean + pll.kp / (pll.ki_t * 1e3) * slope;
         let range = s.omega_high_m - s.omega_low_m;
         let small = span.abs() < range / 3.0;
         self.attempts += 1;

@@ -230,6 +230,8 @@ pub(super) struct Settings {
     pub(super) omega_high_m: f32,
     /// The spin's acceleration per millisecond [rad/s, mechanical]: rated speed in a second.
     pub(super) accel_per_ms: f32,
+    /// The torque steps' PLL and shortest segment (`mechanics.rs`).
+    pub(super) tracking: mechanics::Tracking,
 }
 
 impl Settings {
@@ -246,6 +248,7 @@ impl Settings {
         let i = ratings.current_a;
         let rated_m = ratings.speed_rpm * crate::units::RAD_S_PER_RPM;
         let w_c = TAU * current_bandwidth_hz;
+        let (omega_low_m, omega_high_m) = (SPIN_SPEED_SHARE * rated_m, 0.6 * rated_m);
         Self {
             i_test_a: i,
             sensable: 2.25 * i <= cfg.sense_range_a && i >= 100.0 * cfg.sense_lsb_a,
@@ -256,9 +259,10 @@ impl Settings {
             n: pole_pairs,
             torque_factor: torque.factor(),
             n_ts: pole_pairs * ts,
-            omega_low_m: SPIN_SPEED_SHARE * rated_m,
-            omega_high_m: 0.6 * rated_m,
+            omega_low_m,
+            omega_high_m,
             accel_per_ms: rated_m * 1e-3,
+            tracking: mechanics::Tracking::new(pole_pairs, omega_high_m - omega_low_m),
         }
     }
 }
