@@ -1,7 +1,8 @@
 //! The plant the link firmware drives: the simulator's (`pmsm-plant`, host-sim's: the
 //! papers' motor in f64, RK4) with the Sinano motor of Horng & Chin's Table 1 behind an
 //! ideal inverter on a stiff 48 V bus, no load; the same bench as `qemu-m4f`'s (src/main.rs),
-//! run for as long as the firmware runs.
+//! run for as long as the firmware runs, whatever drive the link configures: the motor is the
+//! bench's, the drive's settings the user's.
 
 use pmsm_plant::{Inverter, Plant, PlantParams, StiffBus};
 use pmsm_sensorless::drive::DriveInput;
@@ -38,6 +39,11 @@ impl Bench {
             duties: None,
             h_s: 1.0 / f64::from(rate_hz),
         }
+    }
+
+    /// The control period follows a rebuilt drive's rate \[Hz] (the plant keeps its state).
+    pub fn set_rate(&mut self, rate_hz: f32) {
+        self.h_s = 1.0 / f64::from(rate_hz);
     }
 
     /// One control period with the duties held.
