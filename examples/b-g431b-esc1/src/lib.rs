@@ -36,6 +36,7 @@ pub mod ocp;
 pub mod overcurrent;
 pub mod pll;
 pub mod pwm;
+pub mod servo;
 pub mod tim1;
 pub mod watchdog;
 
