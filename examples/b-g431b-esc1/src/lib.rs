@@ -37,6 +37,7 @@ pub mod overcurrent;
 pub mod pll;
 pub mod pwm;
 pub mod servo;
+pub mod servo_capture;
 pub mod tim1;
 pub mod watchdog;
 

@@ -14,6 +14,7 @@
 mod analog;
 mod clocks;
 mod safety;
+mod servo;
 mod tim1;
 
 use std::cell::Cell;
