@@ -25,6 +25,7 @@
 
 pub mod adc;
 pub mod bemf;
+pub mod board_io;
 pub mod break_filter;
 pub mod clocks;
 pub mod config;
