@@ -62,9 +62,7 @@ impl OutputPin for GpioOut<'_> {
     fn set_high(&mut self) -> Result<(), Infallible> {
         // SAFETY: BSRR's low half sets, its high half resets; other pins' bits are 0 (no
         // effect).
-        self.port
-            .bsrr()
-            .write(|w| unsafe { w.bits(1 << self.pin) });
+        self.port.bsrr().write(|w| unsafe { w.bits(1 << self.pin) });
         Ok(())
     }
 
@@ -180,7 +178,7 @@ impl<P: OutputPin> StatusLed<P> {
     /// Shows the state at step `now`.
     pub fn show(&mut self, now: u32, faulted: bool, servo_armed: bool) {
         let lit = if faulted {
-            (now / self.blink_steps) % 2 == 0
+            (now / self.blink_steps).is_multiple_of(2)
         } else {
             servo_armed
         };

@@ -68,6 +68,9 @@ pub static TICK_RETRIES: AtomicU32 = AtomicU32::new(0);
 pub static SPEED_RPM: AtomicU32 = AtomicU32::new(0);
 /// The power stage's temperature at the last step [°C] (f32 bits), for the log.
 pub static STAGE_TEMP_C: AtomicU32 = AtomicU32::new(0);
+/// The speed command before the temperature derating [rpm] (f32 bits): the constant
+/// `SPEED_CMD_RPM` (the button's), or the servo input's while it is armed (main loop).
+pub static SPEED_CMD: AtomicU32 = AtomicU32::new(SPEED_CMD_RPM.to_bits());
 
 /// The core's control loop on this board's power stage.
 type BoardControl = pmsm_sensorless::control::Control<Primary, Monitor, Esc1>;
@@ -115,7 +118,7 @@ impl Control {
         // The speed command derated by the power stage's temperature (`ntc`), shared with
         // the 1 kHz task.
         let stage = self.control.stage();
-        let speed_rpm = SPEED_CMD_RPM * stage.speed_scale();
+        let speed_rpm = f32::from_bits(SPEED_CMD.load(Ordering::Relaxed)) * stage.speed_scale();
         SPEED_RPM.store(speed_rpm.to_bits(), Ordering::Relaxed);
         STAGE_TEMP_C.store(stage.temp_c().to_bits(), Ordering::Relaxed);
         let cmd = Commands {

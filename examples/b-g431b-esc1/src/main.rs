@@ -16,6 +16,11 @@
 //! pressed while the drive is in `Fault` it clears the fault and leaves the drive disabled
 //! (press again to restart); held 2 s with the drive disabled, it starts the identification
 //! (issue #19), whose end prints the motor file in the log.
+//! The servo-PWM input (PA15, TIM2: `servo`, `servo_capture`; 1–2 ms pulses at 50–490 Hz)
+//! commands the speed, one direction, 2 ms = the rated speed, once it has seen 50 pulses at
+//! zero throttle; losing it (100 ms without a valid pulse) disables the drive, and it re-arms
+//! only at zero again. Without a signal the button and the constant command are as before.
+//! The LED (PC6) is lit while the servo input is armed and blinks in `Fault`.
 //! The log (defmt over RTT) shows every mode transition and a telemetry record at 10 Hz.
 //!
 //! # Modules
@@ -59,6 +64,8 @@
 //! | Phase voltages U, V, W (BEMF1..3) | PA4, PC4, PB11 | ADC2_IN17, ADC2_IN5, ADC2_IN14 |
 //! | GPIO_BEMF (dividers on when low) | PB5 | GPIO output, low                  |
 //! | User button              | PC10 | GPIO input                                  |
+//! | User LED (inferred active high) | PC6 | GPIO output                         |
+//! | PWM (servo) input (stm32duino's variant) | PA15 | TIM2_CH1 (AF1), PWM-input capture |
 //!
 //! Timing: TIM1 centre-aligned at 20 kHz, the repetition counter makes one update event
 //! (UEV) every 5 PWM periods = 4 kHz, at the counter peak where all low-side switches
@@ -103,16 +110,20 @@ mod firmware {
     use stm32g4::stm32g431 as pac;
 
     use crate::control::{
-        self, Control, Tick, CLEAR_FAULT, ENABLE, IDENTIFY, SPEED_RPM, STAGE_TEMP_C, STEPS,
-        TICK_RETRIES,
+        self, Control, Tick, CLEAR_FAULT, ENABLE, IDENTIFY, SPEED_CMD, SPEED_RPM, STAGE_TEMP_C,
+        STEPS, TICK_RETRIES,
     };
     use crate::power_stage::Esc1;
     use crate::protection::MAIN_ALIVE;
     use crate::{protection, settings, telemetry};
+    use pmsm_b_g431b_esc1::board_io::{self, Button, ButtonAction, GpioIn, GpioOut, StatusLed};
     use pmsm_b_g431b_esc1::config::SETTINGS;
     use pmsm_b_g431b_esc1::drive_settings::drive_config;
+    use pmsm_b_g431b_esc1::drive_settings::{MOTOR, SPEED_CMD_RPM};
     use pmsm_b_g431b_esc1::hw::{Hw, InitError, Wait};
     use pmsm_b_g431b_esc1::ntc::NtcConfig;
+    use pmsm_b_g431b_esc1::servo::{PulseCapture, ServoConfig, ServoDecoder, ServoOutput};
+    use pmsm_b_g431b_esc1::servo_capture::{self, ServoCapture};
     use pmsm_b_g431b_esc1::{adc, clocks, overcurrent, pwm, watchdog};
 
     /// The CPU's part of the init functions: busy-waits of the core clock; the polls spin
@@ -152,6 +163,12 @@ mod firmware {
     const BUTTON_POLL_STEPS: u32 = 40;
     /// A press held this long (2 s) with the drive disabled starts the identification.
     const IDENTIFY_HOLD_STEPS: u32 = 2 * pmsm_b_g431b_esc1::config::SETTINGS.control_hz;
+
+    /// The servo input is polled every this many steps (4 steps = 1 ms, shorter than the
+    /// shortest frame, 1/490 Hz = 2.04 ms: no pulse is missed).
+    const SERVO_POLL_STEPS: u32 = pmsm_b_g431b_esc1::config::SETTINGS.control_hz / 1000;
+    /// A control step \[µs].
+    const US_PER_STEP: u32 = 1_000_000 / pmsm_b_g431b_esc1::config::SETTINGS.control_hz;
 
     /// Copies the control path (`.ramfunc`, placed by `ramfunc.x`) from its load image in
     /// flash to CCM SRAM. Must run before anything in it is called.
@@ -209,6 +226,8 @@ mod firmware {
         pwm::init_tim1(&dp.TIM1);
         adc::init_pins(&dp.GPIOA, &dp.GPIOB, &dp.GPIOC);
         pwm::init_button(&dp.GPIOC);
+        board_io::init_led(&dp.GPIOC);
+        servo_capture::init(&dp.RCC, &dp.GPIOA, &dp.TIM2);
         adc::init_opamps(&dp.OPAMP, cpu);
 
         // Start the timer (outputs off: MOE = 0), find where its update lands, write BDTR
@@ -277,12 +296,18 @@ mod firmware {
         let tick = Tick::new(&control, tick_events);
         control::start(&mut cp.NVIC, control, tick);
 
-        let gpioc = dp.GPIOC;
-        let button_idle = gpioc.idr().read().idr(10).bit();
-        let mut was_pressed = false;
-        // The step count at the press, while the button is down.
-        let mut pressed_at = 0u32;
-        let mut last_poll = 0u32;
+        let identify = cfg!(feature = "identify");
+        let pc10 = GpioIn::new(&dp.GPIOC, 10);
+        let mut button = Button::new(pc10, BUTTON_POLL_STEPS, IDENTIFY_HOLD_STEPS, identify);
+        let mut led = StatusLed::new(GpioOut::new(&dp.GPIOC, 6), SETTINGS.control_hz / 4);
+        // The servo input (PA15, TIM2): full throttle is the rated speed, slewed at the
+        // drive's own start acceleration.
+        let full_rpm = MOTOR.ratings.speed_rpm;
+        let slew_per_s = drive_config().start.accel_rpm_per_s / full_rpm;
+        let mut servo = ServoDecoder::new(ServoConfig::standard(slew_per_s));
+        let mut servo_in = ServoCapture::new(&dp.TIM2);
+        let mut servo_out = ServoOutput::default();
+        let mut last_servo = 0u32;
         let mut faulted = false;
         #[cfg(feature = "identify")]
         defmt::info!(
@@ -314,35 +339,47 @@ mod firmware {
                     f32::from_bits(SPEED_RPM.load(Ordering::Relaxed))
                 );
             }
-            if now.wrapping_sub(last_poll) >= BUTTON_POLL_STEPS {
-                last_poll = now;
-                let pressed = gpioc.idr().read().idr(10).bit() != button_idle;
-                if pressed && !was_pressed {
-                    pressed_at = now;
+            // Acted on at the release (`board_io::Button`): held for IDENTIFY_HOLD_STEPS
+            // (2 s) with the drive disabled, the identification; else enable toggled (or the
+            // fault cleared).
+            match button.poll(now, faulted, ENABLE.load(Ordering::Relaxed)) {
+                Some(ButtonAction::ClearFault) => {
+                    ENABLE.store(false, Ordering::Relaxed);
+                    CLEAR_FAULT.store(true, Ordering::Relaxed);
+                    defmt::info!("button: clear fault (drive stays disabled)");
                 }
-                // Acted on at the release: held for IDENTIFY_HOLD_STEPS (2 s) with the drive
-                // disabled, the identification; else enable toggled (or the fault cleared).
-                if !pressed && was_pressed {
-                    let held = now.wrapping_sub(pressed_at);
-                    if faulted {
-                        ENABLE.store(false, Ordering::Relaxed);
-                        CLEAR_FAULT.store(true, Ordering::Relaxed);
-                        defmt::info!("button: clear fault (drive stays disabled)");
-                    } else if cfg!(feature = "identify")
-                        && held >= IDENTIFY_HOLD_STEPS
-                        && !ENABLE.load(Ordering::Relaxed)
-                    {
-                        ENABLE.store(true, Ordering::Relaxed);
-                        IDENTIFY.store(true, Ordering::Relaxed);
-                        defmt::info!("button held: identification (the motor turns)");
-                    } else {
-                        let enable = !ENABLE.load(Ordering::Relaxed);
-                        ENABLE.store(enable, Ordering::Relaxed);
-                        defmt::info!("button: enable = {=bool}", enable);
-                    }
+                Some(ButtonAction::Identify) => {
+                    ENABLE.store(true, Ordering::Relaxed);
+                    IDENTIFY.store(true, Ordering::Relaxed);
+                    defmt::info!("button held: identification (the motor turns)");
                 }
-                was_pressed = pressed;
+                Some(ButtonAction::Enable(enable)) => {
+                    ENABLE.store(enable, Ordering::Relaxed);
+                    defmt::info!("button: enable = {=bool}", enable);
+                }
+                None => {}
             }
+            // The servo input every SERVO_POLL_STEPS (1 ms): the speed command while armed
+            // (else the button's constant), the run command at its edges only.
+            if now.wrapping_sub(last_servo) >= SERVO_POLL_STEPS {
+                let dt_us = now.wrapping_sub(last_servo).saturating_mul(US_PER_STEP);
+                last_servo = now;
+                let out = servo.update(servo_in.capture(), dt_us);
+                if let Some(enable) = out.enable_change(&servo_out) {
+                    ENABLE.store(enable, Ordering::Relaxed);
+                    defmt::info!(
+                        "servo input: armed = {=bool}, enable = {=bool} (rejected {=u32}, lost {=u32})",
+                        out.armed,
+                        enable,
+                        servo.rejected_width + servo.rejected_period,
+                        servo.losses
+                    );
+                }
+                let rpm = out.speed_rpm(full_rpm, SPEED_CMD_RPM);
+                SPEED_CMD.store(rpm.to_bits(), Ordering::Relaxed);
+                servo_out = out;
+            }
+            led.show(now, faulted, servo_out.armed);
             // Woken by the next control interrupt at the latest.
             cortex_m::asm::wfi();
         }

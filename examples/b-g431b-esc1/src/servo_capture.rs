@@ -85,9 +85,7 @@ impl PulseCapture for ServoCapture<'_> {
         let period_us = self.tim2.ccr1().read().bits();
         if sr & SR_OVERCAPTURE != 0 {
             // rc_w0: zeros clear, ones leave the other flags.
-            self.tim2
-                .sr()
-                .write(|w| unsafe { w.bits(!SR_OVERCAPTURE) });
+            self.tim2.sr().write(|w| unsafe { w.bits(!SR_OVERCAPTURE) });
         }
         let first = !self.primed;
         self.primed = true;

@@ -82,7 +82,13 @@ impl Rig {
 
     /// Holds the button `pressed` for `steps`, calling `poll` every step as the main loop
     /// does at most; the actions seen.
-    fn hold(&mut self, pressed: bool, steps: u32, faulted: bool, enabled: bool) -> Vec<ButtonAction> {
+    fn hold(
+        &mut self,
+        pressed: bool,
+        steps: u32,
+        faulted: bool,
+        enabled: bool,
+    ) -> Vec<ButtonAction> {
         self.level.set(Some(pressed != self.idle));
         let mut seen = Vec::new();
         for _ in 0..steps {
@@ -107,7 +113,10 @@ fn click_toggles_enable() {
     for idle in [true, false] {
         let mut r = Rig::new(idle, false);
         assert_eq!(r.hold(true, 400, false, false), [], "nothing while held");
-        assert_eq!(r.hold(false, 80, false, false), [ButtonAction::Enable(true)]);
+        assert_eq!(
+            r.hold(false, 80, false, false),
+            [ButtonAction::Enable(true)]
+        );
         assert_eq!(r.click(200, false, true), [ButtonAction::Enable(false)]);
     }
 }
@@ -127,10 +136,19 @@ fn click_in_fault_clears() {
 fn hold_identifies() {
     let mut r = Rig::new(true, true);
     assert_eq!(r.click(HOLD + POLL, false, false), [ButtonAction::Identify]);
-    assert_eq!(r.click(HOLD - 2 * POLL, false, false), [ButtonAction::Enable(true)]);
-    assert_eq!(r.click(HOLD + POLL, false, true), [ButtonAction::Enable(false)]);
+    assert_eq!(
+        r.click(HOLD - 2 * POLL, false, false),
+        [ButtonAction::Enable(true)]
+    );
+    assert_eq!(
+        r.click(HOLD + POLL, false, true),
+        [ButtonAction::Enable(false)]
+    );
     let mut r = Rig::new(true, false);
-    assert_eq!(r.click(HOLD + POLL, false, false), [ButtonAction::Enable(true)]);
+    assert_eq!(
+        r.click(HOLD + POLL, false, false),
+        [ButtonAction::Enable(true)]
+    );
 }
 
 /// Sampled every 40 steps: a bounce shorter than a poll between two samples is not seen,
@@ -161,7 +179,10 @@ fn read_error_keeps_state() {
         seen.extend(r.button.poll(r.now, false, false));
     }
     assert_eq!(seen, []);
-    assert_eq!(r.hold(false, 80, false, false), [ButtonAction::Enable(true)]);
+    assert_eq!(
+        r.hold(false, 80, false, false),
+        [ButtonAction::Enable(true)]
+    );
 }
 
 /// The LED: lit while armed, off otherwise, blinking with half-period 500 steps in

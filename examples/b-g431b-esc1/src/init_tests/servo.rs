@@ -35,7 +35,11 @@ fn tim2_pwm_input() {
 
     let ccer = peek(t.ccer());
     assert_eq!(field(ccer, 0, 4), 0b0001, "CC1E, rising (CC1P = CC1NP = 0)");
-    assert_eq!(field(ccer, 4, 4), 0b0011, "CC2E, falling (CC2P = 1, CC2NP = 0)");
+    assert_eq!(
+        field(ccer, 4, 4),
+        0b0011,
+        "CC2E, falling (CC2P = 1, CC2NP = 0)"
+    );
 
     let smcr = peek(t.smcr());
     let ts = field(smcr, 4, 3) | field(smcr, 20, 2) << 3;

@@ -152,7 +152,12 @@ fn out_of_range() {
     let (mut d, mut tr) = armed();
     let held = tr.run(&mut d, 20_000, 600_000, |_| 1525).throttle;
     assert!((held - 0.5).abs() < 1e-6);
-    let out = tr.run(&mut d, 20_000, 60_000, |k| if k % 2 == 0 { 700 } else { 2300 });
+    let out = tr.run(
+        &mut d,
+        20_000,
+        60_000,
+        |k| if k % 2 == 0 { 700 } else { 2300 },
+    );
     assert_eq!(out.throttle, held);
     assert!(out.armed && out.enable);
     assert_eq!(d.rejected_width, 3);
@@ -226,7 +231,11 @@ fn rearm_at_zero_only() {
     let out = tr.run(&mut d, 20_000, 2_000_000, |_| 2000);
     assert!(out.present && !out.armed && !out.enable);
     assert_eq!(out.throttle, 0.0);
-    assert_eq!(out.speed_rpm(560.0, 400.0), 400.0, "the button's command stands");
+    assert_eq!(
+        out.speed_rpm(560.0, 400.0),
+        400.0,
+        "the button's command stands"
+    );
 
     let mut d = decoder();
     let mut tr = Train::new();
@@ -237,9 +246,19 @@ fn rearm_at_zero_only() {
 
     let mut d = decoder();
     let mut tr = Train::new();
-    let out = tr.run(&mut d, 20_000, 1_000_000, |k| if k == 30 { 1200 } else { 1000 });
+    let out = tr.run(
+        &mut d,
+        20_000,
+        1_000_000,
+        |k| if k == 30 { 1200 } else { 1000 },
+    );
     assert!(!out.armed, "a pulse above zero restarts the count");
-    let out = tr.run(&mut d, 20_000, 1_000_000, |k| if k == 30 { 2300 } else { 1000 });
+    let out = tr.run(
+        &mut d,
+        20_000,
+        1_000_000,
+        |k| if k == 30 { 2300 } else { 1000 },
+    );
     assert!(!out.armed, "an out-of-range pulse restarts the count");
     let out = tr.run(&mut d, 20_000, 1_000_000, |_| 1000);
     assert!(out.armed);
@@ -265,7 +284,10 @@ fn jitter() {
     let (lo, hi) = (c.throttle_of(1521), c.throttle_of(1529));
     for _ in 0..200 {
         let out = tr.run(&mut d, 20_000, 20_000, |_| 1525 + jit() - 4);
-        assert!(out.throttle >= lo - 1e-6 && out.throttle <= hi + 1e-6, "{out:?}");
+        assert!(
+            out.throttle >= lo - 1e-6 && out.throttle <= hi + 1e-6,
+            "{out:?}"
+        );
         assert!(out.enable);
     }
     assert!(hi - lo <= 8.0 / 950.0 + 1e-6);
