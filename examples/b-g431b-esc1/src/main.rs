@@ -85,11 +85,13 @@ fn main() {
 
 #[cfg(target_os = "none")]
 mod control;
+#[cfg(all(target_os = "none", feature = "link"))]
+mod link;
 #[cfg(target_os = "none")]
 mod power_stage;
 #[cfg(target_os = "none")]
 mod protection;
-#[cfg(target_os = "none")]
+#[cfg(all(target_os = "none", not(feature = "link")))]
 mod settings;
 #[cfg(target_os = "none")]
 mod telemetry;
@@ -106,14 +108,22 @@ mod firmware {
         self, Control, Tick, CLEAR_FAULT, ENABLE, IDENTIFY, SPEED_RPM, STAGE_TEMP_C, STEPS,
         TICK_RETRIES,
     };
+    #[cfg(feature = "link")]
+    use crate::link::{self, Board};
     use crate::power_stage::Esc1;
     use crate::protection::MAIN_ALIVE;
-    use crate::{protection, settings, telemetry};
+    use crate::{protection, telemetry};
     use pmsm_b_g431b_esc1::config::SETTINGS;
-    use pmsm_b_g431b_esc1::drive_settings::drive_config;
+    use pmsm_b_g431b_esc1::drive_settings::BoardDrive;
+    #[cfg(feature = "link")]
+    use pmsm_b_g431b_esc1::flash::ConfigFlash;
     use pmsm_b_g431b_esc1::hw::{Hw, InitError, Wait};
     use pmsm_b_g431b_esc1::ntc::NtcConfig;
+    #[cfg(feature = "link")]
+    use pmsm_b_g431b_esc1::usart::{self, Usart};
     use pmsm_b_g431b_esc1::{adc, clocks, overcurrent, pwm, watchdog};
+    #[cfg(feature = "link")]
+    use pmsm_link::Server;
 
     /// The CPU's part of the init functions: busy-waits of the core clock; the polls spin
     /// on the peripherals' own flags.
@@ -241,7 +251,18 @@ mod firmware {
         let comparator_inputs = start.comparator_inputs;
         let temp_c = NtcConfig::ESC1.temp_c(start.ntc_raw, SETTINGS.vref_v);
         defmt::info!("power stage at {=f32} C (NTC, PB14)", temp_c);
-        let i_trip_a = drive_config().limits.i_trip_a;
+        // The settings kept in flash (none: no drive until the link loads a motor).
+        #[cfg(feature = "link")]
+        let mut flash = ConfigFlash::board(&dp.FLASH);
+        #[cfg(feature = "link")]
+        let stored = link::load(&mut flash);
+        // The hardware trip: the stored settings' trip current, else the ADC's range.
+        #[cfg(feature = "link")]
+        let i_trip_a = stored.map_or(SETTINGS.i_adc_range_a, |s| s.limits.i_trip_a);
+        #[cfg(not(feature = "link"))]
+        let i_trip_a = pmsm_b_g431b_esc1::drive_settings::drive_config()
+            .limits
+            .i_trip_a;
         let hw_trip = ok(overcurrent::init(
             &dp.RCC,
             &dp.DAC3,
@@ -260,22 +281,51 @@ mod firmware {
             comparator_inputs[1],
             comparator_inputs[2]
         );
-        let drive = settings::build_drive();
         let (step_events, tick_events, mut receiver) = telemetry::queues();
 
         let mut stage = Esc1::new(pwm, adc, temp_c);
         // A break flag set while the comparators started (none is high now: checked) is
         // not a fault.
         stage.clear_faults();
-        // Before the first enable: the bootstrap capacitors charged through the low sides.
-        ok(stage.precharge_bootstrap(SETTINGS.precharge_periods, cpu));
-        let watchdog = ok(protection::Watchdog::start(dp.IWDG, cpu));
-        // Drop any sequence that completed since the calibration, so the first step starts on
-        // a fresh sample (a stale one could make the first step look like an overrun).
-        stage.discard_samples();
-        let control = Control::new(drive, stage, watchdog, step_events);
-        let tick = Tick::new(&control, tick_events);
-        control::start(&mut cp.NVIC, control, tick);
+        // The control interrupts start with the first drive (at boot from the stored
+        // settings, or when the link loads a motor).
+        let mut parked = Some((stage, dp.IWDG, step_events, tick_events));
+        let mut start = |drive: BoardDrive| {
+            let Some((mut stage, iwdg, step_events, tick_events)) = parked.take() else {
+                return;
+            };
+            // Before the first enable: the bootstrap capacitors charged through the low sides.
+            ok(stage.precharge_bootstrap(SETTINGS.precharge_periods, &mut Cpu));
+            let watchdog = ok(protection::Watchdog::start(iwdg, &mut Cpu));
+            // Drop any sequence that completed since the calibration, so the first step
+            // starts on a fresh sample (a stale one could look like an overrun).
+            stage.discard_samples();
+            let control = Control::new(drive, stage, watchdog, step_events);
+            let tick = Tick::new(&control, tick_events);
+            control::start(&mut cp.NVIC, control, tick);
+            defmt::info!("drive built: control interrupts started");
+        };
+        #[cfg(not(feature = "link"))]
+        start(crate::settings::build_drive());
+        #[cfg(feature = "link")]
+        let mut board = Board::new(stored, flash, &mut start);
+        #[cfg(feature = "link")]
+        let (mut uart, mut server) = {
+            usart::init(&dp.RCC, &dp.GPIOB, &dp.USART2);
+            let uart = Usart::new(&dp.USART2);
+            defmt::info!(
+                "link on USART2 (ST-LINK virtual COM port) at {=u32} bit/s; drive {=str}",
+                usart::BAUD,
+                if board.has_drive() {
+                    "configured"
+                } else {
+                    "refused"
+                }
+            );
+            (uart, Server::new())
+        };
+        #[cfg(not(feature = "link"))]
+        let has_drive = true;
 
         let gpioc = dp.GPIOC;
         let button_idle = gpioc.idr().read().idr(10).bit();
@@ -295,7 +345,16 @@ mod firmware {
         loop {
             // This loop has run: the control step may feed the watchdog.
             MAIN_ALIVE.store(true, Ordering::Relaxed);
-            receiver.log(|ev| faulted = ev.faulted());
+            receiver.log(|_ev| {
+                faulted = _ev.faulted();
+                #[cfg(feature = "link")]
+                board.note(_ev);
+            });
+            // Between the interrupts, never within one: the USART's Error is Infallible.
+            #[cfg(feature = "link")]
+            let Ok(()) = server.poll(&mut uart, &mut board);
+            #[cfg(feature = "link")]
+            let has_drive = board.has_drive();
             let retries = TICK_RETRIES.swap(0, Ordering::Relaxed);
             if retries > 0 {
                 defmt::warn!(
@@ -328,6 +387,8 @@ mod firmware {
                         ENABLE.store(false, Ordering::Relaxed);
                         CLEAR_FAULT.store(true, Ordering::Relaxed);
                         defmt::info!("button: clear fault (drive stays disabled)");
+                    } else if !has_drive {
+                        defmt::warn!("button: no drive (load a motor over the link)");
                     } else if cfg!(feature = "identify")
                         && held >= IDENTIFY_HOLD_STEPS
                         && !ENABLE.load(Ordering::Relaxed)
