@@ -7,20 +7,22 @@
 //! interrupt.
 //!
 //! No motor is compiled in. Without settings in force (none stored, a corrupt record, one
-//! of another format, or one this board cannot run: `drive_settings::board_mismatch`) the
-//! control interrupts are not started: PWM off, no watchdog, the link answers, enable and
-//! save refused. The first valid settings put over the link build the drive and start them
-//! ([`Board::apply`]); later ones replace the drive between two steps (`control::set_drive`).
+//! of another format, or one this board cannot run: `drive_settings::board_mismatch`) there
+//! is no drive: PWM off, no watchdog, the link answers, enable and save refused. The control
+//! interrupts (and the watchdog) start with the first enable or identification after a reset
+//! ([`Board::start_drive`]), with the drive of the settings in force; settings put in force
+//! later replace the drive between two steps (`control::set_drive`).
 //! The hardware over-current trip keeps the threshold set at boot (the stored settings' trip
 //! current, or the ADC's range without): a new motor's takes effect after a save and reset;
 //! the drive's software trip is the new one at once.
 //!
 //! Saving: a page erase stalls every flash read for 22 ms typical (DS12589), longer than the
 //! 10 ms watchdog the control step feeds once started, and `pmsm-store` does not tell in
-//! advance whether a save erases. So the board saves only before the control interrupts run
-//! (a blank board: load a motor, save, reset); once they run, save is refused with its
-//! reason. Not yet solved: saving an identified motor or a changed setting on a running
-//! board (a save carried across a reset, done before the watchdog starts, would do it).
+//! advance whether a save erases. So the board saves only before the control interrupts
+//! start, i.e. before the first enable or identification after a reset (load a motor or
+//! change settings, save, then enable); after that, save is refused with its reason. Not yet
+//! solved: saving an identified motor without a reset in between (a save carried across a
+//! reset and done before the watchdog starts would do it).
 //!
 //! This image is built with the `link` feature (`cargo fw-link`); it is over the 64 KiB
 //! flash budget today (examples/README.md, "The board's link image").
@@ -108,8 +110,8 @@ pub struct Board<'a> {
 impl<'a> Board<'a> {
     /// The board with the settings loaded at boot; `start` starts the control interrupts.
     pub fn new(settings: Option<Settings>, flash: ConfigFlash<'a>, start: Start<'a>) -> Self {
-        let mut b = Board {
-            settings: None,
+        Board {
+            settings,
             flash,
             start: Some(start),
             telemetry: Telemetry::default(),
@@ -117,18 +119,26 @@ impl<'a> Board<'a> {
             transitions: Deque::new(),
             identified: None,
             identifying: false,
-        };
-        if let Some(s) = settings {
-            if let Err(e) = b.install(&s, false) {
-                defmt::error!("stored configuration refused: {=str}", LinkErr(e).name());
-            }
         }
-        b
     }
 
     /// Whether the control interrupts run (a drive is in place).
     pub fn has_drive(&self) -> bool {
         self.start.is_none()
+    }
+
+    /// Starts the control interrupts with the drive of the settings in force if they do not
+    /// run yet; whether a drive is in place now.
+    #[inline(never)]
+    pub fn start_drive(&mut self) -> bool {
+        if !self.has_drive() {
+            if let Some(s) = self.settings {
+                if let Err(e) = self.install(&s, false) {
+                    defmt::error!("settings refused: {=str}", LinkErr(e).name());
+                }
+            }
+        }
+        self.has_drive()
     }
 
     /// An event the interrupts queued (the main loop hands each over after logging it).
@@ -156,17 +166,25 @@ impl<'a> Board<'a> {
         }
     }
 
-    /// Puts the drive of `s` in place (starting the interrupts with the first one).
+    /// Puts the drive of `s` in place (starting the interrupts with the first one). Out of
+    /// line: one copy for its four callers.
+    #[inline(never)]
     fn install(&mut self, s: &Settings, keep_state: bool) -> Result<(), DeviceError> {
         let drive = build(s)?;
         self.settings = Some(*s);
+        self.put(drive, keep_state);
+        Ok(())
+    }
+
+    /// Puts `drive` in place: the control interrupts started with it, or the running one
+    /// replaced.
+    fn put(&mut self, drive: BoardDrive, keep_state: bool) {
         match self.start.take() {
             Some(start) => start(drive),
             None => {
                 control::set_drive(drive, keep_state);
             }
         }
-        Ok(())
     }
 }
 
@@ -193,7 +211,10 @@ impl Device for Board<'_> {
         if let Some(field) = board_mismatch(&settings.drive_config()) {
             return Err(DeviceError::Refused(field));
         }
-        if self.identifying {
+        // In force now; the drive of them at the first enable, or in place of the running
+        // one (after the identification: its end restores the settings' drive).
+        if !self.has_drive() || self.identifying {
+            build(settings)?;
             self.settings = Some(*settings);
             return Ok(());
         }
@@ -204,16 +225,14 @@ impl Device for Board<'_> {
     }
 
     fn defaults_for(&self, motor: &Motor) -> Settings {
-        let mut c = on_board(pmsm_sensorless::drive::DriveConfig::new(motor));
-        c.rate_hz = SETTINGS.control_hz as f32;
-        Settings::from(&c)
+        Settings::from(&on_board(pmsm_sensorless::drive::DriveConfig::new(motor)))
     }
 
     fn save(&mut self) -> Result<(), DeviceError> {
         let settings = self.settings.ok_or(DeviceError::NotConfigured)?;
         if self.has_drive() {
             return Err(DeviceError::Refused(
-                "a page erase outlasts the watchdog: save before the first drive, or after a reset",
+                "a page erase outlasts the watchdog: save before the first enable after a reset",
             ));
         }
         let mut buf = [0u8; MAX_LEN];
@@ -236,7 +255,7 @@ impl Device for Board<'_> {
     }
 
     fn enable(&mut self, on: bool) -> Result<(), DeviceError> {
-        if on && !self.has_drive() {
+        if on && !self.start_drive() {
             return Err(DeviceError::NotConfigured);
         }
         ENABLE.store(on, Ordering::Relaxed);
@@ -262,12 +281,7 @@ impl Device for Board<'_> {
         let drive = on_board(pmsm_sensorless::drive::DriveConfig::new(&user))
             .build_flux_primary()
             .map_err(DeviceError::Rejected)?;
-        match self.start.take() {
-            Some(start) => start(drive),
-            None => {
-                control::set_drive(drive, false);
-            }
-        }
+        self.put(drive, false);
         self.identifying = true;
         self.identified = None;
         SPEED_CMD_RPM.store(0, Ordering::Relaxed);

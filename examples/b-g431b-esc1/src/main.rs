@@ -137,6 +137,15 @@ mod firmware {
         fn poll(&mut self, _what: Wait) {}
     }
 
+    /// Whether the button may enable the drive: with the link, the control interrupts
+    /// started with the settings in force (none: no drive); without, the compiled-in one.
+    fn drive_ready(#[cfg(feature = "link")] board: &mut Board) -> bool {
+        #[cfg(feature = "link")]
+        return board.start_drive();
+        #[cfg(not(feature = "link"))]
+        return true;
+    }
+
     /// The value of an init function, or the firmware stops with its error in the log.
     fn ok<T>(r: Result<T, InitError>) -> T {
         match r {
@@ -316,16 +325,14 @@ mod firmware {
             defmt::info!(
                 "link on USART2 (ST-LINK virtual COM port) at {=u32} bit/s; drive {=str}",
                 usart::BAUD,
-                if board.has_drive() {
-                    "configured"
+                if pmsm_link::Device::settings(&board).is_some() {
+                    "configured (started at the first enable)"
                 } else {
                     "refused"
                 }
             );
             (uart, Server::new())
         };
-        #[cfg(not(feature = "link"))]
-        let has_drive = true;
 
         let gpioc = dp.GPIOC;
         let button_idle = gpioc.idr().read().idr(10).bit();
@@ -353,8 +360,7 @@ mod firmware {
             // Between the interrupts, never within one: the USART's Error is Infallible.
             #[cfg(feature = "link")]
             let Ok(()) = server.poll(&mut uart, &mut board);
-            #[cfg(feature = "link")]
-            let has_drive = board.has_drive();
+
             let retries = TICK_RETRIES.swap(0, Ordering::Relaxed);
             if retries > 0 {
                 defmt::warn!(
@@ -387,7 +393,10 @@ mod firmware {
                         ENABLE.store(false, Ordering::Relaxed);
                         CLEAR_FAULT.store(true, Ordering::Relaxed);
                         defmt::info!("button: clear fault (drive stays disabled)");
-                    } else if !has_drive {
+                    } else if !drive_ready(
+                        #[cfg(feature = "link")]
+                        &mut board,
+                    ) {
                         defmt::warn!("button: no drive (load a motor over the link)");
                     } else if cfg!(feature = "identify")
                         && held >= IDENTIFY_HOLD_STEPS
