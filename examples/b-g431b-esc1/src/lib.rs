@@ -21,7 +21,8 @@
 //! `pwm` (TIM1 and its pins, the running PWM), `adc` (OPAMPs, ADC1/ADC2, the analog pins and
 //! GPIO_BEMF, the running converters), `overcurrent` (DAC3, COMP1/2/4, the system break),
 //! `watchdog` (IWDG, the debug halt), `usart` (USART2 on the ST-LINK's virtual COM port, the
-//! link's byte stream), `flash` (the configuration's two flash pages as a `NorFlash`).
+//! link's byte stream), `flash` (the configuration's two flash pages as a `NorFlash`), `stored` (feature `link`: the
+//! settings' record in them, decoded and checked).
 #![cfg_attr(not(test), no_std)]
 
 pub mod adc;
@@ -38,6 +39,8 @@ pub mod ocp;
 pub mod overcurrent;
 pub mod pll;
 pub mod pwm;
+#[cfg(feature = "link")]
+pub mod stored;
 pub mod tim1;
 pub mod usart;
 pub mod watchdog;

@@ -34,33 +34,20 @@ use pmsm_link::{Device, DeviceError, Settings};
 use pmsm_sensorless::drive::identify::placeholder;
 use pmsm_sensorless::drive::{Identified, Mode, Telemetry, Transition};
 use pmsm_sensorless::motor::Motor;
-use pmsm_store::{Store, MAX_LEN};
+use pmsm_store::MAX_LEN;
 
 use crate::control::{self, CLEAR_FAULT, ENABLE, IDENTIFY, SPEED_CMD_RPM, STEPS};
 use crate::telemetry::Event;
 use pmsm_b_g431b_esc1::config::SETTINGS;
 use pmsm_b_g431b_esc1::drive_settings::{board_mismatch, on_board, BoardDrive};
 use pmsm_b_g431b_esc1::flash::ConfigFlash;
+use pmsm_b_g431b_esc1::stored::{decode, encode, STORE};
 
-/// The stored record's format: `pmsm_link::Settings` as postcard encodes it (the emulated
-/// firmware's `CONFIG_VERSION`, the same record).
-pub const CONFIG_VERSION: u16 = 2;
-/// The store in the configuration region (both pages).
-pub const STORE: Store = Store::new(0, 2, CONFIG_VERSION);
 /// Transitions kept for the link (the oldest dropped beyond).
 const QUEUE: usize = 8;
 
-/// The settings of a stored record, validated by the core and fitting this board.
-pub fn decode(record: &[u8]) -> Result<Settings, &'static str> {
-    let s: Settings = postcard::from_bytes(record).map_err(|_| "malformed record")?;
-    s.validate().map_err(|e| e.field)?;
-    match board_mismatch(&s.drive_config()) {
-        Some(field) => Err(field),
-        None => Ok(s),
-    }
-}
-
-/// The settings stored in `flash`, or none (why in the log).
+/// The settings stored in `flash`, or none (why in the log). Out of line (run once).
+#[inline(never)]
 pub fn load(flash: &mut ConfigFlash) -> Option<Settings> {
     match STORE.load(flash) {
         Ok(Some(rec)) => match decode(rec.bytes()) {
@@ -236,7 +223,7 @@ impl Device for Board<'_> {
             ));
         }
         let mut buf = [0u8; MAX_LEN];
-        let bytes = postcard::to_slice(&settings, &mut buf).map_err(|_| DeviceError::Storage)?;
+        let bytes = encode(&settings, &mut buf).ok_or(DeviceError::Storage)?;
         match STORE.save(&mut self.flash, bytes) {
             Ok(seq) => {
                 defmt::info!("configuration record {=u32} saved", seq);
