@@ -122,6 +122,17 @@ impl<P: Observer, M: Observer, S> Control<P, M, S> {
         Self { state, ..self }
     }
 
+    /// Puts `drive` in place of the control's (new settings, a motor loaded or identified),
+    /// from the idle state unless `keep_state` (settings changed while the drive runs, which
+    /// leave its state valid); the stage, the step count and the records stay. Between two
+    /// steps only.
+    pub fn set_drive(&mut self, drive: Drive<P, M>, keep_state: bool) {
+        self.drive = drive;
+        if !keep_state {
+            self.state = StateOf::<P, M>::default();
+        }
+    }
+
     /// A telemetry record ([`Stepped::record`]) every `steps` steps, from the next step on
     /// (0: none).
     pub fn with_telemetry_every(self, steps: u32) -> Self {

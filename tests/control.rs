@@ -219,3 +219,23 @@ fn a_stalled_tick_is_a_task_stall_after_its_bound() {
     }
     assert_eq!(idle.state().mode(), Mode::Idle);
 }
+
+/// A new drive put in place: from idle unless the state is kept; the steps counted go on.
+#[test]
+fn a_drive_put_in_place_starts_idle_or_keeps_the_state() {
+    let drive = sinano_drive();
+    let mut control = Control::new(drive, Turning::default()).with_state(running(&drive));
+    (0..5).for_each(|_| {
+        control.step(&enabled());
+    });
+    let mut faster = DriveConfig::new(&HORNG_SINANO);
+    faster.speed_bandwidth_hz *= 2.0;
+    let other = faster.build_sliding_primary().unwrap();
+    let state = *control.state();
+    control.set_drive(other, true);
+    assert_eq!(control.state(), &state);
+    assert_eq!(control.steps(), 5);
+    control.set_drive(other, false);
+    assert_eq!(control.state().mode(), Mode::Idle);
+    assert_eq!(control.steps(), 5);
+}

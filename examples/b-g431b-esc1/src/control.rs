@@ -34,7 +34,7 @@ use crate::power_stage::Esc1;
 use crate::protection::{Watchdog, TICK_ALIVE};
 use crate::telemetry::{Event, Sender, TELEMETRY_EVERY};
 use pmsm_b_g431b_esc1::config::SETTINGS;
-use pmsm_b_g431b_esc1::drive_settings::{BoardDrive, Monitor, Primary, SPEED_CMD_RPM};
+use pmsm_b_g431b_esc1::drive_settings::{BoardDrive, Monitor, Primary};
 
 /// The step's interrupt: ADC1 end of injected sequence (ADC1 and ADC2 share the vector).
 pub const STEP_IRQ: Interrupt = Interrupt::ADC1_2;
@@ -51,15 +51,14 @@ pub const TICK_PRIORITY: u8 = 0x10;
 // Command path
 // -------------------------------------------------------------------------------------------
 
-/// Run command, written by the main loop (button), read by both interrupts.
+/// Run command, written by the main loop (button, link), read by both interrupts.
 pub static ENABLE: AtomicBool = AtomicBool::new(false);
 /// Clear-fault request, set by the main loop, consumed (swapped to false) by the step.
 pub static CLEAR_FAULT: AtomicBool = AtomicBool::new(false);
 /// Control steps done, for the main loop's timing.
 pub static STEPS: AtomicU32 = AtomicU32::new(0);
-/// Identification request (the user button held), set by the main loop, consumed by the
-/// 1 kHz task: the drive measures the motor from idle (issue #19) and the log prints the
-/// motor file.
+/// Identification request (the user button held, the link), set by the main loop, consumed
+/// by the 1 kHz task: the drive measures the motor from idle (issue #19).
 pub static IDENTIFY: AtomicBool = AtomicBool::new(false);
 /// 1 kHz tasks taken again because a step ran while they computed (see the module's doc).
 pub static TICK_RETRIES: AtomicU32 = AtomicU32::new(0);
@@ -68,9 +67,22 @@ pub static TICK_RETRIES: AtomicU32 = AtomicU32::new(0);
 pub static SPEED_RPM: AtomicU32 = AtomicU32::new(0);
 /// The power stage's temperature at the last step [°C] (f32 bits), for the log.
 pub static STAGE_TEMP_C: AtomicU32 = AtomicU32::new(0);
-/// The speed command before the temperature derating [rpm] (f32 bits): the constant
-/// `SPEED_CMD_RPM` (the button's), or the servo input's while it is armed (main loop).
-pub static SPEED_CMD: AtomicU32 = AtomicU32::new(SPEED_CMD_RPM.to_bits());
+/// The speed command before the temperature derating [rpm, mechanical] (f32 bits), read by
+/// the step. Without feature `link` it starts at the constant
+/// `drive_settings::SPEED_CMD_RPM` (the button's); with it at 0, written by the link
+/// (`link.rs`). In both the servo input writes it while it is armed (main loop).
+pub static SPEED_CMD: AtomicU32 = AtomicU32::new(SPEED_CMD_START_RPM.to_bits());
+
+/// [`SPEED_CMD`]'s value at reset: the link's firmware runs no motor until told.
+#[cfg(feature = "link")]
+const SPEED_CMD_START_RPM: f32 = 0.0;
+/// [`SPEED_CMD`]'s value at reset: the compiled-in command.
+#[cfg(not(feature = "link"))]
+const SPEED_CMD_START_RPM: f32 = pmsm_b_g431b_esc1::drive_settings::SPEED_CMD_RPM;
+
+/// Drives put in place since the start (`set_drive`, with interrupts off): the 1 kHz task's
+/// copy is of the drive of the generation it holds, and copies the new one when it changed.
+static GENERATION: AtomicU32 = AtomicU32::new(0);
 
 /// The core's control loop on this board's power stage.
 type BoardControl = pmsm_sensorless::control::Control<Primary, Monitor, Esc1>;
@@ -156,6 +168,8 @@ impl Control {
 pub struct Tick {
     copy: TickCopy<Primary, Monitor>,
     events: Sender,
+    /// The [`GENERATION`] of the drive the copy is of.
+    generation: u32,
 }
 
 impl Tick {
@@ -164,6 +178,7 @@ impl Tick {
         Self {
             copy: TickCopy::new(&control.control),
             events,
+            generation: GENERATION.load(Ordering::Relaxed),
         }
     }
 
@@ -176,15 +191,28 @@ impl Tick {
             enable: ENABLE.load(Ordering::Relaxed),
             speed_rpm: f32::from_bits(SPEED_RPM.load(Ordering::Relaxed)),
             clear_fault: false,
-            // The commissioning firmware (`cargo fw-identify`) only.
+            // The commissioning and link firmware (`identify`) only.
             identify: cfg!(feature = "identify") && IDENTIFY.swap(false, Ordering::Relaxed),
         };
         let ticked = loop {
-            if with_control(|ctl| self.copy.take(&ctl.control)).is_none() {
+            let took = with_control(|ctl| {
+                // A new drive since the last task: a copy of it.
+                let gen = GENERATION.load(Ordering::Relaxed);
+                if gen != self.generation {
+                    self.copy = TickCopy::new(&ctl.control);
+                    self.generation = gen;
+                }
+                self.copy.take(&ctl.control)
+            });
+            if took.is_none() {
                 return;
             }
             let ticked = self.copy.tick(&cmd);
-            if with_control(|ctl| self.copy.give(&mut ctl.control)) == Some(true) {
+            let gen = self.generation;
+            if with_control(|ctl| {
+                GENERATION.load(Ordering::Relaxed) == gen && self.copy.give(&mut ctl.control)
+            }) == Some(true)
+            {
                 break ticked;
             }
             TICK_RETRIES.fetch_add(1, Ordering::Relaxed);
@@ -211,6 +239,17 @@ fn with_control<R>(f: impl FnOnce(&mut Control) -> R) -> Option<R> {
         let mut ctl = CONTROL.borrow(cs).try_borrow_mut().ok()?;
         ctl.as_mut().map(|ctl| f(ctl))
     })
+}
+
+#[cfg(feature = "link")]
+/// Puts `drive` in place of the running control's (between two steps: interrupts off), from
+/// idle unless `keep_state`; the 1 kHz task copies it at its next run. False before [`start`].
+pub fn set_drive(drive: BoardDrive, keep_state: bool) -> bool {
+    with_control(|ctl| {
+        ctl.control.set_drive(drive, keep_state);
+        GENERATION.fetch_add(1, Ordering::Relaxed);
+    })
+    .is_some()
 }
 
 /// Installs both contexts, sets the priorities and enables the two interrupts.

@@ -47,11 +47,16 @@ pub const SPEED_CMD_RPM: f32 = 400.0;
 /// lowered to this if higher.
 pub const BOARD_BUS_MAX_V: f32 = 25.2;
 
-/// The drive's configuration for [`MOTOR`] on this board: the step rate, PWM frequency,
-/// dead time and largest duty are [`SETTINGS`]' (what TIM1 makes), the bus trip at most
-/// [`BOARD_BUS_MAX_V`], the sensing range at most the ADC's.
+/// The drive's configuration for [`MOTOR`] on this board ([`on_board`]).
 pub fn drive_config() -> DriveConfig {
-    let mut cfg = DriveConfig::new(&MOTOR);
+    on_board(DriveConfig::new(&MOTOR))
+}
+
+/// `cfg` on this board: the step rate, PWM frequency, dead time and largest duty are
+/// [`SETTINGS`]' (what TIM1 makes), the bus trip at most [`BOARD_BUS_MAX_V`], the sensing
+/// range at most the ADC's. The firmware's defaults for a motor loaded over the link are
+/// `on_board(DriveConfig::new(&motor))`.
+pub fn on_board(mut cfg: DriveConfig) -> DriveConfig {
     let s = &SETTINGS;
     cfg.rate_hz = s.control_hz as f32;
     cfg.power_stage.pwm_hz = s.pwm_hz as f32;
@@ -66,4 +71,58 @@ pub fn drive_config() -> DriveConfig {
     cfg.identify.sense_range_a = s.i_adc_range_a;
     cfg.identify.sense_lsb_a = s.amps_per_lsb.abs();
     cfg
+}
+
+/// The first setting of `cfg` this board cannot run (its name), `None` if it can: what
+/// [`on_board`] fixes must be as it fixes it (TIM1's rate, PWM, dead time and duty are built
+/// in; the dividers do not read the terminals), and the limits within the board's.
+pub fn board_mismatch(cfg: &DriveConfig) -> Option<&'static str> {
+    let b = on_board(*cfg);
+    let (p, q) = (&cfg.power_stage, &b.power_stage);
+    [
+        ("rate_hz", cfg.rate_hz == b.rate_hz),
+        ("power_stage.pwm_hz", p.pwm_hz == q.pwm_hz),
+        ("power_stage.dead_time_s", p.dead_time_s == q.dead_time_s),
+        ("power_stage.duty_max", p.duty_max == q.duty_max),
+        (
+            "power_stage.terminal_sensing",
+            p.terminal_sensing == q.terminal_sensing,
+        ),
+        (
+            "limits.bus_max_v",
+            cfg.limits.bus_max_v == b.limits.bus_max_v,
+        ),
+        (
+            "limits.i_sense_max_a",
+            cfg.limits.i_sense_max_a == b.limits.i_sense_max_a,
+        ),
+        (
+            "identify.sense_range_a",
+            cfg.identify.sense_range_a == b.identify.sense_range_a,
+        ),
+        (
+            "identify.sense_lsb_a",
+            cfg.identify.sense_lsb_a == b.identify.sense_lsb_a,
+        ),
+    ]
+    .into_iter()
+    .find(|(_, same)| !same)
+    .map(|(name, _)| name)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_boards_own_configuration_fits_and_a_foreign_rate_is_named() {
+        let cfg = drive_config();
+        assert_eq!(board_mismatch(&cfg), None);
+        let mut other = cfg;
+        other.rate_hz = 8000.0;
+        assert_eq!(board_mismatch(&other), Some("rate_hz"));
+        let mut other = cfg;
+        other.limits.bus_max_v = BOARD_BUS_MAX_V + 1.0;
+        assert_eq!(board_mismatch(&other), Some("limits.bus_max_v"));
+    }
 }

@@ -20,7 +20,12 @@
 //! The init functions: `hw` (the CPU's part, the init errors), `clocks` (RCC, PWR, FLASH),
 //! `pwm` (TIM1 and its pins, the running PWM), `adc` (OPAMPs, ADC1/ADC2, the analog pins and
 //! GPIO_BEMF, the running converters), `overcurrent` (DAC3, COMP1/2/4, the system break),
-//! `watchdog` (IWDG, the debug halt).
+//! `watchdog` (IWDG, the debug halt), `usart` (USART2 on the ST-LINK's virtual COM port, the
+//! link's byte stream), `flash` (the configuration's two flash pages as a `NorFlash`),
+//! `stored` (feature `link`: the settings' record in them, decoded and checked),
+//! `servo_capture` (TIM2's PWM-input capture on PA15). The main loop's inputs and outputs:
+//! `servo` (the servo-PWM decoder), `board_io` (the button's rules and the status LED on
+//! embedded-hal's digital traits).
 #![cfg_attr(not(test), no_std)]
 
 pub mod adc;
@@ -31,6 +36,7 @@ pub mod clocks;
 pub mod config;
 pub mod dead_time;
 pub mod drive_settings;
+pub mod flash;
 pub mod hw;
 pub mod ntc;
 pub mod ocp;
@@ -39,7 +45,10 @@ pub mod pll;
 pub mod pwm;
 pub mod servo;
 pub mod servo_capture;
+#[cfg(feature = "link")]
+pub mod stored;
 pub mod tim1;
+pub mod usart;
 pub mod watchdog;
 
 #[cfg(test)]

@@ -21,6 +21,10 @@
 //! zero throttle; losing it (100 ms without a valid pulse) disables the drive, and it re-arms
 //! only at zero again. Without a signal the button and the constant command are as before.
 //! The LED (PC6) is lit while the servo input is armed and blinks in `Fault`.
+//! The link firmware (feature `link`, `cargo fw-link`, `link.rs`) has no motor compiled in:
+//! the speed command starts at 0 and the link sets it (the servo while armed, full throttle
+//! the rated speed of the settings in force); the button and the servo refuse to enable
+//! while no drive is loaded.
 //! The log (defmt over RTT) shows every mode transition and a telemetry record at 10 Hz.
 //!
 //! # Modules
@@ -92,11 +96,13 @@ fn main() {
 
 #[cfg(target_os = "none")]
 mod control;
+#[cfg(all(target_os = "none", feature = "link"))]
+mod link;
 #[cfg(target_os = "none")]
 mod power_stage;
 #[cfg(target_os = "none")]
 mod protection;
-#[cfg(target_os = "none")]
+#[cfg(all(target_os = "none", not(feature = "link")))]
 mod settings;
 #[cfg(target_os = "none")]
 mod telemetry;
@@ -113,18 +119,27 @@ mod firmware {
         self, Control, Tick, CLEAR_FAULT, ENABLE, IDENTIFY, SPEED_CMD, SPEED_RPM, STAGE_TEMP_C,
         STEPS, TICK_RETRIES,
     };
+    #[cfg(feature = "link")]
+    use crate::link::{self, Board};
     use crate::power_stage::Esc1;
     use crate::protection::MAIN_ALIVE;
-    use crate::{protection, settings, telemetry};
+    use crate::{protection, telemetry};
     use pmsm_b_g431b_esc1::board_io::{self, Button, ButtonAction, GpioIn, GpioOut, StatusLed};
     use pmsm_b_g431b_esc1::config::SETTINGS;
-    use pmsm_b_g431b_esc1::drive_settings::drive_config;
-    use pmsm_b_g431b_esc1::drive_settings::{MOTOR, SPEED_CMD_RPM};
+    use pmsm_b_g431b_esc1::drive_settings::BoardDrive;
+    #[cfg(not(feature = "link"))]
+    use pmsm_b_g431b_esc1::drive_settings::{drive_config, MOTOR, SPEED_CMD_RPM};
+    #[cfg(feature = "link")]
+    use pmsm_b_g431b_esc1::flash::ConfigFlash;
     use pmsm_b_g431b_esc1::hw::{Hw, InitError, Wait};
     use pmsm_b_g431b_esc1::ntc::NtcConfig;
     use pmsm_b_g431b_esc1::servo::{PulseCapture, ServoConfig, ServoDecoder, ServoOutput};
     use pmsm_b_g431b_esc1::servo_capture::{self, ServoCapture};
+    #[cfg(feature = "link")]
+    use pmsm_b_g431b_esc1::usart::{self, Usart};
     use pmsm_b_g431b_esc1::{adc, clocks, overcurrent, pwm, watchdog};
+    #[cfg(feature = "link")]
+    use pmsm_link::Server;
 
     /// The CPU's part of the init functions: busy-waits of the core clock; the polls spin
     /// on the peripherals' own flags.
@@ -136,6 +151,29 @@ mod firmware {
         }
 
         fn poll(&mut self, _what: Wait) {}
+    }
+
+    /// Whether the button may enable the drive: with the link, the control interrupts
+    /// started with the settings in force (none: no drive); without, the compiled-in one.
+    fn drive_ready(#[cfg(feature = "link")] board: &mut Board) -> bool {
+        #[cfg(feature = "link")]
+        return board.start_drive();
+        #[cfg(not(feature = "link"))]
+        return true;
+    }
+
+    /// With the link: the servo input's full throttle, the rated speed of the settings in
+    /// force (none: the servo commands no speed), its slew set to their start acceleration
+    /// (per unit of throttle: accel_rpm_per_s / full_rpm).
+    #[cfg(feature = "link")]
+    fn servo_scale(board: &Board, servo: &mut ServoDecoder) -> Option<f32> {
+        let s = pmsm_link::Device::settings(board)?;
+        let full_rpm = s.motor().ratings.speed_rpm;
+        if full_rpm <= 0.0 {
+            return None;
+        }
+        servo.set_slew_per_s(s.drive_config().start.accel_rpm_per_s / full_rpm);
+        Some(full_rpm)
     }
 
     /// The value of an init function, or the firmware stops with its error in the log.
@@ -260,7 +298,18 @@ mod firmware {
         let comparator_inputs = start.comparator_inputs;
         let temp_c = NtcConfig::ESC1.temp_c(start.ntc_raw, SETTINGS.vref_v);
         defmt::info!("power stage at {=f32} C (NTC, PB14)", temp_c);
-        let i_trip_a = drive_config().limits.i_trip_a;
+        // The settings kept in flash (none: no drive until the link loads a motor).
+        #[cfg(feature = "link")]
+        let mut flash = ConfigFlash::board(&dp.FLASH);
+        #[cfg(feature = "link")]
+        let stored = link::load(&mut flash);
+        // The hardware trip: the stored settings' trip current, else the ADC's range.
+        #[cfg(feature = "link")]
+        let i_trip_a = stored.map_or(SETTINGS.i_adc_range_a, |s| s.limits.i_trip_a);
+        #[cfg(not(feature = "link"))]
+        let i_trip_a = pmsm_b_g431b_esc1::drive_settings::drive_config()
+            .limits
+            .i_trip_a;
         let hw_trip = ok(overcurrent::init(
             &dp.RCC,
             &dp.DAC3,
@@ -279,31 +328,63 @@ mod firmware {
             comparator_inputs[1],
             comparator_inputs[2]
         );
-        let drive = settings::build_drive();
         let (step_events, tick_events, mut receiver) = telemetry::queues();
 
         let mut stage = Esc1::new(pwm, adc, temp_c);
         // A break flag set while the comparators started (none is high now: checked) is
         // not a fault.
         stage.clear_faults();
-        // Before the first enable: the bootstrap capacitors charged through the low sides.
-        ok(stage.precharge_bootstrap(SETTINGS.precharge_periods, cpu));
-        let watchdog = ok(protection::Watchdog::start(dp.IWDG, cpu));
-        // Drop any sequence that completed since the calibration, so the first step starts on
-        // a fresh sample (a stale one could make the first step look like an overrun).
-        stage.discard_samples();
-        let control = Control::new(drive, stage, watchdog, step_events);
-        let tick = Tick::new(&control, tick_events);
-        control::start(&mut cp.NVIC, control, tick);
+        // The control interrupts start with the first drive (at boot from the stored
+        // settings, or when the link loads a motor).
+        let mut parked = Some((stage, dp.IWDG, step_events, tick_events));
+        let mut start = |drive: BoardDrive| {
+            let Some((mut stage, iwdg, step_events, tick_events)) = parked.take() else {
+                return;
+            };
+            // Before the first enable: the bootstrap capacitors charged through the low sides.
+            ok(stage.precharge_bootstrap(SETTINGS.precharge_periods, &mut Cpu));
+            let watchdog = ok(protection::Watchdog::start(iwdg, &mut Cpu));
+            // Drop any sequence that completed since the calibration, so the first step
+            // starts on a fresh sample (a stale one could look like an overrun).
+            stage.discard_samples();
+            let control = Control::new(drive, stage, watchdog, step_events);
+            let tick = Tick::new(&control, tick_events);
+            control::start(&mut cp.NVIC, control, tick);
+            defmt::info!("drive built: control interrupts started");
+        };
+        #[cfg(not(feature = "link"))]
+        start(crate::settings::build_drive());
+        #[cfg(feature = "link")]
+        let mut board = Board::new(stored, flash, &mut start);
+        #[cfg(feature = "link")]
+        let (mut uart, mut server) = {
+            usart::init(&dp.RCC, &dp.GPIOB, &dp.USART2);
+            let uart = Usart::new(&dp.USART2);
+            defmt::info!(
+                "link on USART2 (ST-LINK virtual COM port) at {=u32} bit/s; drive {=str}",
+                usart::BAUD,
+                if pmsm_link::Device::settings(&board).is_some() {
+                    "configured (started at the first enable)"
+                } else {
+                    "refused"
+                }
+            );
+            (uart, Server::new())
+        };
 
         let identify = cfg!(feature = "identify");
         let pc10 = GpioIn::new(&dp.GPIOC, 10);
         let mut button = Button::new(pc10, BUTTON_POLL_STEPS, IDENTIFY_HOLD_STEPS, identify);
         let mut led = StatusLed::new(GpioOut::new(&dp.GPIOC, 6), SETTINGS.control_hz / 4);
         // The servo input (PA15, TIM2): full throttle is the rated speed, slewed at the
-        // drive's own start acceleration.
+        // drive's own start acceleration (with the link: the settings in force, taken at
+        // every poll, `servo_scale`).
+        #[cfg(not(feature = "link"))]
         let full_rpm = MOTOR.ratings.speed_rpm;
+        #[cfg(not(feature = "link"))]
         let slew_per_s = drive_config().start.accel_rpm_per_s / full_rpm;
+        #[cfg(feature = "link")]
+        let slew_per_s = 0.0;
         let mut servo = ServoDecoder::new(ServoConfig::standard(slew_per_s));
         let mut servo_in = ServoCapture::new(&dp.TIM2);
         let mut servo_out = ServoOutput::default();
@@ -320,7 +401,15 @@ mod firmware {
         loop {
             // This loop has run: the control step may feed the watchdog.
             MAIN_ALIVE.store(true, Ordering::Relaxed);
-            receiver.log(|ev| faulted = ev.faulted());
+            receiver.log(|_ev| {
+                faulted = _ev.faulted();
+                #[cfg(feature = "link")]
+                board.note(_ev);
+            });
+            // Between the interrupts, never within one: the USART's Error is Infallible.
+            #[cfg(feature = "link")]
+            let Ok(()) = server.poll(&mut uart, &mut board);
+
             let retries = TICK_RETRIES.swap(0, Ordering::Relaxed);
             if retries > 0 {
                 defmt::warn!(
@@ -348,6 +437,14 @@ mod firmware {
                     CLEAR_FAULT.store(true, Ordering::Relaxed);
                     defmt::info!("button: clear fault (drive stays disabled)");
                 }
+                Some(ButtonAction::Identify | ButtonAction::Enable(_))
+                    if !drive_ready(
+                        #[cfg(feature = "link")]
+                        &mut board,
+                    ) =>
+                {
+                    defmt::warn!("button: no drive (load a motor over the link)");
+                }
                 Some(ButtonAction::Identify) => {
                     ENABLE.store(true, Ordering::Relaxed);
                     IDENTIFY.store(true, Ordering::Relaxed);
@@ -360,23 +457,47 @@ mod firmware {
                 None => {}
             }
             // The servo input every SERVO_POLL_STEPS (1 ms): the speed command while armed
-            // (else the button's constant), the run command at its edges only.
+            // (else the button's constant; with the link, 0 at the disarm and the link's
+            // command after), the run command at its edges only (an enable refused without
+            // a drive, as the button's).
             if now.wrapping_sub(last_servo) >= SERVO_POLL_STEPS {
                 let dt_us = now.wrapping_sub(last_servo).saturating_mul(US_PER_STEP);
                 last_servo = now;
+                #[cfg(feature = "link")]
+                let full_rpm = servo_scale(&board, &mut servo);
                 let out = servo.update(servo_in.capture(), dt_us);
                 if let Some(enable) = out.enable_change(&servo_out) {
-                    ENABLE.store(enable, Ordering::Relaxed);
-                    defmt::info!(
-                        "servo input: armed = {=bool}, enable = {=bool} (rejected {=u32}, lost {=u32})",
-                        out.armed,
-                        enable,
-                        servo.rejected_width + servo.rejected_period,
-                        servo.losses
-                    );
+                    if enable
+                        && !drive_ready(
+                            #[cfg(feature = "link")]
+                            &mut board,
+                        )
+                    {
+                        defmt::warn!("servo input: no drive (load a motor over the link)");
+                    } else {
+                        ENABLE.store(enable, Ordering::Relaxed);
+                        defmt::info!(
+                            "servo input: armed = {=bool}, enable = {=bool} (rejected {=u32}, lost {=u32})",
+                            out.armed,
+                            enable,
+                            servo.rejected_width + servo.rejected_period,
+                            servo.losses
+                        );
+                    }
                 }
-                let rpm = out.speed_rpm(full_rpm, SPEED_CMD_RPM);
-                SPEED_CMD.store(rpm.to_bits(), Ordering::Relaxed);
+                #[cfg(not(feature = "link"))]
+                SPEED_CMD.store(
+                    out.speed_rpm(full_rpm, SPEED_CMD_RPM).to_bits(),
+                    Ordering::Relaxed,
+                );
+                #[cfg(feature = "link")]
+                match full_rpm {
+                    Some(full_rpm) if out.armed => {
+                        SPEED_CMD.store(out.speed_rpm(full_rpm, 0.0).to_bits(), Ordering::Relaxed);
+                    }
+                    _ if servo_out.armed => SPEED_CMD.store(0, Ordering::Relaxed),
+                    _ => {}
+                }
                 servo_out = out;
             }
             led.show(now, faulted, servo_out.armed);

@@ -192,6 +192,12 @@ impl ServoDecoder {
         &self.cfg
     }
 
+    /// Sets the slew rate \[1/s] (per unit of throttle): a new motor's rated speed or
+    /// acceleration (the link's firmware).
+    pub fn set_slew_per_s(&mut self, slew_per_s: f32) {
+        self.cfg.slew_per_s = slew_per_s;
+    }
+
     /// Checks a pulse against the windows.
     pub fn check(&self, c: Capture) -> Result<u32, Reject> {
         let cfg = &self.cfg;

@@ -13,7 +13,7 @@ use pmsm_sensorless::drive::{Mode, Telemetry, Transition};
 use pmsm_sensorless::frames::Abc;
 
 use pmsm_b_g431b_esc1::config::SETTINGS;
-#[cfg(feature = "identify")]
+#[cfg(all(feature = "identify", not(feature = "link")))]
 use pmsm_b_g431b_esc1::drive_settings::MOTOR;
 
 /// One telemetry record every this many steps (400 steps = 10 Hz).
@@ -82,7 +82,7 @@ impl defmt::Format for Event {
             ),
             // The motor file `pmsm-sim run --motor-file` loads (README, "Your motor"), with the
             // pole pairs and ratings of `MOTOR`.
-            #[cfg(feature = "identify")]
+            #[cfg(all(feature = "identify", not(feature = "link")))]
             Event::Identified { motor: m, .. } => defmt::write!(
                 f,
                 "identified motor file:\nname = \"identified\"\npole_pairs = {=u32}\nr_ohm = {=f32}\nl_h = {=f32}\nflux_wb = {=f32}\nj_kgm2 = {=f32}\nb_nms = {=f32}\n# l_d_h = {=f32}, l_q_h = {=f32}\n[ratings]\nbus_v = {=f32}\ncurrent_a = {=f32}\ntorque_nm = {=f32}\nspeed_rpm = {=f32}",
@@ -98,6 +98,18 @@ impl defmt::Format for Event {
                 MOTOR.ratings.current_a,
                 MOTOR.ratings.torque_nm,
                 MOTOR.ratings.speed_rpm
+            ),
+            // The link firmware has no motor compiled in: the measured lines (`pmsm-tool
+            // identify` writes the whole file with the settings' pole pairs and ratings).
+            #[cfg(feature = "link")]
+            Event::Identified { motor: m, .. } => defmt::write!(
+                f,
+                "identified: r_ohm = {=f32}, l_h = {=f32}, flux_wb = {=f32}, j_kgm2 = {=f32}, b_nms = {=f32}",
+                m.r_ohm,
+                m.l_h(),
+                m.flux_wb,
+                m.j_kgm2,
+                m.b_nms
             ),
             Event::Telemetry {
                 step,

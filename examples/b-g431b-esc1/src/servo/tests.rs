@@ -144,6 +144,19 @@ fn slew_limited() {
     assert!(out.armed && !out.enable);
 }
 
+/// A slew set while armed (a new motor over the link) takes over at the next poll, the
+/// throttle reached so far kept: 100 polls at 2 /s, then 100 at 1 /s.
+#[test]
+fn slew_changed() {
+    let (mut d, mut tr) = armed();
+    tr.run(&mut d, 20_000, 100_000, |_| 2000);
+    d.set_slew_per_s(SLEW / 2.0);
+    assert_eq!(d.config().slew_per_s, SLEW / 2.0);
+    let out = tr.run(&mut d, 20_000, 100_000, |_| 2000);
+    assert!((out.throttle - 0.3).abs() < 1e-4, "{out:?}");
+    assert!(out.armed && out.enable);
+}
+
 /// Out of range: widths of 700 and 2300 µs and periods of 1 ms (1 kHz) and 30 ms are
 /// rejected and counted, and change nothing: the command holds while valid pulses resume
 /// within the timeout.
