@@ -99,17 +99,20 @@ fn sample(v_bus: f32, v: Option<AlphaBeta>) -> DriveInput {
     }
 }
 
+/// The command of the terminal-voltage tests: enabled, 500 rpm.
+const ENABLED_500_RPM: Command = Command {
+    enable: true,
+    speed_rpm: 500.0,
+    clear_fault: false,
+};
+
 #[test]
 fn a_bad_terminal_voltage_is_an_invalid_input_where_it_is_read() {
     let motor = preset("sinano").unwrap();
     let dc = DriveConfig::new(&motor);
     let v_bus = motor.ratings.bus_v;
     let drive = dc.build_sliding_primary().unwrap();
-    let run = Command {
-        enable: true,
-        speed_rpm: 500.0,
-        clear_fault: false,
-    };
+    let run = ENABLED_500_RPM;
     // Not finite, or longer than any bus (a finite square that overflows to ∞ included).
     let too_long = 10.0 * v_bus;
     for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, 1e30, too_long] {
@@ -159,11 +162,7 @@ fn a_terminal_voltage_that_stops_leaves_the_catch_to_the_zero_current_probe() {
     assert!(dc.power_stage.terminal_sensing);
     let v_bus = motor.ratings.bus_v;
     let drive = dc.build_sliding_primary().unwrap();
-    let run = Command {
-        enable: true,
-        speed_rpm: 500.0,
-        clear_fault: false,
-    };
+    let run = ENABLED_500_RPM;
     let mut st = Default::default();
     let turning = Some(AlphaBeta::new(0.5 * v_bus, 0.0));
     let out = drive.step(&mut st, &sample(v_bus, turning), &run);
