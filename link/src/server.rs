@@ -100,6 +100,8 @@ pub trait Device {
 pub struct Server {
     rx: FrameReader,
     stream: Stream,
+    /// A fault's transition was sent; its [`Event::Fault`] goes next.
+    fault_pending: Option<crate::wire::Fault>,
 }
 
 /// Telemetry streaming.
@@ -126,15 +128,15 @@ impl Server {
                 period_ms: 0,
                 next_ms: 0,
             },
+            fault_pending: None,
         }
     }
 
     /// Reads what `io` has ready (without blocking), answers every complete frame, then sends
     /// the events due. Call it from the main loop.
-    pub fn poll<T, D>(&mut self, io: &mut T, dev: &mut D) -> Result<(), T::Error>
+    pub fn poll<T>(&mut self, io: &mut T, dev: &mut dyn Device) -> Result<(), T::Error>
     where
         T: embedded_io::Read + Write + ReadReady,
-        D: Device,
     {
         let mut chunk = [0u8; 64];
         while io.read_ready()? {
@@ -148,36 +150,63 @@ impl Server {
     }
 
     /// Takes `bytes` of the stream and answers every frame they complete on `out`.
-    pub fn receive<W: Write, D: Device>(
+    pub fn receive<W: Write>(
         &mut self,
         bytes: &[u8],
-        dev: &mut D,
+        dev: &mut dyn Device,
         out: &mut W,
     ) -> Result<(), W::Error> {
+        let mut buf = [0u8; MAX_FRAME];
         for &b in bytes {
-            let msg = match self.rx.push(b) {
-                Pushed::More => continue,
-                Pushed::TooLong => DeviceMsg::FrameError(LinkError::TooLong),
-                Pushed::Frame(f) => handle_frame(f, &mut self.stream, dev),
-            };
-            send(out, &msg)?;
+            let n = self.answer(b, dev, &mut buf);
+            out.write_all(buf.get(..n).unwrap_or_default())?;
         }
         Ok(())
     }
 
+    /// Takes one byte of the stream; when it completes a frame (or overruns one), encodes
+    /// the answer into `buf` and returns its length (0: nothing to send).
+    #[inline(never)] // Not generic: the link's bulk is compiled once, in this crate.
+    fn answer(&mut self, byte: u8, dev: &mut dyn Device, buf: &mut [u8; MAX_FRAME]) -> usize {
+        let msg = match self.rx.push(byte) {
+            Pushed::More => return 0,
+            Pushed::TooLong => DeviceMsg::FrameError(LinkError::TooLong),
+            Pushed::Frame(f) => handle_frame(f, &mut self.stream, dev),
+        };
+        encode(&msg, buf)
+    }
+
     /// Sends the events due: every transition the device has (a fault also as
     /// [`Event::Fault`]), and a telemetry record when the streaming period has passed.
-    pub fn send_events<W: Write, D: Device>(
+    pub fn send_events<W: Write>(
         &mut self,
-        dev: &mut D,
+        dev: &mut dyn Device,
         out: &mut W,
     ) -> Result<(), W::Error> {
-        while let Some(t) = dev.next_transition() {
-            let t: crate::wire::Transition = t.into();
-            send(out, &DeviceMsg::Event(Event::Transition(t)))?;
-            if let Reason::Fault(f) = t.reason {
-                send(out, &DeviceMsg::Event(Event::Fault(f)))?;
+        let mut buf = [0u8; MAX_FRAME];
+        loop {
+            let n = self.next_event(dev, &mut buf);
+            if n == 0 {
+                return Ok(());
             }
+            out.write_all(buf.get(..n).unwrap_or_default())?;
+        }
+    }
+
+    /// Encodes the next event due into `buf` and returns its length (0: none due): a
+    /// transition the device has (a fault then also as [`Event::Fault`]), else a telemetry
+    /// record when the streaming period has passed.
+    #[inline(never)] // Not generic: the link's bulk is compiled once, in this crate.
+    fn next_event(&mut self, dev: &mut dyn Device, buf: &mut [u8; MAX_FRAME]) -> usize {
+        if let Some(f) = self.fault_pending.take() {
+            return encode(&DeviceMsg::Event(Event::Fault(f)), buf);
+        }
+        if let Some(t) = dev.next_transition() {
+            let t: crate::wire::Transition = t.into();
+            if let Reason::Fault(f) = t.reason {
+                self.fault_pending = Some(f);
+            }
+            return encode(&DeviceMsg::Event(Event::Transition(t)), buf);
         }
         let s = &mut self.stream;
         if s.period_ms > 0 {
@@ -187,10 +216,10 @@ impl Server {
                 let late = now.wrapping_sub(s.next_ms) >= s.period_ms;
                 s.next_ms = if late { now } else { s.next_ms }.wrapping_add(s.period_ms);
                 let t = Telemetry::from_core(now, &dev.telemetry());
-                send(out, &DeviceMsg::Event(Event::Telemetry(t)))?;
+                return encode(&DeviceMsg::Event(Event::Telemetry(t)), buf);
             }
         }
-        Ok(())
+        0
     }
 
     /// The telemetry period in force \[ms] (0: not streaming).
@@ -199,19 +228,15 @@ impl Server {
     }
 }
 
-/// Encodes and writes one message. A message too long for a frame cannot be built from
-/// this protocol's types (every one fits [`frame::MAX_PAYLOAD`], `tests`); were one, it is
-/// dropped rather than sent cut.
-fn send<W: Write>(out: &mut W, msg: &DeviceMsg) -> Result<(), W::Error> {
-    let mut buf = [0u8; MAX_FRAME];
-    match frame::encode(msg, &mut buf) {
-        Ok(n) => out.write_all(&buf[..n.min(MAX_FRAME)]),
-        Err(_) => Ok(()),
-    }
+/// Encodes one message as a frame into `buf` and returns its length. A message too long for
+/// a frame cannot be built from this protocol's types (every one fits
+/// [`frame::MAX_PAYLOAD`], `tests`); were one, it is dropped (0) rather than sent cut.
+fn encode(msg: &DeviceMsg, buf: &mut [u8; MAX_FRAME]) -> usize {
+    frame::encode(msg, buf).map_or(0, |n| n.min(MAX_FRAME))
 }
 
 /// The answer to one frame (module doc).
-fn handle_frame<D: Device>(frame: &mut [u8], stream: &mut Stream, dev: &mut D) -> DeviceMsg {
+fn handle_frame(frame: &mut [u8], stream: &mut Stream, dev: &mut dyn Device) -> DeviceMsg {
     let n = match frame::payload(frame) {
         Ok(n) => n,
         Err(FrameError::BadChecksum) => return DeviceMsg::FrameError(LinkError::BadChecksum),
@@ -257,14 +282,14 @@ fn key_range(e: KeyError) -> Range {
 
 /// The settings in force, or [`LinkError::NotConfigured`].
 #[allow(clippy::result_large_err)] // The wire's error, built once per request.
-fn configured<D: Device>(dev: &D) -> Result<Settings, LinkError> {
+fn configured(dev: &dyn Device) -> Result<Settings, LinkError> {
     dev.settings().ok_or(LinkError::NotConfigured)
 }
 
 /// Validates `new` and puts it in force: while running, refused if a setting locked while
 /// running differs from the one in force (`old`).
 #[allow(clippy::result_large_err)] // The wire's error, built once per request.
-fn change<D: Device>(dev: &mut D, old: Option<Settings>, new: &Settings) -> Result<(), LinkError> {
+fn change(dev: &mut dyn Device, old: Option<Settings>, new: &Settings) -> Result<(), LinkError> {
     if dev.running() {
         let changed = Key::ALL.iter().find(|k| {
             k.locked_while_running()
@@ -282,11 +307,7 @@ fn change<D: Device>(dev: &mut D, old: Option<Settings>, new: &Settings) -> Resu
 
 /// Answers one request.
 #[allow(clippy::result_large_err)] // The wire's error, built once per request.
-fn request<D: Device>(
-    req: Request,
-    stream: &mut Stream,
-    dev: &mut D,
-) -> Result<Response, LinkError> {
+fn request(req: Request, stream: &mut Stream, dev: &mut dyn Device) -> Result<Response, LinkError> {
     match req {
         Request::Hello { version } => {
             if version != PROTOCOL_VERSION {
@@ -320,7 +341,10 @@ fn request<D: Device>(
             })?;
             change(dev, Some(old), &new).map(|()| Response::Ok)
         }
-        Request::SetSettings(new) => change(dev, dev.settings(), &new).map(|()| Response::Ok),
+        Request::SetSettings(new) => {
+            let old = dev.settings();
+            change(dev, old, &new).map(|()| Response::Ok)
+        }
         Request::SetMotor(m) => {
             if dev.running() {
                 return Err(LinkError::BusyWhileRunning {
@@ -329,7 +353,8 @@ fn request<D: Device>(
             }
             let motor = m.motor().validate().map_err(|e| rejected(&e))?;
             let new = dev.defaults_for(&motor);
-            change(dev, dev.settings(), &new).map(|()| Response::Ok)
+            let old = dev.settings();
+            change(dev, old, &new).map(|()| Response::Ok)
         }
         Request::Save => {
             configured(dev)?;
