@@ -1,6 +1,6 @@
 //! The board's settings, computed from one configuration, and the init functions that write
 //! them, all tested on the host: every timer, ADC, op-amp, clock and watchdog value the
-//! firmware (`main.rs`, built for `thumbv7em-none-eabihf`) writes, what the drive is told
+//! firmware (`firmware/`, built for `thumbv7em-none-eabihf`) writes, what the drive is told
 //! about the power stage (PWM frequency, dead time, control rate, the largest duty), and the
 //! functions that write the peripherals. Those take the register blocks by reference (the
 //! firmware's `pac::TIM1` and the like, or zeroed blocks on the host) and the CPU's part

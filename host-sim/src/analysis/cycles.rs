@@ -497,7 +497,7 @@ pub fn measure(root: &Path) -> anyhow::Result<CyclesReport> {
     let (found, bench) = bench_sections(root, None)?;
     let board = build_thumb(
         root,
-        &root.join("examples/b-g431b-esc1/Cargo.toml"),
+        &root.join("examples/b-g431b-esc1/image/Cargo.toml"),
         "b-g431b-esc1",
         "building the board firmware (thumbv7em)",
         None,

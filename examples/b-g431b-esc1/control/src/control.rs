@@ -70,7 +70,7 @@ pub static STAGE_TEMP_C: AtomicU32 = AtomicU32::new(0);
 /// The speed command before the temperature derating [rpm, mechanical] (f32 bits), read by
 /// the step. Without feature `link` it starts at the constant
 /// `drive_settings::SPEED_CMD_RPM` (the button's); with it at 0, written by the link
-/// (`link.rs`). In both the servo input writes it while it is armed (main loop).
+/// (`firmware/src/link.rs`). In both the servo input writes it while it is armed (main loop).
 pub static SPEED_CMD: AtomicU32 = AtomicU32::new(SPEED_CMD_START_RPM.to_bits());
 
 /// [`SPEED_CMD`]'s value at reset: the link's firmware runs no motor until told.

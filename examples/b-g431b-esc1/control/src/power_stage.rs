@@ -1,7 +1,7 @@
 //! The board's power stage as the core sees it ([`PowerStage`]): the sample is the injected
 //! conversions ADC1/ADC2 made at TIM1's update, scaled, with a latched break reported by
 //! name and, while the outputs are off, the terminal voltage of the phase-voltage dividers
-//! (`pmsm_b_g431b_esc1::bemf`: the drive's flying start); applying duties loads TIM1's
+//! (`crate::bemf`: the drive's flying start); applying duties loads TIM1's
 //! compare registers and sets MOE (unless a break is latched), applying `None` clears MOE.
 
 use pmsm_sensorless::drive::DriveInput;

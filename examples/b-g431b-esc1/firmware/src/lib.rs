@@ -5,7 +5,7 @@
 //! `.cargo/config.toml`; aliases there), from the repository root:
 //!
 //! ```text
-//! cargo fw            # build --release --manifest-path examples/b-g431b-esc1/Cargo.toml --target thumbv7em-none-eabihf
+//! cargo fw            # build --release --manifest-path examples/b-g431b-esc1/image/Cargo.toml --target thumbv7em-none-eabihf
 //! cargo flash-esc1    # the same with `run`: flash with probe-rs, print the defmt log
 //! ```
 //!
@@ -29,19 +29,21 @@
 //!
 //! # Modules
 //!
-//! The library (`src/lib.rs`, host-tested): `config` computes every clock, timer, ADC and
+//! The board's library (`../src/lib.rs`, host-tested): `config` computes every clock, timer, ADC and
 //! watchdog value from one configuration and what the drive is told (PWM frequency, dead
 //! time, control rate, largest duty); `drive_settings` holds the motor, the observers and
 //! the speed command; its init functions write those values (run on zeroed register blocks
 //! in its tests): `clocks` (170 MHz, peripheral clocks), `pwm` (TIM1: timing, dead time,
 //! duties), `adc` (OPAMPs, ADCs, offsets, scaling, the phase-voltage dividers),
-//! `overcurrent` (DAC3, COMP1/2/4), `watchdog` (IWDG, debug halt). This crate's modules:
-//! `power_stage` (the core's `PowerStage` on TIM1 and the ADCs),
-//! `settings` (the drive built from the library's configuration),
-//! `control` (the core's shared control loop on this board: the step's interrupt, the 1 kHz
-//! task's interrupt below it, the commands), `protection` (watchdog, HardFault, debug halt, the
-//! board's bus limit), `telemetry` (the interrupts → main-loop queues and the defmt log). This
-//! file: start-up and the main loop (the button, the log).
+//! `overcurrent` (DAC3, COMP1/2/4), `watchdog` (IWDG, debug halt). The interrupt path
+//! (`../control`, a package compiled for speed): `power_stage` (the core's `PowerStage` on
+//! TIM1 and the ADCs), `control` (the core's shared control loop on this board: the step's
+//! interrupt, the 1 kHz task's interrupt below it, the commands), `protection` (watchdog,
+//! HardFault, debug halt, the board's bus limit), `telemetry` (the interrupts → main-loop
+//! queues and the defmt log). This crate (compiled for size): `settings` (the drive built
+//! from the library's configuration), `link` (feature `link`: the board as the link's device)
+//! and this file, start-up and the main loop (the button, the servo input, the link, the log),
+//! which the image (`../image`, the binary) runs.
 //!
 //! # Hardware map
 //!
@@ -85,45 +87,24 @@
 //! BRK2; watchdog fed by the control interrupt when the main loop and the 1 kHz task have
 //! run; MOE cleared on HardFault, NMI, panic and any unexpected interrupt; outputs inactive
 //! on debug halt).
-#![cfg_attr(target_os = "none", no_std, no_main)]
+#![no_std]
 
-#[cfg(not(target_os = "none"))]
-fn main() {
-    println!(
-        "b-g431b-esc1 is firmware: build it with `cargo fw` (thumbv7em-none-eabihf), flash it with `cargo flash-esc1`"
-    );
-}
-
-#[cfg(target_os = "none")]
-mod control;
 #[cfg(all(target_os = "none", feature = "link"))]
 mod link;
-#[cfg(target_os = "none")]
-mod power_stage;
-#[cfg(target_os = "none")]
-mod protection;
 #[cfg(all(target_os = "none", not(feature = "link")))]
 mod settings;
+
 #[cfg(target_os = "none")]
-mod telemetry;
+pub use firmware::run;
 
 #[cfg(target_os = "none")]
 mod firmware {
     use core::sync::atomic::Ordering;
 
-    use cortex_m_rt::entry;
-    use panic_probe as _;
     use stm32g4::stm32g431 as pac;
 
-    use crate::control::{
-        self, Control, Tick, CLEAR_FAULT, ENABLE, IDENTIFY, SPEED_CMD, SPEED_RPM, STAGE_TEMP_C,
-        STEPS, TICK_RETRIES,
-    };
     #[cfg(feature = "link")]
     use crate::link::{self, Board};
-    use crate::power_stage::Esc1;
-    use crate::protection::MAIN_ALIVE;
-    use crate::{protection, telemetry};
     use pmsm_b_g431b_esc1::board_io::{self, Button, ButtonAction, GpioIn, GpioOut, StatusLed};
     use pmsm_b_g431b_esc1::config::SETTINGS;
     use pmsm_b_g431b_esc1::drive_settings::BoardDrive;
@@ -138,6 +119,13 @@ mod firmware {
     #[cfg(feature = "link")]
     use pmsm_b_g431b_esc1::usart::{self, Usart};
     use pmsm_b_g431b_esc1::{adc, clocks, overcurrent, pwm, watchdog};
+    use pmsm_b_g431b_esc1_control::control::{
+        self, Control, Tick, CLEAR_FAULT, ENABLE, IDENTIFY, SPEED_CMD, SPEED_RPM, STAGE_TEMP_C,
+        STEPS, TICK_RETRIES,
+    };
+    use pmsm_b_g431b_esc1_control::power_stage::Esc1;
+    use pmsm_b_g431b_esc1_control::protection::MAIN_ALIVE;
+    use pmsm_b_g431b_esc1_control::{protection, telemetry};
     #[cfg(feature = "link")]
     use pmsm_link::Server;
 
@@ -232,8 +220,8 @@ mod firmware {
         cortex_m::asm::isb();
     }
 
-    #[entry]
-    fn main() -> ! {
+    /// The firmware: start-up, then the main loop (the image's entry calls it).
+    pub fn run() -> ! {
         load_ramfunc();
         let (Some(dp), Some(mut cp)) = (pac::Peripherals::take(), cortex_m::Peripherals::take())
         else {

@@ -36,12 +36,12 @@ use pmsm_sensorless::drive::{Identified, Mode, Telemetry, Transition};
 use pmsm_sensorless::motor::Motor;
 use pmsm_store::MAX_LEN;
 
-use crate::control::{self, CLEAR_FAULT, ENABLE, IDENTIFY, SPEED_CMD, STEPS};
-use crate::telemetry::Event;
 use pmsm_b_g431b_esc1::config::SETTINGS;
 use pmsm_b_g431b_esc1::drive_settings::{board_mismatch, on_board, BoardDrive};
 use pmsm_b_g431b_esc1::flash::ConfigFlash;
 use pmsm_b_g431b_esc1::stored::{decode, encode, STORE};
+use pmsm_b_g431b_esc1_control::control::{self, CLEAR_FAULT, ENABLE, IDENTIFY, SPEED_CMD, STEPS};
+use pmsm_b_g431b_esc1_control::telemetry::Event;
 
 /// Transitions kept for the link (the oldest dropped beyond).
 const QUEUE: usize = 8;
