@@ -16,7 +16,9 @@ use crate::config::SETTINGS;
 /// beyond that (with the preset's 1000 rpm the firmware stopped at start-up:
 /// `ratings.speed_rpm` rejected, found by the host test `drive_told_the_same`). Below about
 /// 620 rpm the sliding observer's constant gain is outside its window (Horng & Chin Sec 4),
-/// so the flux observer drives and the sliding observer watches. Replace this with your
+/// so the flux observer drives and the sliding observer watches. Its rated power follows the
+/// rated speed: 0.695 N·m at 560 rpm is 40.8 W (the preset's 73 W is its 1000 rpm's, which
+/// `Motor::validate` refuses beside 560 rpm: a factor 1.5 at most). Replace this with your
 /// motor.
 pub const MOTOR: Motor = Motor {
     name: "sinano-24v",
@@ -24,6 +26,7 @@ pub const MOTOR: Motor = Motor {
     ratings: Ratings {
         bus_v: 24.0,
         speed_rpm: 560.0,
+        power_w: 40.8,
         ..HORNG_SINANO.ratings
     },
 };

@@ -119,6 +119,11 @@ fn dead_time() {
 /// clamp never cuts one.
 #[test]
 fn drive_told_the_same() {
+    // The motor as a user's file would be checked (the link's `SetMotor`, `pmsm-sim
+    // --motor-file`): ratings consistent with the parameters.
+    if let Err(e) = crate::drive_settings::MOTOR.validate() {
+        panic!("the board's motor is refused: {e:?}");
+    }
     let cfg = drive_config();
     assert_eq!(cfg.rate_hz, S.control_hz as f32);
     assert_eq!(cfg.power_stage.pwm_hz, S.pwm_hz as f32);
