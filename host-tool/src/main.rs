@@ -85,6 +85,13 @@ enum Cmd {
         #[arg(value_parser = ["clear"])]
         action: Option<String>,
     },
+    /// Restart the device (a system reset; refused while the drive runs) and wait until it
+    /// answers again: what was not saved is gone.
+    Restart {
+        /// Give up waiting after this long [s].
+        #[arg(long, default_value_t = 10.0)]
+        limit: f64,
+    },
     /// Live plots of speed, currents, residuals and mode.
     Watch {
         #[arg(long, default_value_t = 50)]
@@ -217,6 +224,17 @@ fn run(cli: Cli) -> Result<(), ToolError> {
                 ops::fault(&mut c)?
             };
             println!("{}", f.map_or("no fault", ops::name_of));
+        }
+        Cmd::Restart { limit } => {
+            let configured = ops::restart(&mut c, Duration::from_secs_f64(limit))?;
+            println!(
+                "restarted: {}",
+                if configured {
+                    "configured from its store"
+                } else {
+                    "not configured (no valid settings stored)"
+                }
+            );
         }
         Cmd::Watch { rate_hz } => pmsm_tool::watch::watch(&mut c, rate_hz)?,
         Cmd::Sim { .. } => {}

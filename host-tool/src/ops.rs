@@ -134,6 +134,25 @@ pub fn fault_clear<T: Read + Write>(
     fault(c)
 }
 
+/// Restarts the device (refused while the drive runs) and waits, within `limit`, until it
+/// answers again as at power-up; whether it came back configured (settings in its store).
+pub fn restart<T: Read + Write>(c: &mut Client<T>, limit: Duration) -> Result<bool, ToolError> {
+    ok(c.request(Request::Restart)?)?;
+    let deadline = Instant::now() + limit;
+    let timeout = c.timeout;
+    c.timeout = Duration::from_millis(200).min(timeout);
+    let back = loop {
+        std::thread::sleep(Duration::from_millis(100));
+        match c.hello() {
+            Ok(()) => break Ok(c.configured),
+            Err(ToolError::Timeout(_)) if Instant::now() < deadline => {}
+            Err(e) => break Err(e),
+        }
+    };
+    c.timeout = timeout;
+    back
+}
+
 /// A fault's snake-case name (as `pmsm-sim` prints it).
 pub fn name_of(f: Fault) -> &'static str {
     fault_name(core_drive::Fault::from(f))

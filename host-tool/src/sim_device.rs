@@ -278,6 +278,12 @@ impl Device for SimDevice {
         self.state.identified().map(|i: Identified| i)
     }
 
+    fn restart(&mut self) -> Result<(), DeviceError> {
+        // The simulated power-up: the settings from the store, the drive idle.
+        self.reset();
+        Ok(())
+    }
+
     fn clear_fault(&mut self) -> Result<(), DeviceError> {
         // Taken by the next step, run now: the answer that follows sees it (a board's next
         // step is 250 µs away).

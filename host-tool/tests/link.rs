@@ -79,6 +79,17 @@ fn a_motor_set_and_saved_is_read_back_after_a_reset() {
         ops::config_get(&mut c, Some("limits.i_max_a")).unwrap(),
         vec![(Key::IMaxA, i_max)]
     );
+    // A restart asked over the link: an unsaved change is gone, the saved settings back;
+    // refused while the drive runs.
+    ops::config_set(&mut c, "limits.i_max_a", &format!("{}", 1.05 * i_max)).unwrap();
+    assert!(ops::restart(&mut c, Duration::from_secs(5)).unwrap());
+    assert_eq!(ops::settings(&mut c).unwrap(), set);
+    ops::start(&mut c, 300.0).unwrap();
+    assert!(matches!(
+        ops::restart(&mut c, Duration::from_secs(5)),
+        Err(ToolError::Device(LinkError::Refused(_)))
+    ));
+    ops::stop(&mut c).unwrap();
     // A corrupt record in the flash (one the core refuses): no configuration at the reset.
     // (The device serves one connection at a time.)
     drop(c);

@@ -77,6 +77,10 @@ pub enum Request {
     Stream(u16),
     /// One telemetry record now. Answer [`Response::Telemetry`].
     GetTelemetry,
+    /// Restart the device (a system reset): answered [`Response::Ok`] first, then the device
+    /// restarts as at power-up and loads its settings from its store (what was not saved is
+    /// gone). Refused while the drive runs ([`LinkError::BusyWhileRunning`]).
+    Restart,
 }
 
 /// The highest telemetry rate \[Hz]: a record a millisecond, the drive's task rate.

@@ -94,6 +94,11 @@ pub trait Device {
 
     /// The next mode change not yet reported, oldest first.
     fn next_transition(&mut self) -> Option<core_drive::Transition>;
+
+    /// Restarts the device as at power-up (a system reset), after the answer to this request
+    /// has been sent: a firmware notes it and resets once the server's poll has written the
+    /// answer out. Called only while the drive does not run.
+    fn restart(&mut self) -> Result<(), DeviceError>;
 }
 
 /// The link's device side (module doc).
@@ -416,5 +421,15 @@ fn request(req: Request, stream: &mut Stream, dev: &mut dyn Device) -> Result<Re
             dev.now_ms(),
             &dev.telemetry(),
         ))),
+        Request::Restart => {
+            if dev.running() {
+                return Err(LinkError::Refused(reason(
+                    "a restart while the drive runs: disable it first",
+                )));
+            }
+            dev.restart()
+                .map(|()| Response::Ok)
+                .map_err(LinkError::from)
+        }
     }
 }

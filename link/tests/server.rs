@@ -28,6 +28,7 @@ struct Mock {
     now_ms: u32,
     fault: Option<Fault>,
     transitions: VecDeque<Transition>,
+    restarts: usize,
 }
 
 impl Mock {
@@ -43,6 +44,7 @@ impl Mock {
             now_ms: 0,
             fault: None,
             transitions: VecDeque::new(),
+            restarts: 0,
         }
     }
 }
@@ -99,6 +101,10 @@ impl Device for Mock {
     }
     fn next_transition(&mut self) -> Option<Transition> {
         self.transitions.pop_front()
+    }
+    fn restart(&mut self) -> Result<(), DeviceError> {
+        self.restarts += 1;
+        Ok(())
     }
 }
 
@@ -411,6 +417,23 @@ fn a_setting_locked_while_running_is_refused_then_and_others_are_taken() {
         Ok(Response::Ok)
     );
     assert_eq!(dev.settings.unwrap().limits.i_max_a, 0.9 * i_max);
+}
+
+/// A restart is answered, then done by the device; while the drive runs it is refused and
+/// nothing happens.
+#[test]
+fn a_restart_is_answered_and_refused_while_running() {
+    let mut dev = Mock::configured();
+    dev.enabled = true;
+    let before = dev.clone();
+    assert!(matches!(
+        answer(&mut dev, Request::Restart),
+        Err(LinkError::Refused(_))
+    ));
+    assert_eq!(dev, before);
+    dev.enabled = false;
+    assert_eq!(answer(&mut dev, Request::Restart), Ok(Response::Ok));
+    assert_eq!(dev.restarts, 1);
 }
 
 #[test]

@@ -33,6 +33,7 @@ pub const PIN_RX: usize = 4;
 
 const ISR_ORE: u32 = 1 << 3;
 const ISR_RXNE: u32 = 1 << 5;
+const ISR_TC: u32 = 1 << 6;
 const ISR_TXE: u32 = 1 << 7;
 const CR1_UE: u32 = 1 << 0;
 const CR1_RE: u32 = 1 << 2;
@@ -159,8 +160,10 @@ impl Write for Usart<'_> {
         Ok(n)
     }
 
+    /// Waits until the last byte has left the shift register (ISR.TC): what was written has
+    /// reached the wire (a restart may follow).
     fn flush(&mut self) -> Result<(), Infallible> {
-        while self.regs.isr().read().bits() & ISR_TXE == 0 {
+        while self.regs.isr().read().bits() & ISR_TC == 0 {
             core::hint::spin_loop();
         }
         Ok(())
@@ -211,5 +214,8 @@ mod tests {
         assert_eq!(u.read(&mut b).unwrap(), 1);
         assert_eq!(b[0], b'x');
         assert_eq!(u.rx_overruns, 1);
+        // The transmission complete flag (not only an empty data register) ends a flush.
+        poke(regs.rb().isr(), ISR_TC);
+        assert_eq!(u.flush(), Ok(()));
     }
 }

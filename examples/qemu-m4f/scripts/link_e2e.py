@@ -9,6 +9,8 @@ a fresh temporary directory) and checks:
   1. an erased flash: not configured, the drive refuses to run (`run` refused);
   2. a motor set (`config load-motor`, the Sinano's file) and a setting changed, saved; after
      QEMU is killed (SIGKILL: a power cut) and restarted, `config get` prints the same;
+     and a restart over the link (`pmsm-tool restart`, a system reset of the emulated chip)
+     brings the saved settings back and drops an unsaved change;
   3. bad input over the real UART changes nothing (settings, flash file): a frame with a
      wrong checksum, a frame that is no COBS, an unknown message, an overlong frame (each
      answered with its named error), a value out of range (refused, the field named), a
@@ -367,6 +369,21 @@ def main():
         code, text, err = emu.tool("config", "get")
         check("bad input changed no setting", code == 0 and text == saved_text, err)
         check("bad input wrote nothing to flash", flash_bytes(state) == img)
+
+        # A restart over the link (a system reset of the emulated chip, QEMU kept): an unsaved
+        # change is gone, the saved settings come back from the flash.
+        code, _, err = emu.tool("config", "set", "limits.i_max_a", f"{1.05 * i_max}")
+        check("an unsaved change before the restart", code == 0, err)
+        boots = emu.text().count("link on UART0")
+        code, out, err = emu.tool("restart", "--limit", "20")
+        check("restart over the link: answered, the device back, configured",
+              code == 0 and "configured from its store" in out, f"{code} {out} {err}")
+        check("restart: the firmware restarted (the chip reset, not a new QEMU)",
+              "restart asked over the link" in emu.text()
+              and emu.text().count("link on UART0") == boots + 1, emu.text()[-2000:])
+        code, text, err = emu.tool("config", "get")
+        check("after the restart: the saved settings, the unsaved change gone",
+              code == 0 and text == saved_text, err + text)
     finally:
         emu.kill()
 

@@ -396,7 +396,16 @@ mod firmware {
             });
             // Between the interrupts, never within one: the USART's Error is Infallible.
             #[cfg(feature = "link")]
-            let Ok(()) = server.poll(&mut uart, &mut board);
+            {
+                let Ok(()) = server.poll(&mut uart, &mut board);
+                if board.restart_due() {
+                    // The answer on the wire first, then a system reset (the drive does not
+                    // run: the link refuses a restart then). PWM is off from the reset on.
+                    defmt::info!("restart asked over the link");
+                    let Ok(()) = embedded_io::Write::flush(&mut uart);
+                    cortex_m::peripheral::SCB::sys_reset();
+                }
+            }
 
             let retries = TICK_RETRIES.swap(0, Ordering::Relaxed);
             if retries > 0 {

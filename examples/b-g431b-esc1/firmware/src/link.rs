@@ -92,6 +92,8 @@ pub struct Board<'a> {
     identified: Option<Identified>,
     /// The drive in place is the identification's.
     identifying: bool,
+    /// A restart was asked (done by the main loop once the answer is out).
+    restart_due: bool,
 }
 
 impl<'a> Board<'a> {
@@ -106,12 +108,19 @@ impl<'a> Board<'a> {
             transitions: Deque::new(),
             identified: None,
             identifying: false,
+            restart_due: false,
         }
     }
 
     /// Whether the control interrupts run (a drive is in place).
     pub fn has_drive(&self) -> bool {
         self.start.is_none()
+    }
+
+    /// A restart was asked over the link ([`Device::restart`]): the main loop resets the chip
+    /// once the answer is out.
+    pub fn restart_due(&self) -> bool {
+        self.restart_due
     }
 
     /// Starts the control interrupts with the drive of the settings in force if they do not
@@ -279,6 +288,11 @@ impl Device for Board<'_> {
 
     fn identified(&self) -> Option<Identified> {
         self.identified
+    }
+
+    fn restart(&mut self) -> Result<(), DeviceError> {
+        self.restart_due = true;
+        Ok(())
     }
 
     fn clear_fault(&mut self) -> Result<(), DeviceError> {

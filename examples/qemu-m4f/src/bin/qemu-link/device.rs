@@ -66,6 +66,8 @@ pub struct Firmware {
     t_ns: u64,
     period_ns: u64,
     transitions: Deque<Transition, QUEUE>,
+    /// A restart was asked (done by the main loop once the answer is out).
+    restart_due: bool,
 }
 
 impl Firmware {
@@ -80,9 +82,16 @@ impl Firmware {
             t_ns: 0,
             period_ns: period_ns(IDLE_RATE_HZ),
             transitions: Deque::new(),
+            restart_due: false,
         };
         f.rebuild(true);
         f
+    }
+
+    /// A restart was asked over the link ([`Device::restart`]): the main loop resets the
+    /// emulated chip once the answer is out.
+    pub fn restart_due(&self) -> bool {
+        self.restart_due
     }
 
     /// Whether a drive is built (settings in force, or the identification's).
@@ -284,6 +293,11 @@ impl Device for Firmware {
             Slot::Drive(c) => c.state().identified(),
             Slot::Off(_) => None,
         }
+    }
+
+    fn restart(&mut self) -> Result<(), DeviceError> {
+        self.restart_due = true;
+        Ok(())
     }
 
     fn clear_fault(&mut self) -> Result<(), DeviceError> {

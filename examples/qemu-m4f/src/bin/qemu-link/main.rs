@@ -110,6 +110,13 @@ mod firmware {
             dev.step();
             // Between two steps, never within one: the UART's Error is Infallible.
             let Ok(()) = server.poll(&mut uart, &mut dev);
+            if dev.restart_due() {
+                // The answer on the wire first, then a system reset (SYSRESETREQ: QEMU
+                // restarts the machine from the image; the flash file stays).
+                defmt::info!("restart asked over the link");
+                let Ok(()) = embedded_io::Write::flush(&mut uart);
+                cortex_m::peripheral::SCB::sys_reset();
+            }
         }
     }
 }
