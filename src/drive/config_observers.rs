@@ -101,14 +101,35 @@ impl DriveConfig {
     }
 
     /// The sliding torque observer's settings (unvalidated): it drives above the hand-over
-    /// speed.
+    /// speed. The paper's `K_s` = 1000π and ε = 1 A where that `K_s` lies inside this motor's
+    /// window (Sec 4: below `(K_s,max)_T` and `(K_s,max)_E2` at the rated speed); else both
+    /// scaled from the motor as the paper placed them on its own ([`scaled_sliding`]).
     pub(super) fn sliding_config(&self) -> SlidingConfig {
-        SlidingConfig {
+        let paper = SlidingConfig {
             rate_hz: self.rate_hz,
             emf_advance_periods: ADVANCE_PERIODS,
             output_advance_periods: ADVANCE_PERIODS + self.delay_periods(),
             min_speed_rad_s: self.start.handover_rpm * RAD_S_PER_RPM,
             ..SlidingConfig::torque(self.motor)
+        };
+        match paper.ks {
+            SlidingGain::Constant(ks) if ks > self.ks_window(paper.epsilon_a) => {
+                scaled_sliding(paper, self.ratings.current_a, |eps| self.ks_window(eps))
+            }
+            _ => paper,
+        }
+    }
+
+    /// The top of the `K_s` window for the boundary layer `epsilon_a` \[A]:
+    /// `min((K_s,max)_T, (K_s,max)_E2 at the rated speed)` \[A/s] (Horng & Chin Sec 4).
+    fn ks_window(&self, epsilon_a: f32) -> f32 {
+        let rated = self.ratings.speed_rpm * RAD_S_PER_RPM;
+        let e2 = ks_max_e2(&self.motor, rated, epsilon_a);
+        let t = ks_max_t(&self.motor, self.rate_hz, epsilon_a);
+        if e2 < t {
+            e2
+        } else {
+            t
         }
     }
 
@@ -124,5 +145,34 @@ impl DriveConfig {
             bandwidth_hz: PLL_BANDWIDTH_HZ,
             damping: PLL_DAMPING,
         }
+    }
+}
+
+/// The paper's boundary layer over its motor's rated current: ε = 1 A on the Sinano's 3 A
+/// (Horng & Chin Sec 5, Table 1; the preset's rating).
+pub(super) const EPSILON_PER_RATED_A: f32 = 1.0 / 3.0;
+
+/// The paper's `K_s` over the top of its window: 1000π of `(K_s,max)_E2` = 5331.46 A/s
+/// (Sec 5, E2 binding at 1000 rpm; `(K_s,max)_T` = 7590).
+pub(super) const KS_PER_WINDOW: f32 = 1000.0 * core::f32::consts::PI / 5331.46;
+
+/// The sliding observer scaled to a motor on which the paper's constant `K_s` is refused:
+/// ε the paper's share of the rated current `rated_a` (a boundary layer of 1 A is twice the
+/// rated current of a 0.5 A gimbal motor, and its `R ε/L` alone closes the E2 window), and
+/// `K_s` at the paper's place in the window `top(ε)` (`KS_PER_WINDOW` of it): inside both
+/// upper bounds, `K_s,min` of eq (28) covered up to an EMF error of `KS_PER_WINDOW` of the
+/// window's. On the Sinano both are the paper's own (ε = 1 A, K_s = 1000π).
+fn scaled_sliding(paper: SlidingConfig, rated_a: f32, top: impl Fn(f32) -> f32) -> SlidingConfig {
+    let epsilon_a = EPSILON_PER_RATED_A * rated_a;
+    let ks = KS_PER_WINDOW * top(epsilon_a);
+    if ks > 0.0 && epsilon_a > 0.0 {
+        SlidingConfig {
+            epsilon_a,
+            ks: SlidingGain::Constant(ks),
+            ..paper
+        }
+    } else {
+        // No window on this motor either: the paper's, refused by the check, named.
+        paper
     }
 }
