@@ -24,5 +24,5 @@ pub mod wire;
 
 pub use keys::Key;
 pub use msg::{DeviceMsg, Event, HostMsg, LinkError, Request, Response, PROTOCOL_VERSION};
-pub use server::{Device, DeviceError, Server};
+pub use server::{identification_motor, Device, DeviceError, Server};
 pub use settings::Settings;

@@ -101,6 +101,29 @@ pub trait Device {
     fn restart(&mut self) -> Result<(), DeviceError>;
 }
 
+/// The motor an identification on `dev` starts from: the pole pairs, ratings and torque
+/// convention of the settings in force, the rest the core's placeholder
+/// (`drive::identify::placeholder`: the identification measures them). Refused, named, while
+/// the drive runs or without settings in force (a firmware's [`Device::start_identification`]).
+pub fn identification_motor(dev: &dyn Device) -> Result<Motor, DeviceError> {
+    if dev.running() {
+        return Err(DeviceError::Refused(
+            "the identification starts from idle, disabled",
+        ));
+    }
+    let m = dev
+        .settings()
+        .ok_or(DeviceError::Refused(
+            "the identification needs the motor's pole pairs and ratings: load a motor",
+        ))?
+        .motor();
+    Ok(core_drive::identify::placeholder(
+        m.params.pole_pairs,
+        m.ratings,
+        m.params.torque,
+    ))
+}
+
 /// The link's device side (module doc).
 pub struct Server {
     rx: FrameReader,

@@ -30,8 +30,7 @@
 use core::sync::atomic::Ordering;
 
 use heapless::Deque;
-use pmsm_link::{Device, DeviceError, Settings};
-use pmsm_sensorless::drive::identify::placeholder;
+use pmsm_link::{identification_motor, Device, DeviceError, Settings};
 use pmsm_sensorless::drive::{Identified, Mode, Telemetry, Transition};
 use pmsm_sensorless::motor::Motor;
 use pmsm_store::MAX_LEN;
@@ -264,16 +263,7 @@ impl Device for Board<'_> {
     }
 
     fn start_identification(&mut self) -> Result<(), DeviceError> {
-        if self.running() {
-            return Err(DeviceError::Refused(
-                "the identification starts from idle, disabled",
-            ));
-        }
-        let board = self.settings.ok_or(DeviceError::Refused(
-            "the identification needs the motor's pole pairs and ratings: load a motor",
-        ))?;
-        let m = board.motor();
-        let user = placeholder(m.params.pole_pairs, m.ratings, m.params.torque);
+        let user = identification_motor(self)?;
         let drive = on_board(pmsm_sensorless::drive::DriveConfig::new(&user))
             .build_flux_primary()
             .map_err(DeviceError::Rejected)?;

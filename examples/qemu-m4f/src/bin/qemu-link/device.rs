@@ -19,9 +19,9 @@
 //! commissioning firmware build it.
 
 use heapless::Deque;
-use pmsm_link::{Device, DeviceError, Settings};
+use pmsm_link::{identification_motor, Device, DeviceError, Settings};
 use pmsm_sensorless::control::{Commands, Control};
-use pmsm_sensorless::drive::identify::{placeholder, SPIN_SPEED_SHARE};
+use pmsm_sensorless::drive::identify::SPIN_SPEED_SHARE;
 use pmsm_sensorless::drive::{Drive, Identified, Mode, Telemetry, Transition};
 use pmsm_sensorless::motor::Motor;
 use pmsm_sensorless::observer::flux_speed::FluxPll;
@@ -255,16 +255,9 @@ impl Device for Firmware {
     }
 
     fn start_identification(&mut self) -> Result<(), DeviceError> {
-        if self.running() {
-            return Err(DeviceError::Refused(
-                "the identification starts from idle, disabled",
-            ));
-        }
-        let board = self.settings.ok_or(DeviceError::Refused(
-            "the identification needs the motor's pole pairs and ratings: load a motor",
-        ))?;
+        let user = identification_motor(self)?;
+        let board = self.settings.ok_or(DeviceError::NotConfigured)?;
         let m = board.motor();
-        let user = placeholder(m.params.pole_pairs, m.ratings, m.params.torque);
         let mut dc = Settings::for_motor(&user, Some(&board)).drive_config();
         dc.rate_hz = control_rate(
             m.params.pole_pairs,
