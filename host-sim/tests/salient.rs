@@ -18,8 +18,8 @@ use std::path::Path;
 
 /// The salient zoo motors (not in the zoo matrix yet: the drive has one L).
 const SALIENT_ZOO: [&str; 2] = [
-    "motors/zoo/industrial-ipm-aalto-2.2kw.toml",
-    "motors/zoo/traction-ipm-brusa-hsm1-6.17.12-salient.toml",
+    "motors/zoo/salient/industrial-ipm-aalto-2.2kw.toml",
+    "motors/zoo/salient/traction-ipm-brusa-hsm1-6.17.12-salient.toml",
 ];
 
 fn load(rel: &str) -> motor_file::Loaded {
@@ -371,9 +371,9 @@ fn a_salient_saturating_plant_keeps_the_power_balance() {
     let mut peak_a = 0.0f64;
     for k in 0..4000 {
         let t = k as f64 * ts;
-        // A voltage vector rotating at 50 Hz electrical, 60 V peak: hundreds of amperes.
+        // A voltage vector rotating at 50 Hz electrical, 20 V peak: hundreds of amperes.
         let angle = 2.0 * std::f64::consts::PI * 50.0 * t;
-        let duty = |phase: f64| (0.5 + 60.0 / v_bus * (angle - phase).cos()) as f32;
+        let duty = |phase: f64| (0.5 + 20.0 / v_bus * (angle - phase).cos()) as f32;
         let tau = 2.0 * std::f64::consts::PI / 3.0;
         let held: HeldDuties = inverter.hold(Duties {
             a: duty(0.0),
