@@ -3,7 +3,9 @@
 //! voltage supply; the sensors and their noise are the board's, in `pmsm-host-sim`):
 //!
 //! - [`electrical`]: the stator windings in the stationary frame, Horng & Chin eqs (16)-(17)
-//!   (Ortega et al. (1)), and the electromagnetic torque (Ortega (2));
+//!   (Ortega et al. (1)), and the electromagnetic torque (Ortega (2)); a salient machine
+//!   (`L_d ≠ L_q`) or a saturating one by the dq model with the reluctance torque;
+//! - [`inductance`]: each axis' inductance and its magnetic saturation;
 //! - [`mechanical`]: the rotor with its inertia and friction, a blocked shaft, the load
 //!   torque, eqs (18)-(19);
 //! - [`converter`]: what feeds the windings from the DC link: the averaged two-level inverter
@@ -30,6 +32,7 @@
 pub mod converter;
 pub mod electrical;
 pub mod frames;
+pub mod inductance;
 pub mod mechanical;
 pub mod params;
 pub mod plant;
@@ -39,8 +42,9 @@ pub mod supply;
 pub use converter::{Converter, DiodeBridge, HeldDuties, Inverter, ShortCircuit};
 pub use electrical::Pmsm;
 pub use frames::{clarke, inverse_clarke};
+pub use inductance::{AxisInductance, Saturates, Saturation};
 pub use mechanical::{Load, Rotor};
-pub use params::PlantParams;
+pub use params::{Inductances, PlantParams};
 pub use plant::Plant;
 pub use state::PlantState;
 pub use supply::{Chopper, DcLink, LinkEnergy, Source, StiffBus, Supply};

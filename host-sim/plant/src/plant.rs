@@ -43,7 +43,7 @@ impl Parts {
         let (i, theta, omega) = ((x[0], x[1]), x[2], x[OMEGA]);
         let (sc, e) = self.pmsm.back_emf(theta, omega);
         let v = conv.v_alpha_beta(self.v_dc, i, e);
-        let di = self.pmsm.di_dt(i, e, v); // (16), (17)
+        let di = self.pmsm.di_dt(i, sc, omega, e, v); // (16), (17) or the dq model
         let torque = self.pmsm.torque(i, sc);
         let (dtheta, domega) = self.rotor.derivative(omega, torque, tau_l); // (18), (19)
         let p_stator = self.pmsm.power(v, i);

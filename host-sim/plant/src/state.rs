@@ -83,14 +83,17 @@ impl PlantState {
         )
     }
 
-    /// Electromagnetic torque `N ψ (i_β cos Nθ − i_α sin Nθ)` \[N·m] (Ortega (2)).
+    /// Electromagnetic torque \[N·m]: `c N (ψ_d i_q − ψ_q i_d)`, `c ψN i_q` for a non-salient
+    /// machine (Ortega (2) with c = 1) ([`crate::electrical::Pmsm::torque_dq`]).
     pub fn torque(&self, p: &PlantParams) -> f64 {
-        p.n * p.flux * self.i_dq(p).1
+        let (i_d, i_q) = self.i_dq(p);
+        p.electrical().torque_dq(i_d, i_q)
     }
 
-    /// Energy stored in the inductance and the rotor \[J].
+    /// Energy stored in the inductances (`c ∫ i dψ` per axis, `c L |i|²/2` non-salient)
+    /// and the rotor \[J].
     pub fn stored_energy(&self, p: &PlantParams) -> f64 {
-        0.5 * p.l * (self.i_alpha * self.i_alpha + self.i_beta * self.i_beta)
-            + 0.5 * p.j * self.omega_m * self.omega_m
+        let (i_d, i_q) = self.i_dq(p);
+        p.electrical().magnetic_energy(i_d, i_q) + 0.5 * p.j * self.omega_m * self.omega_m
     }
 }

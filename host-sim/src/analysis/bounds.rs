@@ -71,12 +71,14 @@ impl OperatingPoint {
         let PlantParams {
             n,
             r,
-            l,
+            l_d,
             flux: k,
             j: h,
             b,
             ..
         } = self.motor;
+        // The papers' machine is non-salient (built from `MotorParams`): L = L_d = L_q.
+        let l = l_d.l0_h;
         let (w, eps) = (self.omega, self.epsilon);
         let (k1, k2, k3) = self.k123();
         let (s, c) = self.theta_e.sin_cos();
@@ -121,12 +123,14 @@ impl OperatingPoint {
         let PlantParams {
             n,
             r,
-            l,
+            l_d,
             flux: k,
             j: h,
             b,
             ..
         } = self.motor;
+        // The papers' machine is non-salient (built from `MotorParams`): L = L_d = L_q.
+        let l = l_d.l0_h;
         let (w, eps) = (self.omega, self.epsilon);
         let (k1, k2, k3) = self.k123();
         let (s, c) = self.theta_e.sin_cos();

@@ -12,7 +12,7 @@ pub use report::{identified_motor, motor_toml, summary_json};
 pub use crate::board::MotorFault;
 
 use crate::board::{BoardStage, SimBoard};
-use pmsm_plant::PlantParams;
+use pmsm_plant::{Inductances, PlantParams};
 use pmsm_sensorless::control::{Commands, Control};
 use pmsm_sensorless::drive::identify::{placeholder, SPIN_SPEED_SHARE};
 use pmsm_sensorless::drive::{DriveConfig, Fault, Identified, Mode, Transition};
@@ -32,6 +32,9 @@ pub struct IdentifyRun {
     pub fault: Option<MotorFault>,
     /// Give up after this long \[s].
     pub max_s: f64,
+    /// The motor's own inductances where it is salient or saturates (a motor file's,
+    /// `crate::motor_file::Loaded::inductances`); `None`: `L_d = L_q` = its `l_h`.
+    pub inductances: Option<Inductances>,
 }
 
 impl IdentifyRun {
@@ -43,6 +46,7 @@ impl IdentifyRun {
             board: SimBoard::board_defaults(&motor),
             fault: None,
             max_s: 30.0,
+            inductances: None,
         }
     }
 }
@@ -94,7 +98,12 @@ pub fn run(cfg: &IdentifyRun) -> anyhow::Result<IdentifyOutcome> {
     let drive = dc
         .build_flux_primary()
         .map_err(|e| anyhow::anyhow!("drive configuration: {e}"))?;
-    let mut stage = BoardStage::new(board, PlantParams::from(&truth.params), 0.0, 0.0)?;
+    let mut stage = BoardStage::new(
+        board,
+        PlantParams::with_inductances(&truth.params, cfg.inductances.as_ref()),
+        0.0,
+        0.0,
+    )?;
     stage.set_motor_fault(cfg.fault);
     // The core's control loop, as the commissioning firmware runs it.
     let mut control = Control::new(drive, stage);

@@ -5,6 +5,7 @@
 use crate::board::SimBoard;
 use crate::observer::ObserverKind;
 use crate::scenario::Scenario;
+use pmsm_plant::Inductances;
 use pmsm_sensorless::drive::DriveConfig;
 use pmsm_sensorless::motor::{Motor, MotorParams};
 use pmsm_sensorless::observer::sliding::SlidingConfig;
@@ -104,6 +105,10 @@ pub struct SimConfig {
     /// first (`crate::identify`: the user's pole pairs, ratings and torque convention only),
     /// replacing `mismatch`: identify, then drive with the identified motor (issue #26).
     pub identify_first: bool,
+    /// The plant's own inductances (a salient or saturating motor file's,
+    /// `crate::motor_file::Loaded::inductances`); `None`: `L_d = L_q` = the scenario motor's
+    /// `l_h`, no saturation. The drive's motor keeps its one `l_h` either way.
+    pub plant_inductances: Option<Inductances>,
 }
 
 impl SimConfig {
@@ -136,6 +141,7 @@ impl SimConfig {
             cold_start: false,
             gamma: None,
             identify_first: false,
+            plant_inductances: None,
         }
     }
 }

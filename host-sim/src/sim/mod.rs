@@ -89,7 +89,7 @@ impl Sim {
         let sc = &config.scenario;
         let mut stage = BoardStage::new(
             &config.board,
-            PlantParams::from(&sc.motor.params),
+            PlantParams::with_inductances(&sc.motor.params, config.plant_inductances.as_ref()),
             config.theta_m0,
             sc.initial_speed_rpm * RAD_S_PER_RPM,
         )?;
@@ -140,7 +140,7 @@ impl Sim {
             Injection::Plant { r, l, flux, .. } if first => {
                 let p = &mut plant.params;
                 p.r *= r;
-                p.l *= l;
+                p.scale_l(l);
                 p.flux *= flux;
             }
             Injection::Bus { v, until, .. } => {
@@ -270,7 +270,7 @@ impl Sim {
             ks: est.sliding.map(|d| d.ks as f64),
             ks_min: est.sliding.map(|_| {
                 ks_min(
-                    (p.flux * p.n / p.l) as f32,
+                    (p.flux * p.n / p.inductances().non_salient_l_h()) as f32,
                     est.omega_m,
                     est.theta_e,
                     truth.omega_m as f32,
@@ -315,6 +315,7 @@ fn identified(mut config: SimConfig) -> anyhow::Result<SimConfig> {
     let truth = config.scenario.motor;
     let outcome = identify::run(&identify::IdentifyRun {
         board: config.board.clone(),
+        inductances: config.plant_inductances,
         ..identify::IdentifyRun::board_defaults(truth)
     })?;
     let Some(m) = identify::identified_motor(&outcome)? else {

@@ -7,7 +7,7 @@ use pmsm_host_sim::board::{DcLinkSpec, SimBoard};
 use pmsm_host_sim::motor_file;
 use pmsm_host_sim::number;
 use pmsm_host_sim::sim::Mismatch;
-use pmsm_plant::Chopper;
+use pmsm_plant::{Chopper, Inductances};
 use pmsm_sensorless::motor::{self, Motor};
 use std::path::PathBuf;
 
@@ -25,12 +25,24 @@ pub struct MotorArg {
 impl MotorArg {
     /// The motor's name and the motor; without either flag, `default`.
     pub fn resolve_or(&self, default: motor::Motor) -> anyhow::Result<(String, motor::Motor)> {
+        self.resolve_plant_or(default).map(|(name, m, _)| (name, m))
+    }
+
+    /// As [`MotorArg::resolve_or`], with the plant's own inductances of a salient or
+    /// saturating motor file (`motor_file::Loaded::inductances`; a preset has none).
+    pub fn resolve_plant_or(
+        &self,
+        default: motor::Motor,
+    ) -> anyhow::Result<(String, motor::Motor, Option<Inductances>)> {
         let m = match (&self.motor, &self.motor_file) {
-            (_, Some(path)) => return motor_file::load(path),
+            (_, Some(path)) => {
+                let l = motor_file::load_full(path)?;
+                return Ok((l.name, l.motor, l.inductances));
+            }
             (Some(name), None) => preset(name)?,
             (None, None) => default,
         };
-        Ok((m.name.to_string(), m))
+        Ok((m.name.to_string(), m, None))
     }
 
     /// As [`MotorArg::resolve_or`], the Sinano motor by default.

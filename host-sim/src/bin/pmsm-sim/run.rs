@@ -106,7 +106,7 @@ pub fn prepare(args: &RunArgs) -> anyhow::Result<SimConfig> {
         (None, None) => anyhow::bail!("give a scenario name or --scenario-file"),
     };
     let observer = ObserverKind::from_name(&args.observer)?;
-    let (motor_name, m) = args.motor.resolve_or(spec.default_motor()?)?;
+    let (motor_name, m, inductances) = args.motor.resolve_plant_or(spec.default_motor()?)?;
     let mut sc = spec.build(&motor_name, m)?;
     sc.load_kind = match (args.load_kind, sc.load_kind) {
         (None, kind) => kind,
@@ -152,6 +152,7 @@ pub fn prepare(args: &RunArgs) -> anyhow::Result<SimConfig> {
         cfg.board.sense_terminal_voltage = sensed;
     }
     cfg.mismatch = args.mismatch;
+    cfg.plant_inductances = inductances;
     if let Some(path) = &args.drive_motor_file {
         let (_, d) = motor_file::load(path)?;
         anyhow::ensure!(
