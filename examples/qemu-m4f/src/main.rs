@@ -6,7 +6,9 @@
 //! with defmt over semihosting and exits 0 only if both runs meet their checks.
 //!
 //! `cargo emu` (alias in .cargo/config.toml) builds it and runs it under QEMU, decoding the
-//! log with defmt-print (`.cargo/qemu-run.sh`, relative to the workspace root).
+//! log with defmt-print (`.cargo/qemu-run.sh`, relative to the workspace root). `cargo emu-m0`
+//! builds this same program for an emulated Cortex-M0 (`examples/qemu-m0`, QEMU `microbit`,
+//! thumbv6m: no FPU, the f32 core in software floating point) with the same checks.
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
 #[cfg(not(target_os = "none"))]

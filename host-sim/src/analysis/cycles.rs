@@ -84,13 +84,32 @@ pub struct CyclesReport {
     pub rates: Vec<RateCycles>,
 }
 
-/// One instruction of the disassembly.
-struct Insn {
-    mnemonic: String,
-    operands: String,
+/// The emulated core a bench runs on: its Rust target, the example workspace that builds the
+/// bench for it, QEMU's machine and CPU, and its timing table.
+pub(super) struct Core {
+    pub(super) target: &'static str,
+    pub(super) manifest: &'static str,
+    pub(super) machine: &'static str,
+    pub(super) cpu: &'static str,
+    pub(super) cycles: fn(&Insn, bool) -> u64,
 }
 
-fn run(cmd: &mut Command, what: &str) -> anyhow::Result<String> {
+/// The Cortex-M4F: the board's core (QEMU mps2-an386), the Cortex-M4 timing table.
+pub(super) const M4F: Core = Core {
+    target: "thumbv7em-none-eabihf",
+    manifest: "examples/qemu-m4f/Cargo.toml",
+    machine: "mps2-an386",
+    cpu: "cortex-m4",
+    cycles,
+};
+
+/// One instruction of the disassembly.
+pub(super) struct Insn {
+    pub(super) mnemonic: String,
+    pub(super) operands: String,
+}
+
+pub(super) fn run(cmd: &mut Command, what: &str) -> anyhow::Result<String> {
     let out = cmd
         .output()
         .with_context(|| format!("{what}: could not start {:?}", cmd.get_program()))?;
@@ -107,7 +126,7 @@ fn run(cmd: &mut Command, what: &str) -> anyhow::Result<String> {
 }
 
 /// A tool of the `llvm-tools` rustup component (installed by rust-toolchain.toml).
-fn llvm_tool(root: &Path, name: &str) -> anyhow::Result<PathBuf> {
+pub(super) fn llvm_tool(root: &Path, name: &str) -> anyhow::Result<PathBuf> {
     let sysroot = run(
         Command::new("rustc")
             .arg("--print")
@@ -136,9 +155,15 @@ fn llvm_tool(root: &Path, name: &str) -> anyhow::Result<PathBuf> {
     Ok(path)
 }
 
-fn cargo_build(root: &Path, args: &[&str], what: &str, rate: Option<u32>) -> anyhow::Result<()> {
+fn cargo_build(
+    root: &Path,
+    target: &str,
+    args: &[&str],
+    what: &str,
+    rate: Option<u32>,
+) -> anyhow::Result<()> {
     let mut cmd = Command::new("cargo");
-    cmd.args(["build", "--release", "--target", "thumbv7em-none-eabihf"])
+    cmd.args(["build", "--release", "--target", target])
         .args(args)
         .current_dir(root);
     match rate {
@@ -178,9 +203,10 @@ fn target_dir(root: &Path, manifest: &Path) -> anyhow::Result<PathBuf> {
         .context("cargo metadata gave no target_directory")
 }
 
-/// Builds binary `bin` of `manifest` for the M4F and returns its path.
-fn build_thumb(
+/// Builds binary `bin` of `manifest` for `target` and returns its path.
+pub(super) fn build_thumb(
     root: &Path,
+    target: &str,
     manifest: &Path,
     bin: &str,
     what: &str,
@@ -189,12 +215,14 @@ fn build_thumb(
     let manifest_arg = manifest.to_string_lossy();
     cargo_build(
         root,
+        target,
         &["--manifest-path", &manifest_arg, "--bin", bin],
         what,
         rate,
     )?;
     let elf = target_dir(root, manifest)?
-        .join("thumbv7em-none-eabihf/release")
+        .join(target)
+        .join("release")
         .join(bin);
     if !elf.exists() {
         bail!("{what}: cargo built, but {} is not there", elf.display());
@@ -252,7 +280,7 @@ fn disassemble(objdump: &Path, elf: &Path) -> anyhow::Result<HashMap<u32, Insn>>
 }
 
 /// Number of registers in a `{r4-r7, lr}` or `{s16-s23}` list.
-fn register_count(operands: &str) -> u64 {
+pub(super) fn register_count(operands: &str) -> u64 {
     let Some(start) = operands.find('{') else {
         return 1;
     };
@@ -286,7 +314,7 @@ const CONDITIONS: [&str; 14] = [
 ];
 
 /// Whether a mnemonic (without width suffix) is a branch.
-fn is_branch(m: &str) -> bool {
+pub(super) fn is_branch(m: &str) -> bool {
     let base = m.split('.').next().unwrap_or(m);
     matches!(
         base,
@@ -364,6 +392,7 @@ fn read_trace(text: &str) -> Vec<(u32, &str)> {
 fn sections(
     trace: &[(u32, &str)],
     insns: &HashMap<u32, Insn>,
+    cycles: fn(&Insn, bool) -> u64,
 ) -> anyhow::Result<HashMap<String, Vec<(u64, u64)>>> {
     let mut out: HashMap<String, Vec<(u64, u64)>> = HashMap::new();
     let mut current: Option<(String, u64, u64)> = None;
@@ -394,7 +423,7 @@ fn sections(
 }
 
 /// Sizes from `llvm-size -A`: (flash, static RAM, code in RAM).
-fn sizes(size_tool: &Path, elf: &Path) -> anyhow::Result<(u64, u64, u64)> {
+pub(super) fn sizes(size_tool: &Path, elf: &Path) -> anyhow::Result<(u64, u64, u64)> {
     let text = run(Command::new(size_tool).arg("-A").arg(elf), "llvm-size")?;
     let (mut flash, mut ram, mut ramfunc) = (0, 0, 0);
     for line in text.lines() {
@@ -448,16 +477,21 @@ fn soft_float_symbols(nm: &Path, elf: &Path) -> anyhow::Result<Vec<String>> {
 }
 
 /// (instructions, cycles) of each measured call, by section name.
-type Sections = HashMap<String, Vec<(u64, u64)>>;
+pub(super) type Sections = HashMap<String, Vec<(u64, u64)>>;
 
 /// The worst (instructions, cycles) per section of the bench built for `rate` (None: its
 /// default), run under QEMU; and the bench's ELF.
-fn bench_sections(root: &Path, rate: Option<u32>) -> anyhow::Result<(Sections, PathBuf)> {
+pub(super) fn bench_sections(
+    root: &Path,
+    core: &Core,
+    rate: Option<u32>,
+) -> anyhow::Result<(Sections, PathBuf)> {
     let bench = build_thumb(
         root,
-        &root.join("examples/qemu-m4f/Cargo.toml"),
+        core.target,
+        &root.join(core.manifest),
         "bench",
-        "building the bench (thumbv7em)",
+        &format!("building the bench ({})", core.target),
         rate,
     )?;
     let version = run(
@@ -469,7 +503,7 @@ fn bench_sections(root: &Path, rate: Option<u32>) -> anyhow::Result<(Sections, P
     let trace_path = dir.join("trace.log");
     run(
         Command::new("qemu-system-arm")
-            .args(["-machine", "mps2-an386", "-cpu", "cortex-m4", "-nographic"])
+            .args(["-machine", core.machine, "-cpu", core.cpu, "-nographic"])
             .args(["-semihosting-config", "enable=on,target=native"])
             .args(one_insn_per_tb_flags(&version)?)
             .args(["-d", "exec,nochain", "-D"])
@@ -482,7 +516,7 @@ fn bench_sections(root: &Path, rate: Option<u32>) -> anyhow::Result<(Sections, P
         .with_context(|| format!("reading {}", trace_path.display()))?;
     let _ = std::fs::remove_dir_all(&dir);
     let insns = disassemble(&llvm_tool(root, "llvm-objdump")?, &bench)?;
-    let found = sections(&read_trace(&trace_text), &insns)?;
+    let found = sections(&read_trace(&trace_text), &insns, core.cycles)?;
     Ok((found, bench))
 }
 
@@ -491,12 +525,13 @@ fn bench_sections(root: &Path, rate: Option<u32>) -> anyhow::Result<(Sections, P
 pub fn measure(root: &Path) -> anyhow::Result<CyclesReport> {
     let mut rates = Vec::new();
     for r in BOARD_RATES_HZ {
-        let (found, _) = bench_sections(root, Some(r))?;
+        let (found, _) = bench_sections(root, &M4F, Some(r))?;
         rates.push(rate_cycles(&found, r));
     }
-    let (found, bench) = bench_sections(root, None)?;
+    let (found, bench) = bench_sections(root, &M4F, None)?;
     let board = build_thumb(
         root,
+        M4F.target,
         &root.join("examples/b-g431b-esc1/image/Cargo.toml"),
         "b-g431b-esc1",
         "building the board firmware (thumbv7em)",

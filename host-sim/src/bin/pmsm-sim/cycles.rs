@@ -9,6 +9,10 @@ pub struct CyclesArgs {
     /// Print JSON.
     #[arg(long)]
     json: bool,
+    /// The emulated core: `m4f` (the board's, the default) or `m0` (Cortex-M0, no FPU: the
+    /// Cortex-M0+ timing table, the CPU share of a 64 MHz part at 4 kHz; issue #30).
+    #[arg(long, default_value = "m4f", value_parser = ["m4f", "m0"])]
+    core: String,
 }
 
 /// The measured calls, in the table's order, with their labels.
@@ -66,6 +70,9 @@ pub fn cycles(args: CyclesArgs) -> anyhow::Result<String> {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .parent()
         .ok_or_else(|| anyhow::anyhow!("no workspace root"))?;
+    if args.core == "m0" {
+        return cycles_m0(root, args.json);
+    }
     let r = pmsm_host_sim::analysis::cycles::measure(root)?;
     let mut out = String::new();
     if args.json {
@@ -128,5 +135,51 @@ pub fn cycles(args: CyclesArgs) -> anyhow::Result<String> {
             top.cpu_share_pct
         );
     }
+    Ok(out)
+}
+
+/// `cycles --core m0`: the bench on the emulated Cortex-M0 (table or JSON).
+fn cycles_m0(root: &std::path::Path, json: bool) -> anyhow::Result<String> {
+    let r = pmsm_host_sim::analysis::cycles_m0::measure_m0(root)?;
+    let mut out = String::new();
+    if json {
+        outln!(out, "{}", serde_json::to_string(&r)?);
+        return Ok(out);
+    }
+    outln!(
+        out,
+        "Cortex-M0 (QEMU microbit, thumbv6m: the f32 core in software floating point), Cortex-M0+ cycles:"
+    );
+    let mut t = table(&["measured call", "cycles est"], &[1]);
+    for (what, c) in [
+        (
+            "step, sliding primary (worst over a turn)",
+            r.step_cycles_est,
+        ),
+        ("  worst of four runs across ±π", r.step_seam_cycles_est),
+        (
+            "step, flux observer primary",
+            r.step_flux_primary_cycles_est,
+        ),
+        ("step, open loop (start-up)", r.step_open_loop_cycles_est),
+        ("step, voltage at its limit", r.step_saturated_cycles_est),
+        ("1 kHz task, sliding primary", r.tick_cycles_est),
+        ("1 kHz task, flux primary", r.tick_flux_primary_cycles_est),
+        ("1 kHz task, open loop", r.tick_open_loop_cycles_est),
+    ] {
+        t.add_row([what.to_string(), c.to_string()]);
+    }
+    outln!(out, "{t}");
+    outln!(
+        out,
+        "CPU share of a 64 MHz part at 4 kHz: {:.1} % (issue #30's budget for the fixed-point step: 30 %)",
+        r.cpu_share_pct
+    );
+    outln!(
+        out,
+        "the emulated M0 drive image (cargo emu-m0): flash {} bytes, static RAM {} bytes",
+        r.image_flash_bytes,
+        r.image_ram_bytes
+    );
     Ok(out)
 }

@@ -1,0 +1,161 @@
+//! `pmsm-sim cycles --core m0`: the same bench on an emulated Cortex-M0 (QEMU `microbit`,
+//! thumbv6m: no FPU, so the f32 core runs in software floating point), weighted with the
+//! Cortex-M0+ timing table, and the CPU share of a 64 MHz part at 4 kHz. Issue #30's budget
+//! is for the fixed-point step (step ≤ 3000 cycles, 1 kHz task ≤ 6000, ≤ 30 % of 64 MHz at
+//! 4 kHz); until that step exists this measures the f32 core there, the baseline it replaces.
+//!
+//! Cortex-M0+ timing (ARM DDI 0484C, Cortex-M0+ Technical Reference Manual, sec 3.3, with the
+//! single-cycle multiplier): ALU and MULS 1; LDR/STR (all widths) 2; LDM, STM, PUSH 1 + n; POP
+//! 1 + n, 3 + n when it loads PC; B, BX, BLX taken 2 (a conditional branch not taken 1); BL 3;
+//! DMB, DSB, ISB 3. The M0 that QEMU emulates executes the same Thumb instructions; the table
+//! is the M0+'s (its 2-stage pipeline), the part the issue names. No wait states.
+
+use super::cycles::{
+    bench_sections, build_thumb, is_branch, llvm_tool, register_count, sizes, Core, Insn,
+};
+use anyhow::Context;
+use serde::Serialize;
+use std::path::Path;
+
+/// The Cortex-M0 (QEMU microbit, an nRF51822), the Cortex-M0+ timing table.
+const M0: Core = Core {
+    target: "thumbv6m-none-eabi",
+    manifest: "examples/qemu-m0/Cargo.toml",
+    machine: "microbit",
+    cpu: "cortex-m0",
+    cycles,
+};
+
+/// The M0 part of issue #30: 64 MHz, the step at 4 kHz.
+pub const M0_CLOCK_HZ: f64 = 64.0e6;
+/// See [`M0_CLOCK_HZ`].
+pub const M0_STEP_RATE_HZ: f64 = 4000.0;
+
+/// Cortex-M0+ cycles of one executed instruction (`taken`: control went elsewhere than the
+/// next instruction).
+pub(super) fn cycles(insn: &Insn, taken: bool) -> u64 {
+    let m = insn.mnemonic.as_str();
+    let base = m.split('.').next().unwrap_or(m);
+    if base == "bl" {
+        return 3;
+    }
+    if is_branch(m) {
+        return if taken { 2 } else { 1 };
+    }
+    if base == "push" || base.starts_with("stm") {
+        return 1 + register_count(&insn.operands);
+    }
+    if base == "pop" || base.starts_with("ldm") {
+        let pc = insn.operands.contains("pc");
+        return 1 + register_count(&insn.operands) + if pc { 2 } else { 0 };
+    }
+    if base.starts_with("ldr") || base.starts_with("str") {
+        return 2;
+    }
+    if matches!(base, "dmb" | "dsb" | "isb") {
+        return 3;
+    }
+    1
+}
+
+/// The answer of `pmsm-sim cycles --core m0`.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct M0Report {
+    /// Worst step over a turn, sliding observer primary (Cortex-M0+ cycles).
+    pub step_cycles_est: u64,
+    /// Worst step, flux observer primary.
+    pub step_flux_primary_cycles_est: u64,
+    /// Worst step in open loop.
+    pub step_open_loop_cycles_est: u64,
+    /// Worst step with the voltage at its limit.
+    pub step_saturated_cycles_est: u64,
+    /// Worst step across ±π.
+    pub step_seam_cycles_est: u64,
+    /// Worst 1 kHz task, sliding primary, flux primary, open loop.
+    pub tick_cycles_est: u64,
+    /// See `tick_cycles_est`.
+    pub tick_flux_primary_cycles_est: u64,
+    /// See `tick_cycles_est`.
+    pub tick_open_loop_cycles_est: u64,
+    /// `(worst step × 4 kHz + worst tick × 1 kHz) / 64 MHz` \[%].
+    pub cpu_share_pct: f64,
+    /// The emulated M0 drive image (`cargo emu-m0`): flash and static RAM \[bytes].
+    pub image_flash_bytes: u64,
+    /// See `image_flash_bytes`.
+    pub image_ram_bytes: u64,
+}
+
+/// Builds and runs the bench on the emulated Cortex-M0, and sizes the M0 drive image.
+pub fn measure_m0(root: &Path) -> anyhow::Result<M0Report> {
+    let (found, _) = bench_sections(root, &M0, None)?;
+    let worst = |name: &str| -> anyhow::Result<u64> {
+        found
+            .get(name)
+            .filter(|v| !v.is_empty())
+            .map(|v| v.iter().map(|&(_, c)| c).max().unwrap_or(0))
+            .with_context(|| format!("section {name} not found in the M0 trace"))
+    };
+    let image = build_thumb(
+        root,
+        M0.target,
+        &root.join(M0.manifest),
+        "qemu-m0",
+        "building the M0 drive image (thumbv6m)",
+        None,
+    )?;
+    let (image_flash_bytes, image_ram_bytes, _) = sizes(&llvm_tool(root, "llvm-size")?, &image)?;
+    let steps = [
+        worst("step")?,
+        worst("step_seam")?,
+        worst("step_flux_primary")?,
+        worst("step_open_loop")?,
+        worst("step_saturated")?,
+    ];
+    let ticks = [
+        worst("tick")?,
+        worst("tick_flux_primary")?,
+        worst("tick_open_loop")?,
+    ];
+    let step_max = steps.iter().copied().max().unwrap_or(0);
+    let tick_max = ticks.iter().copied().max().unwrap_or(0);
+    Ok(M0Report {
+        step_cycles_est: steps[0],
+        step_seam_cycles_est: steps[1],
+        step_flux_primary_cycles_est: steps[2],
+        step_open_loop_cycles_est: steps[3],
+        step_saturated_cycles_est: steps[4],
+        tick_cycles_est: ticks[0],
+        tick_flux_primary_cycles_est: ticks[1],
+        tick_open_loop_cycles_est: ticks[2],
+        cpu_share_pct: 100.0 * (step_max as f64 * M0_STEP_RATE_HZ + tick_max as f64 * 1000.0)
+            / M0_CLOCK_HZ,
+        image_flash_bytes,
+        image_ram_bytes,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn insn(m: &str, o: &str) -> Insn {
+        Insn {
+            mnemonic: m.into(),
+            operands: o.into(),
+        }
+    }
+
+    /// The Cortex-M0+ table (TRM sec 3.3): what differs from the M4's.
+    #[test]
+    fn m0plus_timing() {
+        assert_eq!(cycles(&insn("adds", "r0, r1"), false), 1);
+        assert_eq!(cycles(&insn("muls", "r0, r1, r0"), false), 1);
+        assert_eq!(cycles(&insn("ldr", "r0, [r1]"), false), 2);
+        assert_eq!(cycles(&insn("bl", "0x100"), true), 3);
+        assert_eq!(cycles(&insn("bne", "0x100"), true), 2);
+        assert_eq!(cycles(&insn("bne", "0x100"), false), 1);
+        assert_eq!(cycles(&insn("bx", "lr"), true), 2);
+        assert_eq!(cycles(&insn("push", "{r4, r5, r6, r7, lr}"), false), 6);
+        assert_eq!(cycles(&insn("pop", "{r4-r7, pc}"), true), 1 + 5 + 2);
+    }
+}
