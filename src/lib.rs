@@ -15,6 +15,7 @@ pub mod bounds;
 pub mod control;
 pub mod dead_time;
 pub mod drive;
+pub mod fixed;
 pub mod foc;
 pub mod frames;
 pub mod load_observer;
