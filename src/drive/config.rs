@@ -164,10 +164,15 @@ impl DriveConfig {
         // ψ_f + (L_d − L_q) I, the holding stiffness of align and open loop
         // I (ψ_f + (L_d − L_q) I) is largest at I = ψ_f/(2 (L_q − L_d)) and gone at twice it
         // (the rotor then settles at ±90°, and the flux observer's read-out turns by π): align
-        // and open loop at most at that current (`crate::observer::flux`). Infinite, no cap,
-        // for L_d ≥ L_q.
+        // and open loop at most at that current (`crate::observer::flux`). No cap for
+        // L_d ≥ L_q.
         let m = &motor.params;
-        let i_start = i_rated.min(m.flux_wb / (2.0 * (-m.l_d_minus_l_q_h()).max(0.0)));
+        let l_q_minus_l_d = -m.l_d_minus_l_q_h();
+        let i_start = if l_q_minus_l_d > 0.0 {
+            i_rated.min(m.flux_wb / (2.0 * l_q_minus_l_d))
+        } else {
+            i_rated
+        };
         let i_max = 1.5 * i_rated;
         let i_trip = 1.5 * i_max;
         let bus = motor.ratings.bus_v;
