@@ -49,15 +49,22 @@ impl TorqueConvention {
     }
 }
 
-/// Electrical and mechanical parameters of a surface-mounted PMSM (SI units).
+/// Electrical and mechanical parameters of a PMSM (SI units): surface-mounted (`L_d = L_q`,
+/// `saliency` 1, the papers' model) or salient (interior magnets, `saliency = L_q/L_d ≠ 1`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MotorParams {
     /// Pole pairs `N` (Horng) / `n_P` (Ortega); `θ_e = N θ_m`. At least 1.
     pub pole_pairs: u32,
     /// Stator phase resistance `R` \[Ω], > 0.
     pub r_ohm: f32,
-    /// Stator inductance `L` \[H] (non-salient), > 0.
+    /// Stator inductance `L` \[H], > 0: of a non-salient motor (`saliency` 1) its one
+    /// inductance, `L_d = L_q = l_h`; of a salient one the mean `(L_d + L_q)/2`, the one `L`
+    /// a block written for the non-salient model is given (and what an identification that
+    /// measures both axes gives). [`MotorParams::l_d_h`], [`MotorParams::l_q_h`].
     pub l_h: f32,
+    /// Saliency `ξ = L_q/L_d`, in [`MotorParams::SALIENCY`]: 1 for a non-salient motor (then
+    /// `L_d = L_q = l_h` exactly), 1.5 to 4 for interior-magnet motors.
+    pub saliency: f32,
     /// Permanent-magnet flux linkage `K` = `Φ` [Wb = V·s/rad], > 0.
     pub flux_wb: f32,
     /// Rotor inertia `H` = `J` \[kg·m²], > 0.
@@ -81,6 +88,9 @@ impl MotorParams {
     pub const J_KGM2: Allowed = Allowed::between(1e-9, 1e3);
     /// Viscous friction accepted \[N·m·s/rad]: 0 to 10³.
     pub const B_NMS: Allowed = Allowed::between(0.0, 1e3);
+    /// Saliency `L_q/L_d` accepted: 0.5 (inverse-saliency machines) to 10 (PM-assisted
+    /// synchronous reluctance machines); interior-magnet motors are 1.5 to 4.
+    pub const SALIENCY: Allowed = Allowed::between(0.5, 10.0);
 
     /// Validated parameters of a three-phase motor in physical N·m
     /// ([`TorqueConvention::ThreePhase`]; [`MotorParams::with_torque`] for the papers'); the
@@ -108,6 +118,7 @@ impl MotorParams {
             flux_wb,
             j_kgm2,
             b_nms,
+            saliency: 1.0,
             torque: TorqueConvention::ThreePhase,
         })
     }
@@ -117,17 +128,63 @@ impl MotorParams {
         Self { torque, ..self }
     }
 
+    /// The salient motor of inductances `l_d_h`, `l_q_h` \[H] with these parameters
+    /// otherwise: `l_h` their mean, `saliency` their ratio; the error names the bad one.
+    pub fn with_inductances(self, l_d_h: f32, l_q_h: f32) -> Result<Self, ParamError> {
+        let mut c = Checks::new();
+        c.check("l_d_h", l_d_h, Self::L_H);
+        c.check("l_q_h", l_q_h, Self::L_H);
+        c.done()?;
+        Self {
+            l_h: 0.5 * (l_d_h + l_q_h),
+            saliency: l_q_h / l_d_h,
+            ..self
+        }
+        .validate()
+    }
+
     /// Re-checks a value built field by field (e.g. after scaling).
     pub fn validate(self) -> Result<Self, ParamError> {
-        Ok(Self::new(
-            self.pole_pairs,
-            self.r_ohm,
-            self.l_h,
-            self.flux_wb,
-            self.j_kgm2,
-            self.b_nms,
-        )?
-        .with_torque(self.torque))
+        Self::SALIENCY.check("saliency", self.saliency)?;
+        Ok(Self {
+            saliency: self.saliency,
+            ..Self::new(
+                self.pole_pairs,
+                self.r_ohm,
+                self.l_h,
+                self.flux_wb,
+                self.j_kgm2,
+                self.b_nms,
+            )?
+            .with_torque(self.torque)
+        })
+    }
+
+    /// d-axis inductance `L_d = 2 l_h/(1 + ξ)` \[H] (along the magnet): `l_h` exactly for a
+    /// non-salient motor (ξ = 1).
+    #[inline]
+    pub fn l_d_h(&self) -> f32 {
+        self.l_h * (2.0 / (1.0 + self.saliency))
+    }
+
+    /// q-axis inductance `L_q = ξ L_d` \[H]: `l_h` exactly for a non-salient motor.
+    #[inline]
+    pub fn l_q_h(&self) -> f32 {
+        self.saliency * self.l_d_h()
+    }
+
+    /// `L_d − L_q` \[H] (negative for an interior-magnet motor), 0 exactly for a non-salient
+    /// one: the reluctance torque's `(3/2) N (L_d − L_q) i_d i_q` and the active flux's
+    /// `ψ_f + (L_d − L_q) i_d` ([`crate::observer::flux`]).
+    #[inline]
+    pub fn l_d_minus_l_q_h(&self) -> f32 {
+        self.l_d_h() - self.l_q_h()
+    }
+
+    /// The motor is salient: `L_d ≠ L_q`.
+    #[inline]
+    pub fn is_salient(&self) -> bool {
+        self.saliency != 1.0
     }
 
     /// The papers' model of this motor, `τ = N ψ_f i_q`: the same electrical part, `J` and `B`
@@ -269,6 +326,7 @@ pub const HORNG_SINANO: Motor = Motor {
         flux_wb: 5.795e-2,
         j_kgm2: 6.45e-5,
         b_nms: 8.06e-5,
+        saliency: 1.0,
         torque: TorqueConvention::Papers,
     },
     ratings: Ratings {
@@ -297,6 +355,7 @@ pub const ORTEGA_SIM_40KW: Motor = Motor {
         flux_wb: 0.146,
         j_kgm2: 0.1,
         b_nms: 0.01,
+        saliency: 1.0,
         torque: TorqueConvention::Papers,
     },
     ratings: Ratings {
@@ -326,6 +385,7 @@ pub const ORTEGA_TEST_0P3KW: Motor = Motor {
         flux_wb: 0.11,
         j_kgm2: 1.0e-3,
         b_nms: 1.0e-3,
+        saliency: 1.0,
         torque: TorqueConvention::Papers,
     },
     ratings: Ratings {
@@ -351,6 +411,7 @@ pub const ORTEGA_DYNAMO_1KW: Motor = Motor {
         flux_wb: 0.099,
         j_kgm2: 1.0e-3,
         b_nms: 1.0e-3,
+        saliency: 1.0,
         torque: TorqueConvention::Papers,
     },
     ratings: Ratings {

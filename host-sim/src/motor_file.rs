@@ -26,9 +26,10 @@
 //! ```
 //!
 //! Salient motors (`l_d_h`, `l_q_h`; `pmsm_plant::inductance` for the saturation model):
-//! the plant runs on `L_d`, `L_q` and the saturation ([`Loaded::inductances`]); the drive's
-//! one inductance `l_h` is their mean ([`Inductances::non_salient_l_h`], the one place that
-//! chooses it). `l_h` alone means `L_d = L_q = l_h`. Each inductance must be within the
+//! the plant runs on `L_d`, `L_q` and the saturation ([`Loaded::inductances`]); the drive is
+//! given both unsaturated ones, as their mean `l_h` ([`Inductances::non_salient_l_h`], the one
+//! `L` of the blocks written for a non-salient motor) and their ratio `saliency`
+//! ([`Inductances::saliency`]; `MotorParams::l_d_h`, `MotorParams::l_q_h`). `l_h` alone means `L_d = L_q = l_h`. Each inductance must be within the
 //! core's range for `l_h`, and `L_q/L_d` within [`SALIENCY`] (inverse-saliency machines
 //! reach about 0.5, interior-magnet ones 1.5 to 4, PM-assisted synchronous reluctance
 //! machines up to about 10); a saturation needs `i_sat_a` > 0 A and `exponent` in (0, 1].
@@ -213,6 +214,17 @@ pub fn parse_full(text: &str) -> anyhow::Result<Loaded> {
     )
     .map_err(|e| in_file_terms(e, &given))?
     .with_torque(torque);
+    // The drive is given both inductances: `l_h` their mean, `saliency` their ratio
+    // (`MotorParams::l_d_h`, `MotorParams::l_q_h`); a non-salient file keeps saliency 1.
+    let params = match &inductances {
+        Some(own) => MotorParams {
+            saliency: own.saliency() as f32,
+            ..params
+        }
+        .validate()
+        .map_err(|e| in_file_terms(e, &given))?,
+        None => params,
+    };
     let rf = &f.ratings;
     let current = one_of(
         ("ratings.current_a", rf.current_a),

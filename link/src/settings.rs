@@ -175,6 +175,7 @@ impl MotorSettings {
                 flux_wb: self.flux_wb,
                 j_kgm2: self.j_kgm2,
                 b_nms: self.b_nms,
+                saliency: 1.0,
                 torque: self.torque.into(),
             },
             ratings: Ratings {

@@ -142,8 +142,9 @@ impl DriveConfig {
     /// Defaults from the motor's ratings: current command limit 1.5× the current of rated
     /// torque, trip at 1.5× that, sensing range 2× the trip; bus trips at 0.75 and 1.25 of the
     /// rated bus; align and open-loop currents the rated-torque current (they hold the rotor
-    /// against an active load of half rated torque at 30° of load angle) for 0.2 s and up the
-    /// ramp; the ramp climbs the rated speed in a second; hand-over at 10 %
+    /// against an active load of half rated torque at 30° of load angle), on a salient motor with
+    /// `L_d < L_q` at most `ψ_f/(2 (L_q − L_d))` (the most holding stiffness), for 0.2 s and up
+    /// the ramp; the ramp climbs the rated speed in a second; hand-over at 10 %
     /// of rated speed; hand-back (without a healthy observer) below 6 %; stopped below 2 %;
     /// an observer healthy after 20 ms of mean residual below ¼, lost after 3 ms at ½;
     /// observer loss after 20 ms without a healthy one or of 30° or 10 % of rated speed
@@ -159,6 +160,19 @@ impl DriveConfig {
     /// budget ([`DriveConfig::rate_choice`]).
     pub fn new(motor: &Motor) -> Self {
         let i_rated = motor.rated_torque_current_a();
+        // A salient motor with L_d < L_q: a d current I along the rotor makes the active flux
+        // ψ_f + (L_d − L_q) I, the holding stiffness of align and open loop
+        // I (ψ_f + (L_d − L_q) I) is largest at I = ψ_f/(2 (L_q − L_d)) and gone at twice it
+        // (the rotor then settles at ±90°, and the flux observer's read-out turns by π): align
+        // and open loop at most at that current (`crate::observer::flux`). No cap for
+        // L_d ≥ L_q.
+        let m = &motor.params;
+        let l_q_minus_l_d = -m.l_d_minus_l_q_h();
+        let i_start = if l_q_minus_l_d > 0.0 {
+            i_rated.min(m.flux_wb / (2.0 * l_q_minus_l_d))
+        } else {
+            i_rated
+        };
         let i_max = 1.5 * i_rated;
         let i_trip = 1.5 * i_max;
         let bus = motor.ratings.bus_v;
@@ -177,9 +191,9 @@ impl DriveConfig {
                 bus_max_v: 1.25 * bus,
             },
             start: StartConfig {
-                align_current_a: i_rated,
+                align_current_a: i_start,
                 align_time_s: 0.2,
-                open_loop_current_a: i_rated,
+                open_loop_current_a: i_start,
                 accel_rpm_per_s: speed,
                 handover_rpm: 0.1 * speed,
                 handback_rpm: 0.06 * speed,

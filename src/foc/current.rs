@@ -1,5 +1,6 @@
 //! The d/q current loop: PIs with decoupling and back-EMF feed-forward (Ortega Sec V iv,
-//! dq model (3)), and the voltage vector's limit to the circle the inverter applies.
+//! dq model (3), with `L_d`, `L_q` for a salient motor), and the voltage vector's limit to the
+//! circle the inverter applies.
 
 use crate::frames::Dq;
 use crate::math::all_finite;
@@ -11,9 +12,13 @@ const CUT_INSIDE: f32 = 1.0 - 1.0 / 262_144.0;
 /// d/q current PIs with decoupling, back-EMF feed-forward and voltage-vector saturation.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CurrentLoop {
-    pub(super) kp: f32,
+    /// Proportional gains of the d and q PIs, `L_d ω_c`, `L_q ω_c` \[V/A].
+    pub(super) kp_d: f32,
+    pub(super) kp_q: f32,
     pub(super) ki_ts: f32,
-    pub(super) l_h: f32,
+    /// `L_d`, `L_q` \[H] of the decoupling (`L` on both of a non-salient motor).
+    pub(super) l_d_h: f32,
+    pub(super) l_q_h: f32,
     pub(super) flux_wb: f32,
 }
 
@@ -59,9 +64,11 @@ impl CurrentLoop {
         let e_q = i_dq_ref.q - i_dq.q;
         let int_d = state.integral_d + self.ki_ts * e_d;
         let int_q = state.integral_q + self.ki_ts * e_q;
-        // Ortega Sec V iv: decoupling and back-EMF feed-forward.
-        let v_d = self.kp * e_d + int_d - omega_e * self.l_h * i_dq.q;
-        let v_q = self.kp * e_q + int_q + omega_e * (self.l_h * i_dq.d + self.flux_wb);
+        // Ortega Sec V iv: decoupling and back-EMF feed-forward, with `L_d`, `L_q` of the
+        // salient dq model `v_d = R i_d + L_d di_d/dt − ω_e L_q i_q`,
+        // `v_q = R i_q + L_q di_q/dt + ω_e (L_d i_d + ψ_f)` (eq (3) when `L_d = L_q`).
+        let v_d = self.kp_d * e_d + int_d - omega_e * self.l_q_h * i_dq.q;
+        let v_q = self.kp_q * e_q + int_q + omega_e * (self.l_d_h * i_dq.d + self.flux_wb);
         let out = limit(Dq::new(v_d, v_q), v_max);
         // Anti-windup: the integrators move only while the vector is inside the circle.
         if !out.saturated {

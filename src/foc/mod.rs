@@ -7,12 +7,16 @@
 //! Gains come from the motor parameters and requested bandwidths (defaults of Horng & Chin
 //! Sec 5: current loop 300 Hz at 4 kHz, speed loop 20 Hz at 1 kHz):
 //! - current PI, pole-zero cancellation of `1/(R + sL)`: `kp = L ω_c`, `ki = R ω_c`, so the
-//!   closed loop is `ω_c/(s + ω_c)`;
+//!   closed loop is `ω_c/(s + ω_c)`; of a salient motor each axis on its own inductance,
+//!   `kp_d = L_d ω_c`, `kp_q = L_q ω_c` with the one `ki = R ω_c`: the PI's zero `R/L_d`
+//!   (`R/L_q`) cancels that axis' pole, so both axes close at `ω_c`;
 //! - speed PI on `N ψ_f/(J s + B)`: `kp = J ω_s/(N ψ_f)`, `ki = kp ω_s/4` (integral zero a
 //!   quarter of the crossover, ≈ 76° phase margin before sample and current-loop delays).
 //!
 //! Decoupling and back-EMF feed-forward, Ortega Sec V iv (dq model (3)):
-//! `v_d = PI_d − ω_e L i_q`, `v_q = PI_q + ω_e L i_d + ω_e ψ_f`.
+//! `v_d = PI_d − ω_e L i_q`, `v_q = PI_q + ω_e L i_d + ω_e ψ_f`; of a salient motor
+//! `v_d = PI_d − ω_e L_q i_q`, `v_q = PI_q + ω_e L_d i_d + ω_e ψ_f` (the dq model with
+//! `L_d`, `L_q`; the same when `L_d = L_q`).
 //!
 //! The inverter's dead time is compensated between the loop and SVPWM ([`crate::dead_time`]):
 //! the voltage it takes is added to the command, and the voltage reported for the observers
@@ -79,7 +83,8 @@ impl FocConfig {
         }
     }
 
-    /// The PI gains (module doc): current `kp = L ω_c` \[V/A], `ki = R ω_c` \[V/(A·s)]; speed
+    /// The PI gains (module doc): current `kp = L ω_c` \[V/A] (`L_d ω_c`, `L_q ω_c` per axis of
+    /// a salient motor), `ki = R ω_c` \[V/(A·s)]; speed
     /// `kp = J ω_s/(N ψ_f)` \[A·s/rad], `ki = kp ω_s/4` \[A/rad]. Unvalidated: [`FocConfig::build`]
     /// checks the settings first.
     pub fn gains(&self) -> FocGains {
@@ -88,7 +93,8 @@ impl FocConfig {
         let w_s = TAU * self.speed_bandwidth_hz;
         let speed_kp = m.j_kgm2 * w_s / m.torque_constant();
         FocGains {
-            current_kp: m.l_h * w_c,
+            current_kp: m.l_d_h() * w_c,
+            current_kp_q: m.l_q_h() * w_c,
             current_ki: m.r_ohm * w_c,
             speed_kp,
             speed_ki: speed_kp * w_s / 4.0,
@@ -137,9 +143,11 @@ impl FocConfig {
         Ok(Foc {
             schedule,
             current: CurrentLoop {
-                kp: g.current_kp,
+                kp_d: g.current_kp,
+                kp_q: g.current_kp_q,
                 ki_ts: g.current_ki * ts,
-                l_h: motor.l_h,
+                l_d_h: motor.l_d_h(),
+                l_q_h: motor.l_q_h(),
                 flux_wb: motor.flux_wb,
             },
             speed,
@@ -155,8 +163,10 @@ impl FocConfig {
 /// The PI gains [`FocConfig::gains`] derives.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FocGains {
-    /// Current PI proportional gain `L ω_c` \[V/A].
+    /// Current PI proportional gain `L ω_c` \[V/A]; of a salient motor the d axis', `L_d ω_c`.
     pub current_kp: f32,
+    /// The q-axis PI's proportional gain `L_q ω_c` \[V/A] (`current_kp` when `L_d = L_q`).
+    pub current_kp_q: f32,
     /// Current PI integral gain `R ω_c` \[V/(A·s)].
     pub current_ki: f32,
     /// Speed PI proportional gain `J ω_s/(N ψ_f)` \[A·s/rad].
@@ -311,15 +321,17 @@ impl Foc {
         SinCos::of_small(self.pole_pairs * omega_m * self.advance_s)
     }
 
-    /// This FOC with its current loop's gains replaced: `kp` \[V/A], `ki_ts` = `ki T` \[V/A],
-    /// the decoupling inductance `l_h` \[H] and the flux linkage fed forward `flux_wb` \[Wb]
-    /// (the identification's loop, from the parameters it measured).
+    /// This FOC with its current loop's gains replaced: `kp` \[V/A] on both axes, `ki_ts` =
+    /// `ki T` \[V/A], the decoupling inductance `l_h` \[H] on both axes and the flux linkage fed
+    /// forward `flux_wb` \[Wb] (the identification's loop, from the parameters it measured).
     pub fn with_current_gains(&self, kp: f32, ki_ts: f32, l_h: f32, flux_wb: f32) -> Self {
         Self {
             current: CurrentLoop {
-                kp,
+                kp_d: kp,
+                kp_q: kp,
                 ki_ts,
-                l_h,
+                l_d_h: l_h,
+                l_q_h: l_h,
                 flux_wb,
             },
             ..*self

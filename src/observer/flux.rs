@@ -1,5 +1,5 @@
 //! Ortega, Praly, Astolfi, Lee, Nam: the gradient flux observer, eq (9), with the position
-//! read-out of Sec V iii.
+//! read-out of Sec V iii; in the active-flux form for a salient motor.
 //!
 //! ```text
 //! dx̂/dt = y12 + (γ/2)(x̂ − L i)(Φ² − |x̂ − L i|²),   y12 = v − R i          (9), (7)
@@ -7,10 +7,43 @@
 //! ```
 //! `x` is the stator flux linkage in αβ \[Wb], `Φ` the magnet flux, θ electrical.
 //!
+//! **Salient motors (`L_d ≠ L_q`): the active flux.** The stator flux of a salient PMSM is
+//! `x = L_q i + ψ_a c(θ)`, `ψ_a = ψ_f + (L_d − L_q) i_d`: the "active flux" `η = x − L_q i`
+//! lies along the rotor's d axis with the length `ψ_a` (Boldea, Paicu, Andreescu, "Active flux
+//! concept for motion-sensorless unified AC drives", IEEE Trans. Power Electron. 23(5), 2008:
+//! their `ψ_d^a = ψ_s − L_q i_s`; the form the IPMSM observer of Ortega, Yi, Vukosavic, Nam,
+//! Choi, "A globally exponentially stable position observer for interior permanent magnet
+//! synchronous motors", Automatica 125, 2021, starts from). It is eq (4) with `L` → `L_q`
+//! and `Φ` → `ψ_a`, and `ẋ = y12` (eq (6)) is unchanged, so the observer here is eq (9) with
+//! `η̂ = x̂ − L_q i` and `ψ_a²` in place of `Φ²`:
+//!
+//! ```text
+//! dx̂/dt = y12 + (γ/2) η̂ (ψ̂_a² − |η̂|²),   η̂ = x̂ − L_q i,   ψ̂_a = ψ_f + (L_d − L_q) î_d
+//! θ̂_e = atan2(η̂₂, η̂₁)
+//! ```
+//!
+//! `î_d = i·η̂/|η̂|` is the measured current's d component in the observer's own frame (the
+//! frame the FOC runs in while the observer is primary), not the d-current reference: during
+//! align, the open-loop start and a catch the reference is in another frame (the open loop's),
+//! and at the voltage limit the current does not follow it, while `î_d` is the current the
+//! motor carries along the axis the observer estimates. Once the angle has converged
+//! `î_d = i_d` and the equations are the motor's; the `ψ̂_a²` term is then no longer the exact
+//! gradient of `|η̂|²`'s distance to a fixed circle (its radius moves with `θ̂`), so the
+//! global convergence of the paper's Proposition 1 is not claimed for it: it is the local
+//! behaviour, with `Φ` → `ψ_a`, of the paper's observer, and the global IPMSM result is that of
+//! Ortega, Yi et al. 2021 (a different observer, not built here). Bounds with ψ_a: the
+//! radial step below multiplies by `1 − γψ_a²T`, so the default γ (`γΦ²T ≤ 1`) stays stable
+//! while `ψ_a < √2 ψ_f` (`|(L_d − L_q) i_d| < 0.41 ψ_f` with `i_d < 0` on an interior-magnet
+//! motor); a positive `i_d` above `ψ_f/|L_d − L_q|` (an align current on a strongly salient
+//! motor) turns `ψ_a` negative and the read-out by π. With `L_d = L_q` (`saliency` 1) the
+//! equations and the code path are exactly eq (9) (bit for bit: the salient terms run only
+//! for a salient motor).
+//!
 //! Discretisation at the control period T, between the samples `k−1` and `k`:
 //! - the flux integral of `y12` is exact for a voltage held over the period and a current
 //!   linear in between: `T (v_{k−1} − R (i_{k−1} + i_k)/2)` (trapezoid for `R i`);
-//! - the gradient term is a forward-Euler step at sample `k−1`. Its radial linearisation is
+//! - the gradient term is a forward-Euler step at sample `k−1` (`ψ̂_a` from `i_{k−1}` and
+//!   `η̂_{k−1}`). Its radial linearisation is
 //!   `ṙ = −γΦ² r`, so the step multiplies a radial error by `1 − γΦ²T`: stable for
 //!   `γΦ²T < 2` ([`gamma_max_discrete`]), without overshoot for `γΦ²T ≤ 1` (half of it, where
 //!   the default γ stays).
@@ -19,7 +52,7 @@
 //! half-period lag.
 
 use crate::frames::{AlphaBeta, SinCos};
-use crate::math::{all_finite, atan2, is_normal_positive, rsqrt_normal};
+use crate::math::{all_finite, atan2, is_normal_positive, max, rsqrt_normal};
 use crate::motor::MotorParams;
 use crate::param::{Allowed, Checks, ParamError};
 use core::hint::cold_path;
@@ -58,7 +91,7 @@ pub fn gamma_recommended(
 /// Settings of the flux observer.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FluxConfig {
-    /// Motor model (R, L, Φ are used).
+    /// Motor model (R, L_d, L_q, Φ are used).
     pub motor: MotorParams,
     /// Update rate \[Hz].
     pub rate_hz: f32,
@@ -100,25 +133,39 @@ impl FluxConfig {
         Ok(FluxObserver {
             ts,
             r_ohm: m.r_ohm,
-            l_h: m.l_h,
+            l_h: m.l_q_h(),
             phi: m.flux_wb,
             phi2,
             inv_phi2: 1.0 / phi2,
             half_gamma_ts: 0.5 * gamma * ts,
+            l_d_minus_l_q: m.l_d_minus_l_q_h(),
+            salient: m.is_salient(),
+            psi_a2_min: ACTIVE_FLUX_MIN * ACTIVE_FLUX_MIN * phi2,
         })
     }
 }
+
+/// The active flux's length below which the magnitude residual takes it as this share of
+/// `ψ_f` (its square divides the residual).
+const ACTIVE_FLUX_MIN: f32 = 1e-3;
 
 /// A built flux observer.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FluxObserver {
     ts: f32,
     r_ohm: f32,
+    /// `L_q` \[H] (`L` of a non-salient motor): `η̂ = x̂ − L_q i`.
     l_h: f32,
     phi: f32,
     phi2: f32,
     inv_phi2: f32,
     half_gamma_ts: f32,
+    /// `L_d − L_q` \[H], 0 for a non-salient motor.
+    l_d_minus_l_q: f32,
+    /// `L_d ≠ L_q`: the active-flux terms run (module doc).
+    salient: bool,
+    /// `(10⁻³ ψ_f)²` \[Wb²]: the least `ψ̂_a²` the magnitude residual divides by.
+    psi_a2_min: f32,
 }
 
 /// Running state of the flux observer.
@@ -196,8 +243,14 @@ impl FluxObserver {
         if st.started {
             // Gradient term of eq (9) at sample k−1.
             let eta = st.rotor_flux;
-            let g =
-                self.half_gamma_ts * (self.phi2 - (eta.alpha * eta.alpha + eta.beta * eta.beta));
+            let mag2 = eta.alpha * eta.alpha + eta.beta * eta.beta;
+            // Φ², or ψ̂_a² of a salient motor at sample k−1 (module doc).
+            let psi2 = if self.salient {
+                self.active_flux2(eta, mag2, st.i_last)
+            } else {
+                self.phi2
+            };
+            let g = self.half_gamma_ts * (psi2 - mag2);
             // ∫ y12 dt over the period, eq (7).
             let r_half = 0.5 * self.r_ohm;
             x.alpha +=
@@ -222,21 +275,51 @@ impl FluxObserver {
         true
     }
 
+    /// `ψ̂_a² = (ψ_f + (L_d − L_q) î_d)²` \[Wb²] for the active-flux estimate `eta` (of squared
+    /// length `mag2`) and the current `i_ab` of the same sample, `î_d = i·η̂/|η̂|` (module doc;
+    /// `î_d = 0` while `η̂` is too short to normalise, before the first sample).
+    #[inline(always)]
+    fn active_flux2(&self, eta: AlphaBeta, mag2: f32, i_ab: AlphaBeta) -> f32 {
+        let i_d = if is_normal_positive(mag2) {
+            (i_ab.alpha * eta.alpha + i_ab.beta * eta.beta) * rsqrt_normal(mag2, 2)
+        } else {
+            cold_path();
+            0.0
+        };
+        let psi_a = self.phi + self.l_d_minus_l_q * i_d;
+        psi_a * psi_a
+    }
+
     /// `| |x̂ − L i|²/Φ² − 1 |`: how far the rotor-flux estimate is off the circle of radius Φ
     /// that eq (9)'s gradient term pulls it to (eqs (4), (5)). Locked, it is on it; an error
     /// `x̃` perpendicular to the true flux puts it at `tan²θ̃_e` (1 at 45° electrical), and an
     /// angle error that persists while the rotor turns shows here as the flux turns away from
     /// it. Also 1 when the motor's flux is not Φ at all (|x − L i| = 0 or √2 Φ).
+    ///
+    /// Of a salient motor the same on the active flux: `| |x̂ − L_q i|²/ψ̂_a² − 1 |`, `ψ̂_a` of
+    /// the last sample's current in the observer's frame (module doc), at least `10⁻³ ψ_f`.
     #[inline(always)]
     pub fn magnitude_residual(&self, st: &FluxState) -> f32 {
         let eta = st.rotor_flux;
-        ((eta.alpha * eta.alpha + eta.beta * eta.beta) * self.inv_phi2 - 1.0).abs()
+        let mag2 = eta.alpha * eta.alpha + eta.beta * eta.beta;
+        if self.salient {
+            let psi_a2 = max(self.active_flux2(eta, mag2, st.i_last), self.psi_a2_min);
+            (mag2 / psi_a2 - 1.0).abs()
+        } else {
+            (mag2 * self.inv_phi2 - 1.0).abs()
+        }
     }
 
-    /// Sets the estimate to a known rotor angle: `x̂ = L i + Φ c(θ_e)` (eq (4)).
+    /// Sets the estimate to a known rotor angle: `x̂ = L i + Φ c(θ_e)` (eq (4)); of a salient
+    /// motor `x̂ = L_q i + ψ_a c(θ_e)` with `ψ_a = ψ_f + (L_d − L_q) i_d` of `i_ab` at `θ_e`
+    /// (module doc).
     pub fn reset(&self, st: &mut FluxState, i_ab: AlphaBeta, theta_e: f32) {
         let (s, c) = crate::math::sin_cos(theta_e);
-        let phi = self.phi;
+        let phi = if self.salient {
+            self.phi + self.l_d_minus_l_q * (i_ab.alpha * c + i_ab.beta * s)
+        } else {
+            self.phi
+        };
         let eta = AlphaBeta::new(phi * c, phi * s);
         *st = FluxState {
             x_hat: AlphaBeta::new(

@@ -51,22 +51,28 @@ impl Inductances {
     pub fn non_salient_l_h(&self) -> f64 {
         0.5 * (self.l_d_h + self.l_q_h)
     }
+
+    /// The saliency `L_q/L_d` of the unsaturated inductances (the drive's
+    /// `MotorParams::saliency`).
+    pub fn saliency(&self) -> f64 {
+        self.l_q_h / self.l_d_h
+    }
 }
 
 impl From<&MotorParams> for PlantParams {
-    /// The non-salient, unsaturated machine of the drive's parameters: `L_d = L_q = l_h`.
+    /// The unsaturated machine of the drive's parameters: `L_d`, `L_q` of `m`
+    /// (`L_d = L_q = l_h` for a non-salient `m`).
     fn from(m: &MotorParams) -> Self {
-        let l = m.l_h as f64;
         Self {
             n: m.pole_pairs as f64,
             r: m.r_ohm as f64,
             l_d: AxisInductance {
-                l0_h: l,
+                l0_h: m.l_d_h() as f64,
                 saturation: None,
                 saturates: Saturates::Positive,
             },
             l_q: AxisInductance {
-                l0_h: l,
+                l0_h: m.l_q_h() as f64,
                 saturation: None,
                 saturates: Saturates::Magnitude,
             },

@@ -197,6 +197,7 @@ pub fn placeholder(
             flux_wb: ratings.torque_nm / (torque.factor() * n * ratings.current_a),
             j_kgm2: 1e-3,
             b_nms: 0.0,
+            saliency: 1.0,
             torque,
         },
         ratings,

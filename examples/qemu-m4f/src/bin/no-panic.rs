@@ -38,7 +38,7 @@ mod firmware {
 
     /// Values the compiler cannot know (written by a debugger, say): the motor and its
     /// ratings, then the samples and the command.
-    static mut MOTOR: [f32; 11] = [0.0; 11];
+    static mut MOTOR: [f32; 12] = [0.0; 12];
     static mut POLE_PAIRS: u32 = 0;
     static mut SAMPLE: [f32; 6] = [0.0; 6];
     static mut SPEED_RPM: f32 = 0.0;
@@ -71,6 +71,7 @@ mod firmware {
                 flux_wb: x[2],
                 j_kgm2: x[3],
                 b_nms: x[4],
+                saliency: x[11],
                 torque: TorqueConvention::ThreePhase,
             },
             ratings: Ratings {
