@@ -17,7 +17,7 @@
 //! - No division: 1/√3 and the table are constants.
 
 pub mod current;
-
+pub mod flux;
 pub mod pu;
 
 /// An electrical angle: one turn is 2³², wrapping (θ = `0` is 0 rad, `1 << 31` is ±π).
