@@ -128,8 +128,14 @@ impl CurrentLoopQ {
     ) -> CurrentLoopOutputQ {
         let e_d = i32::from(i_dq_ref.d) - i32::from(i_dq.d);
         let e_q = i32::from(i_dq_ref.q) - i32::from(i_dq.q);
-        let int_d = clamp_sym(st.integral_d.saturating_add(self.ki.mul(e_d)), self.int_max);
-        let int_q = clamp_sym(st.integral_q.saturating_add(self.ki.mul(e_q)), self.int_max);
+        let int_d = clamp_sym(
+            st.integral_d.saturating_add(self.ki.apply(e_d)),
+            self.int_max,
+        );
+        let int_q = clamp_sym(
+            st.integral_q.saturating_add(self.ki.apply(e_q)),
+            self.int_max,
+        );
         let w = i32::from(omega_e);
         // ω i in Q16 (ω·i ≤ 2³⁰).
         let w_i_d = (w * i32::from(i_dq.d) + (1 << 13)) >> 14;
@@ -137,15 +143,15 @@ impl CurrentLoopQ {
         // Ortega Sec V iv, dq model (3): v_d = PI_d − ω_e L_q i_q.
         let v_d = self
             .kp_d
-            .mul(e_d)
+            .apply(e_d)
             .saturating_add(self.integral_q15(int_d))
-            .saturating_sub(self.l_q.mul(w_i_q));
+            .saturating_sub(self.l_q.apply(w_i_q));
         // v_q = PI_q + ω_e L_d i_d + ω_e ψ_f (the last is ω in these bases).
         let v_q = self
             .kp_q
-            .mul(e_q)
+            .apply(e_q)
             .saturating_add(self.integral_q15(int_q))
-            .saturating_add(self.l_d.mul(w_i_d))
+            .saturating_add(self.l_d.apply(w_i_d))
             .saturating_add(w);
         let out = limit(v_d, v_q, v_max);
         // Anti-windup: the integrators move only while the vector is inside the circle.

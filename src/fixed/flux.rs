@@ -135,19 +135,19 @@ impl FluxObserverQ {
             let mag2 = ea * ea + eb * eb;
             let diff = self.phi2 - mag2;
             let e15 = ((diff >> 14) + 1) >> 1;
-            let g = self.g0.mul(e15).clamp(-32_768, 32_767);
+            let g = self.g0.apply(e15).clamp(-32_768, 32_767);
             // ∫ y12 dt over the period, eq (7): T v − T R (i_{k−1} + i_k)/2.
             let (ia, ib) = (i32::from(i_ab.alpha), i32::from(i_ab.beta));
             let (la, lb) = (i32::from(st.i_last.alpha), i32::from(st.i_last.beta));
             let da = self
                 .k_v
-                .mul(i32::from(v_ab.alpha))
-                .saturating_sub(self.k_r.mul(la + ia))
+                .apply(i32::from(v_ab.alpha))
+                .saturating_sub(self.k_r.apply(la + ia))
                 .saturating_add((g * ea) << 1);
             let db = self
                 .k_v
-                .mul(i32::from(v_ab.beta))
-                .saturating_sub(self.k_r.mul(lb + ib))
+                .apply(i32::from(v_ab.beta))
+                .saturating_sub(self.k_r.apply(lb + ib))
                 .saturating_add((g * eb) << 1);
             x.alpha = x.alpha.saturating_add(da);
             x.beta = x.beta.saturating_add(db);
@@ -164,8 +164,8 @@ impl FluxObserverQ {
         let q15 = |x: i32| ((x >> 15) + 1) >> 1;
         let sym = |v: i32| sat_q15(v).max(-32_767);
         AlphaBetaQ15 {
-            alpha: sym(q15(x.alpha) - self.k_l.mul(i32::from(i_ab.alpha))),
-            beta: sym(q15(x.beta) - self.k_l.mul(i32::from(i_ab.beta))),
+            alpha: sym(q15(x.alpha) - self.k_l.apply(i32::from(i_ab.alpha))),
+            beta: sym(q15(x.beta) - self.k_l.apply(i32::from(i_ab.beta))),
         }
     }
 
@@ -178,7 +178,7 @@ impl FluxObserverQ {
             i32::from(st.rotor_flux.beta),
         );
         let mag2_q15 = ((ea * ea + eb * eb) >> 14).saturating_add(1) >> 1;
-        self.inv_phi2.mul(mag2_q15.min(65_537))
+        self.inv_phi2.apply(mag2_q15.min(65_537))
     }
 
     /// Sets the estimate to a known rotor angle: `x̂ = L i + Φ c(θ_e)` (eq (4)).
@@ -188,7 +188,7 @@ impl FluxObserverQ {
             alpha: sat_q15((self.phi * i32::from(c) + (1 << 14)) >> 15),
             beta: sat_q15((self.phi * i32::from(s) + (1 << 14)) >> 15),
         };
-        let l_i = |i: Q15| self.k_l.mul(i32::from(i));
+        let l_i = |i: Q15| self.k_l.apply(i32::from(i));
         let x = |e: Q15, i: Q15| (i32::from(e) + l_i(i)).clamp(-32_768, 32_767) << 16;
         *st = FluxStateQ {
             x_hat: AlphaBetaQ31 {

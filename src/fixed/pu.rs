@@ -65,7 +65,7 @@ impl Gain {
 
     /// `x·c`, rounded to the nearest integer (ties up); `|x| ≤ 2¹⁶ + 1`.
     #[inline(always)]
-    pub fn mul(self, x: i32) -> i32 {
+    pub fn apply(self, x: i32) -> i32 {
         (x * self.m + self.round) >> self.s
     }
 
