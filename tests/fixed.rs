@@ -93,7 +93,11 @@ fn frames_match_the_f32_blocks() {
     let mut g = Lcg(0x5eed);
     let (mut worst_clarke, mut worst_park, mut worst_inv) = (0.0f32, 0.0f32, 0.0f32);
     for _ in 0..100_000 {
-        let (amp, th_i, th) = (g.next(0.9).abs(), g.next(std::f32::consts::PI), g.next(std::f32::consts::PI));
+        let (amp, th_i, th) = (
+            g.next(0.9).abs(),
+            g.next(std::f32::consts::PI),
+            g.next(std::f32::consts::PI),
+        );
         // A balanced set, rounded to Q15 first (the samples the drive would have).
         let a = q(amp * th_i.cos());
         let b = q(amp * (th_i - 2.0943951).cos());

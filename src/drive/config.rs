@@ -353,7 +353,7 @@ impl DriveConfig {
     }
 
     /// The FOC's settings (unvalidated).
-    pub(super) fn foc_config(&self) -> FocConfig {
+    pub fn foc_config(&self) -> FocConfig {
         FocConfig {
             current_bandwidth_hz: self.current_bandwidth_hz,
             speed_bandwidth_hz: self.speed_bandwidth_hz,

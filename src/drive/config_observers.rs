@@ -134,7 +134,7 @@ impl DriveConfig {
     }
 
     /// The flux observer's settings (unvalidated).
-    pub(super) fn flux_config(&self) -> FluxConfig {
+    pub fn flux_config(&self) -> FluxConfig {
         FluxConfig::new(self.motor, self.rate_hz, self.start.handback_rpm)
     }
 

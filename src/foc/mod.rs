@@ -338,6 +338,12 @@ impl Foc {
         }
     }
 
+    /// The d/q current loop (the reference the fixed-point loop, `crate::fixed::current`, is
+    /// checked against).
+    pub fn current_loop(&self) -> &CurrentLoop {
+        &self.current
+    }
+
     /// The dead-time compensation this FOC applies ([`crate::dead_time`]).
     pub fn dead_time(&self) -> &DeadTime {
         &self.dead_time

@@ -1,7 +1,9 @@
 //! Fixed-point frames for FPU-less Cortex-M0+ parts (issue #30): the first blocks of the
 //! fixed-point step, each the f32 block of [`crate::frames`] it mirrors computed in integers,
 //! and checked against it (`tests/fixed.rs`, over every angle and the full per-unit range).
-//! Not yet wired into a step: the observers, the FOC, the SVPWM and the protections follow.
+//! Not yet wired into a step. Beside the frames: the per-unit bases, gains and the
+//! division-free normalisation ([`pu`]), the current loop ([`current`]) and Ortega's flux
+//! observer ([`flux`]); the SVPWM, the speed loop and the protections follow.
 //!
 //! Formats (the choice ST's motor-control SDK makes on Cortex-M0, and TI's IQmath in Q15):
 //! - An angle is a wrapping [`Angle`], one turn = 2³² (as `idsp`'s `W<i32>` phase): adding
@@ -13,6 +15,10 @@
 //!   rounding; where a sum of two Q15 values can leave the range it saturates
 //!   ([`sat_q15`]), never wraps.
 //! - No division: 1/√3 and the table are constants.
+
+pub mod current;
+pub mod flux;
+pub mod pu;
 
 /// An electrical angle: one turn is 2³², wrapping (θ = `0` is 0 rad, `1 << 31` is ±π).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
