@@ -77,6 +77,13 @@ pub struct M0Report {
     pub tick_flux_primary_cycles_est: u64,
     /// See `tick_cycles_est`.
     pub tick_open_loop_cycles_est: u64,
+    /// The fixed-point blocks (`pmsm_sensorless::fixed`): sin/cos, Clarke, Park and inverse
+    /// Park of one step.
+    pub fixed_frames_cycles_est: u64,
+    /// Ortega's flux observer eq (9) in fixed point, with its unit rotor-flux vector.
+    pub fixed_flux_cycles_est: u64,
+    /// The current loop in fixed point (PI, decoupling, feed-forward, the radial cut).
+    pub fixed_current_cycles_est: u64,
     /// `(worst step × 4 kHz + worst tick × 1 kHz) / 64 MHz` \[%].
     pub cpu_share_pct: f64,
     /// The emulated M0 drive image (`cargo emu-m0`): flash and static RAM \[bytes].
@@ -127,6 +134,9 @@ pub fn measure_m0(root: &Path) -> anyhow::Result<M0Report> {
         tick_cycles_est: ticks[0],
         tick_flux_primary_cycles_est: ticks[1],
         tick_open_loop_cycles_est: ticks[2],
+        fixed_frames_cycles_est: worst("fixed_frames")?,
+        fixed_flux_cycles_est: worst("fixed_flux")?,
+        fixed_current_cycles_est: worst("fixed_current")?,
         cpu_share_pct: 100.0 * (step_max as f64 * M0_STEP_RATE_HZ + tick_max as f64 * 1000.0)
             / M0_CLOCK_HZ,
         image_flash_bytes,

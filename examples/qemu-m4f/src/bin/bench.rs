@@ -29,6 +29,10 @@ mod firmware {
         Command, Drive, DriveConfig, DriveInput, DriveOutput, Identified, IdentifyPhase, Mode,
         StateOf,
     };
+    use pmsm_sensorless::fixed::current::{CurrentLoopOutputQ, CurrentLoopQ, CurrentLoopStateQ};
+    use pmsm_sensorless::fixed::flux::{FluxObserverQ, FluxStateQ};
+    use pmsm_sensorless::fixed::pu::PerUnit;
+    use pmsm_sensorless::fixed::{AbcQ15, AlphaBetaQ15, Angle, DqQ15, Q15};
     use pmsm_sensorless::foc::{CurrentLoopState, Foc, FocConfig, FocInput, FocOutput, Reference};
     use pmsm_sensorless::frames::{AlphaBeta, Dq};
     use pmsm_sensorless::motor::HORNG_SINANO;
@@ -74,6 +78,9 @@ mod firmware {
         bench_begin_step_identify_flux, bench_end_step_identify_flux, 18u32;
         bench_begin_step_identify_mechanics, bench_end_step_identify_mechanics, 19u32;
         bench_begin_tick_identify, bench_end_tick_identify, 20u32;
+        bench_begin_fixed_frames, bench_end_fixed_frames, 21u32;
+        bench_begin_fixed_flux, bench_end_fixed_flux, 22u32;
+        bench_begin_fixed_current, bench_end_fixed_current, 23u32;
     }
 
     /// Steps measured per case.
@@ -113,6 +120,36 @@ mod firmware {
         v_ab: AlphaBeta,
     ) -> bool {
         obs.update(st, i_ab, v_ab)
+    }
+
+    /// The fixed-point blocks (issue #30), each in a function of its own: the frames (sin/cos,
+    /// Clarke, Park, inverse Park), Ortega's flux observer eq (9), the current loop.
+    #[inline(never)]
+    fn fixed_frames(abc: AbcQ15, angle: Angle, v: DqQ15) -> (DqQ15, AlphaBetaQ15) {
+        let sc = angle.sin_cos();
+        (abc.to_alpha_beta().to_dq(sc), v.to_alpha_beta(sc))
+    }
+
+    #[inline(never)]
+    fn fixed_flux(
+        obs: &FluxObserverQ,
+        st: &mut FluxStateQ,
+        i: AlphaBetaQ15,
+        v: AlphaBetaQ15,
+    ) -> Option<(Q15, Q15)> {
+        obs.integrate(st, i, v);
+        st.sin_cos()
+    }
+
+    #[inline(never)]
+    fn fixed_current(
+        cl: &CurrentLoopQ,
+        st: &mut CurrentLoopStateQ,
+        (i, i_ref): (DqQ15, DqQ15),
+        omega_e: Q15,
+        v_max: Q15,
+    ) -> CurrentLoopOutputQ {
+        cl.update(st, i, i_ref, omega_e, v_max)
     }
 
     #[inline(never)]
@@ -406,6 +443,52 @@ mod firmware {
             let out = foc_step(&foc, &mut c_state, &input, Dq::new(0.0, 0.5));
             black_box(&out);
             bench_end_foc_svpwm();
+        }
+        // The fixed-point blocks on the same motor and settings (per unit from the drive's).
+        let fixed = PerUnit::of_drive(&cfg).and_then(|pu| {
+            Ok((
+                pu,
+                FluxObserverQ::build(&cfg.flux_config(), &pu)?,
+                CurrentLoopQ::build(&cfg.foc_config(), &pu)?,
+            ))
+        });
+        if let Ok((pu, flux_q, current_q)) = fixed {
+            let mut f_state = FluxStateQ::default();
+            let mut c_state = CurrentLoopStateQ::default();
+            let i_ab = AlphaBetaQ15 {
+                alpha: pu.current(0.5),
+                beta: pu.current(-0.3),
+            };
+            flux_q.reset(&mut f_state, i_ab, Angle::from_rad(theta0));
+            let v_ab = AlphaBetaQ15 {
+                alpha: 6000,
+                beta: 3000,
+            };
+            for k in 1..4u32 {
+                let angle = Angle(k.wrapping_mul(0x2345_6789));
+                let abc = AbcQ15 {
+                    a: pu.current(0.5),
+                    b: pu.current(-0.2),
+                    c: pu.current(-0.3),
+                };
+                bench_begin_fixed_frames();
+                black_box(fixed_frames(abc, angle, DqQ15 { d: 100, q: 9000 }));
+                bench_end_fixed_frames();
+                bench_begin_fixed_flux();
+                black_box(fixed_flux(&flux_q, &mut f_state, i_ab, v_ab));
+                bench_end_fixed_flux();
+                bench_begin_fixed_current();
+                black_box(fixed_current(
+                    &current_q,
+                    &mut c_state,
+                    (DqQ15 { d: 50, q: 3000 }, DqQ15 { d: 0, q: 8000 }),
+                    9000,
+                    20_000,
+                ));
+                bench_end_fixed_current();
+            }
+        } else {
+            defmt::error!("the fixed-point blocks do not build for the bench's motor");
         }
         debug::exit(EXIT_SUCCESS);
         loop {

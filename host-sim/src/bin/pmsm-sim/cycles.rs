@@ -166,6 +166,15 @@ fn cycles_m0(root: &std::path::Path, json: bool) -> anyhow::Result<String> {
         ("1 kHz task, sliding primary", r.tick_cycles_est),
         ("1 kHz task, flux primary", r.tick_flux_primary_cycles_est),
         ("1 kHz task, open loop", r.tick_open_loop_cycles_est),
+        (
+            "fixed point: sin/cos, Clarke, Park, inverse Park",
+            r.fixed_frames_cycles_est,
+        ),
+        (
+            "fixed point: flux observer eq (9) + unit vector",
+            r.fixed_flux_cycles_est,
+        ),
+        ("fixed point: current loop", r.fixed_current_cycles_est),
     ] {
         t.add_row([what.to_string(), c.to_string()]);
     }
