@@ -31,7 +31,9 @@
 //!   before the fit: a linear relation between signals holds between the same filter's outputs
 //!   (the state-variable-filter method of continuous-time identification: P. C. Young,
 //!   "Parameter estimation for continuous-time models — a survey", Automatica 17(1), 1981), and
-//!   the difference noise of `ω̃` is smoothed away.
+//!   the difference noise of `ω̃` is smoothed away. The filters start from the PLL's speed
+//!   (the first difference of the angle error is the spin's hand-over) and the fit takes its
+//!   points from `T_short` on (five or more of their time constants).
 //!
 //! Measured on main before (torque steps on the segment's mean acceleration of the PLL's speed
 //! against the mean frame `i_q`, 20 ms dropped, segments of 60 ms or more): J from +5 % to
@@ -261,9 +263,9 @@ pub(in crate::drive) struct Mechanics {
     /// At the segment's start: `Q`, `W`, `ω̃`.
     start: (f32, f32, f32),
     seg: Segment,
-    /// `Q`, `W`, `ω̃` through the first and the second low-pass; they run.
+    /// `Q`, `W`, `ω̃` through the first and the second low-pass; milliseconds they ran.
     filtered: [[f32; 3]; 2],
-    filtering: bool,
+    filtered_ms: u32,
     /// The segment's noise variance of `Q` \[(A·s)²].
     seg_var: f32,
     /// The accelerating segment just measured, its `Q` variance and `|ΔQ|`.
@@ -314,7 +316,7 @@ impl Mechanics {
             start: (0.0, 0.0, 0.0),
             seg: Segment::default(),
             filtered: [[0.0; 3]; 2],
-            filtering: false,
+            filtered_ms: 0,
             seg_var: 0.0,
             up_seg: None,
             normal: Normal::default(),
@@ -421,10 +423,12 @@ impl Mechanics {
         // The same low-pass on the speed, the impulse and the angle (module doc), from the
         // first speed on.
         let raw = [self.q_as, self.w_rad, y];
-        if !self.filtering {
-            self.filtered = [raw; 2];
-            self.filtering = true;
+        if self.filtered_ms == 0 {
+            // From the PLL's speed (the first difference of the angle error is the spin's).
+            let start = [self.q_as, self.w_rad, self.omega_i_e / s.n];
+            self.filtered = [start; 2];
         }
+        self.filtered_ms += 1;
         let g = pll.filter_gain;
         for k in 0..3 {
             self.filtered[0][k] += g * (raw[k] - self.filtered[0][k]);
@@ -437,7 +441,10 @@ impl Mechanics {
         }
         self.ms += 1;
         let (q0, w0, y0) = self.start;
-        self.seg.add(qf - q0, wf - w0, yf - y0);
+        if self.filtered_ms as f32 > pll.min_points {
+            // Past the filters' start (at least five of their time constants).
+            self.seg.add(qf - q0, wf - w0, yf - y0);
+        }
         self.q_as += iq_rotor * dt;
         self.w_rad += y * dt;
         let y = yf;
@@ -472,8 +479,8 @@ impl Mechanics {
         let seg_var = self.seg_var;
         self.seg = Segment::default();
         self.seg_var = 0.0;
+        let too_short = (self.ms as f32) < pll.min_points || lagging;
         self.ms = 0;
-        let too_short = seg.n < pll.min_points || lagging;
         let span = (y - y0).abs();
         let dq = (self.q_as - q0).abs();
         let small = span < (s.omega_high_m - s.omega_low_m) / 3.0;
