@@ -430,9 +430,10 @@ impl Mechanics {
         }
         self.filtered_ms += 1;
         let g = pll.filter_gain;
-        for k in 0..3 {
-            self.filtered[0][k] += g * (raw[k] - self.filtered[0][k]);
-            self.filtered[1][k] += g * (self.filtered[0][k] - self.filtered[1][k]);
+        let [first, second] = &mut self.filtered;
+        for ((x1, x2), u) in first.iter_mut().zip(second.iter_mut()).zip(raw) {
+            *x1 += g * (u - *x1);
+            *x2 += g * (*x1 - *x2);
         }
         let [qf, wf, yf] = self.filtered[1];
         // The segment: the point at this millisecond's start, then its impulse and angle.
@@ -525,7 +526,7 @@ impl Mechanics {
         pair.add(&up_seg);
         pair.add(&seg);
         let inflation = pair.inflation();
-        if !(inflation <= INFLATION_MAX) {
+        if inflation.is_nan() || inflation > INFLATION_MAX {
             // The pair does not tell inertia from friction: the speed hardly changed in one
             // of its segments. After a long acceleration, more torque (a larger part of it
             // accelerates) or, at the test current, a longer braking; else less of both.
