@@ -47,7 +47,7 @@ pub struct CurrentLoopQ {
     l_q: Gain,
 }
 
-/// The integrators of [`CurrentLoopQ`]: Q(15+f) per unit of `V_b` ([`CurrentLoopQ::f`]).
+/// The integrators of [`CurrentLoopQ`]: Q(15+f) per unit of `V_b` (`CurrentLoopQ::f`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct CurrentLoopStateQ {
     /// d-axis integral term.
@@ -110,8 +110,18 @@ impl CurrentLoopQ {
 
     /// An integral of `pu` per unit in the integrators' format (tests, seeding).
     pub fn integral_of(&self, pu: f32) -> i32 {
-        libm::roundf(pu * (1u64 << (15 + self.f)) as f32)
-            .clamp(-self.int_max as f32, self.int_max as f32) as i32
+        // Comparisons, not `f32::clamp` (which has a panic path): NaN gives 0.
+        let (v, m) = (
+            libm::roundf(pu * (1u64 << (15 + self.f)) as f32),
+            self.int_max as f32,
+        );
+        (if v > m {
+            m
+        } else if v < -m {
+            -m
+        } else {
+            v
+        }) as i32
     }
 
     /// One update (module doc): `i_dq`, `i_dq_ref` in Q15 of `I_b`; `omega_e` the electrical
@@ -165,7 +175,8 @@ impl CurrentLoopQ {
 
 #[inline(always)]
 fn clamp_sym(x: i32, max: i32) -> i32 {
-    x.clamp(-max, max)
+    // `max`/`min`, not `clamp` (whose bound check is a panic path).
+    x.max(-max).min(max)
 }
 
 /// `(v_d, v_q)` (Q15 of `V_b`, any `i32`) limited to the circle of radius `v_max` (Q15):

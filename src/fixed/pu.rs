@@ -160,7 +160,7 @@ const RSQRT_START_Q15: [u16; 24] = [
 
 /// The unit vector along `(x, y)` in Q15, without division: `|x|, |y| ≤ 32 767`, `None` for
 /// the zero vector. `|(x, y)|²` is shifted by an even `k` into `[2³⁰, 2³²)`, 1/√ of it
-/// starts from [`RSQRT_START_Q15`] (within 3.1 %) and takes two Newton steps
+/// starts from `RSQRT_START_Q15` (within 3.1 %) and takes two Newton steps
 /// `u ← u (3 − n′u²)/2` (relative error 1.5·e² each: 1.4·10⁻³, then 2.9·10⁻⁶, below the
 /// Q15 rounding of `u`), then `(x, y)·u` is shifted back by `15 − k/2`. The direction is
 /// that of `(x, y)` to the rounding of each component (½ LSB) and the length 1 within a few
