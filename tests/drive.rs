@@ -467,8 +467,8 @@ fn telemetry_reads_the_state_the_step_left() {
 }
 
 /// The open-loop frame is kept as the sin/cos of θ_ol, turned by `N ω_ol T` every step: over a
-/// long open-loop run (50 s without current, so no observer locks and the drive stays in open
-/// loop, its time limit set past that) its
+/// long open-loop run (50 s without current after the alignment, so no observer locks and the
+/// drive stays in open loop, its time limit set past that) its
 /// length stays 1 and its angle follows the f64 integral of `N ω_ol T`.
 #[test]
 fn open_loop_frame_turns_at_the_ramp_speed_and_stays_unit_length() {
@@ -482,6 +482,12 @@ fn open_loop_frame_turns_at_the_ramp_speed_and_stays_unit_length() {
     let input = no_current_48v();
     let cmd = running_at(0.5 * cfg.start.handover_rpm);
     let (mut theta_ref, mut worst_angle, mut worst_len) = (0.0f64, 0.0f64, 0.0f64);
+    // The alignment on a winding at rest, `L di/dt = v − R i` (forward Euler over a step):
+    // its current follows the drive's voltage, as the alignment checks (else
+    // `Fault::OpenWinding`); then no current.
+    let p = HORNG_SINANO.params;
+    let per_step = p.r_ohm * ts as f32 / p.l_h;
+    let mut i_winding = AlphaBeta::default();
     let steps = 50 * 4000;
     for _ in 0..steps {
         // The 1 kHz task between steps (it sets the ramp's speed the coming steps turn at).
@@ -489,7 +495,20 @@ fn open_loop_frame_turns_at_the_ramp_speed_and_stays_unit_length() {
             drive.tick(&mut st, &cmd);
         }
         let was_open_loop = st.mode() == Mode::OpenLoop;
-        drive.step(&mut st, &input, &cmd);
+        let sample = if st.mode() == Mode::Align {
+            let v = st.v_ab_applied();
+            i_winding = AlphaBeta::new(
+                i_winding.alpha + per_step * (v.alpha / p.r_ohm - i_winding.alpha),
+                i_winding.beta + per_step * (v.beta / p.r_ohm - i_winding.beta),
+            );
+            DriveInput {
+                i_abc: i_winding.to_abc(),
+                ..input
+            }
+        } else {
+            input
+        };
+        drive.step(&mut st, &sample, &cmd);
         if st.mode() != Mode::OpenLoop {
             assert!(!was_open_loop, "left open loop: {:?}", st.mode());
             continue;

@@ -4,7 +4,7 @@
 use pmsm_sensorless::drive::{Fault, IdentifyError};
 
 /// Every drive fault but the identification's, in the order `pmsm-sim` lists them.
-pub const FAULTS: [Fault; 13] = [
+pub const FAULTS: [Fault; 14] = [
     Fault::Overcurrent,
     Fault::BusUndervoltage,
     Fault::BusOvervoltage,
@@ -18,6 +18,7 @@ pub const FAULTS: [Fault; 13] = [
     Fault::TaskStall,
     Fault::Overspeed,
     Fault::CurrentSensor,
+    Fault::OpenWinding,
 ];
 
 /// Snake-case name of a drive fault, as in the JSON summary.
@@ -36,6 +37,7 @@ pub fn fault_name(f: Fault) -> &'static str {
         Fault::TaskStall => "task_stall",
         Fault::Overspeed => "overspeed",
         Fault::CurrentSensor => "current_sensor",
+        Fault::OpenWinding => "open_winding",
         Fault::Identify(e) => error_name(e),
     }
 }

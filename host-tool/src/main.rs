@@ -191,10 +191,14 @@ fn run(cli: Cli) -> Result<(), ToolError> {
             seconds,
             keep,
         } => {
-            let records = ops::run(&mut c, speed_rpm, seconds, 10)?;
+            let run = ops::run(&mut c, speed_rpm, seconds, 10)?;
             if !keep {
                 ops::stop(&mut c)?;
             }
+            for t in &run.transitions {
+                println!("{}", ops::transition_text(t));
+            }
+            let records = run.records;
             for r in records.iter().step_by(10) {
                 println!(
                     "t {:>7.2} s  {:?}  speed {:>8.1} rpm  ref {:>8.1}  i_q {:>6.2} A",
@@ -204,6 +208,13 @@ fn run(cli: Cli) -> Result<(), ToolError> {
                     r.speed_ref_rpm,
                     r.i_q
                 );
+            }
+            let refused = run
+                .transitions
+                .iter()
+                .any(|t| t.reason == pmsm_link::wire::Reason::ResistanceRefused);
+            if let (true, Some(last)) = (refused, records.last()) {
+                eprintln!("warning: {}", ops::refused_warning(last.r_ohm));
             }
         }
         Cmd::Record {

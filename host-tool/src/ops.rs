@@ -6,7 +6,7 @@
 use crate::client::{Client, ToolError};
 use pmsm_host_sim::names::fault_name;
 use pmsm_link::settings::MotorSettings;
-use pmsm_link::wire::{Fault, Mode, Telemetry};
+use pmsm_link::wire::{Fault, Mode, Reason, Telemetry, Transition};
 use pmsm_link::{Event, Key, Request, Response, Settings};
 use pmsm_sensorless::drive as core_drive;
 use pmsm_sensorless::motor::{Motor, TorqueConvention};
@@ -170,6 +170,15 @@ pub fn stop<T: Read + Write>(c: &mut Client<T>) -> Result<(), ToolError> {
     ok(c.request(Request::Enable(false))?)
 }
 
+/// What a recording saw: the telemetry records and the mode changes, each in order.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Recording {
+    /// The telemetry records.
+    pub records: Vec<Telemetry>,
+    /// The transitions (mode changes, changes of the driving observer).
+    pub transitions: Vec<Transition>,
+}
+
 /// Telemetry streamed at `rate_hz` over `seconds` of the device's time (its records' `t_ms`:
 /// a simulated or emulated device's time runs at its own pace), the stream stopped after.
 pub fn record<T: Read + Write>(
@@ -178,22 +187,34 @@ pub fn record<T: Read + Write>(
     seconds: f64,
 ) -> Result<Vec<Telemetry>, ToolError> {
     c.clear_events();
+    Ok(collect(c, rate_hz, seconds)?.records)
+}
+
+/// [`record`], with the transitions: those received since the last events were taken
+/// included.
+fn collect<T: Read + Write>(
+    c: &mut Client<T>,
+    rate_hz: u16,
+    seconds: f64,
+) -> Result<Recording, ToolError> {
     ok(c.request(Request::Stream(rate_hz))?)?;
-    let mut out: Vec<Telemetry> = Vec::new();
+    let mut out = Recording::default();
     let wait = c.timeout;
     let span_ms = (seconds * 1000.0).round() as u32;
     loop {
         match c.next_event(wait)? {
             Some(Event::Telemetry(t)) => {
                 let done = out
+                    .records
                     .first()
                     .is_some_and(|f| t.t_ms.wrapping_sub(f.t_ms) >= span_ms);
-                out.push(t);
+                out.records.push(t);
                 if done {
                     break;
                 }
             }
-            Some(_) => {}
+            Some(Event::Transition(t)) => out.transitions.push(t),
+            Some(Event::Fault(_)) => {}
             None => return Err(ToolError::Timeout("telemetry stream".into())),
         }
     }
@@ -202,15 +223,35 @@ pub fn record<T: Read + Write>(
     Ok(out)
 }
 
-/// Runs at `speed_rpm` for `seconds` of the device's time; the telemetry at `rate_hz`.
+/// Runs at `speed_rpm` for `seconds` of the device's time: the telemetry at `rate_hz` and
+/// every transition from the start on.
 pub fn run<T: Read + Write>(
     c: &mut Client<T>,
     speed_rpm: f32,
     seconds: f64,
     rate_hz: u16,
-) -> Result<Vec<Telemetry>, ToolError> {
+) -> Result<Recording, ToolError> {
+    c.clear_events();
     start(c, speed_rpm)?;
-    record(c, rate_hz, seconds)
+    collect(c, rate_hz, seconds)
+}
+
+/// A transition as a line: `Align -> OpenLoop (Aligned)`, a fault by its name.
+pub fn transition_text(t: &Transition) -> String {
+    match t.reason {
+        Reason::Fault(f) => format!("{:?} -> {:?} (fault {})", t.from, t.to, name_of(f)),
+        r => format!("{:?} -> {:?} ({r:?})", t.from, t.to),
+    }
+}
+
+/// The warning of a start whose resistance measurement the drive refused
+/// (`Reason::ResistanceRefused`), `r_ohm` the resistance it runs on (the telemetry's).
+pub fn refused_warning(r_ohm: f32) -> String {
+    format!(
+        "the start's resistance measurement was refused (beyond R0/3..3 R0 of the configured \
+         r_ohm, or the rotor not at rest): the drive runs on r_ohm = {r_ohm} Ω; the value \
+         measured is in the device's log"
+    )
 }
 
 /// The CSV header of [`write_csv`].

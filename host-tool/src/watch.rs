@@ -4,7 +4,7 @@
 
 use crate::client::{Client, ToolError};
 use crate::ops;
-use pmsm_link::wire::Telemetry;
+use pmsm_link::wire::{Mode, Reason, Telemetry};
 use pmsm_link::{Event, Request};
 use ratatui::crossterm::event::{self, Event as Key, KeyCode};
 use ratatui::layout::{Constraint, Layout, Rect};
@@ -35,10 +35,16 @@ fn watch_loop<T: Read + Write>(
     terminal: &mut ratatui::DefaultTerminal,
 ) -> Result<(), ToolError> {
     let mut records: VecDeque<Telemetry> = VecDeque::new();
+    // The last alignment's resistance measurement refused (until an alignment's is taken).
+    let mut refused = false;
     loop {
         while let Some(e) = c.next_event(Duration::from_millis(5))? {
-            if let Event::Telemetry(t) = e {
-                records.push_back(t);
+            match e {
+                Event::Telemetry(t) => records.push_back(t),
+                Event::Transition(t) if t.from == Mode::Align => {
+                    refused = t.reason == Reason::ResistanceRefused;
+                }
+                Event::Transition(_) | Event::Fault(_) => {}
             }
             if records.len() > 20_000 {
                 records.pop_front();
@@ -53,7 +59,7 @@ fn watch_loop<T: Read + Write>(
             }
         }
         terminal
-            .draw(|f| draw(f, &records))
+            .draw(|f| draw(f, &records, refused))
             .map_err(ToolError::Io)?;
         if event::poll(Duration::from_millis(30)).map_err(ToolError::Io)? {
             if let Key::Key(k) = event::read().map_err(ToolError::Io)? {
@@ -65,10 +71,11 @@ fn watch_loop<T: Read + Write>(
     }
 }
 
-/// One screen: the status line and three plots.
-fn draw(f: &mut Frame, records: &VecDeque<Telemetry>) {
+/// One screen: the status line (under it, the warning of a start whose resistance
+/// measurement was `refused`) and three plots.
+fn draw(f: &mut Frame, records: &VecDeque<Telemetry>, refused: bool) {
     let [status, speed, currents, residuals] = Layout::vertical([
-        Constraint::Length(1),
+        Constraint::Length(2),
         Constraint::Percentage(40),
         Constraint::Percentage(30),
         Constraint::Percentage(30),
@@ -89,7 +96,15 @@ fn draw(f: &mut Frame, records: &VecDeque<Telemetry>) {
         ),
         None => "waiting for telemetry ...   [q quits]".into(),
     };
-    f.render_widget(Paragraph::new(Line::from(text)), status);
+    let warning = match (refused, last) {
+        (true, Some(t)) => format!("warning: {}", ops::refused_warning(t.r_ohm)),
+        _ => String::new(),
+    };
+    let lines = vec![
+        Line::from(text),
+        Line::styled(warning, Style::default().fg(Color::Yellow)),
+    ];
+    f.render_widget(Paragraph::new(lines), status);
     let t_end = last.map_or(0, |r| r.t_ms);
     let series = |pick: fn(&Telemetry) -> f32| -> Vec<(f64, f64)> {
         records
@@ -175,7 +190,7 @@ fn plot(f: &mut Frame, area: Rect, title: &str, lines: &[Series]) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use pmsm_link::wire::{Mode, Role};
+    use pmsm_link::wire::Role;
     use ratatui::backend::TestBackend;
     use ratatui::Terminal;
 
@@ -205,15 +220,17 @@ mod tests {
                 voltage_limited: false,
             })
             .collect();
-        let mut t = Terminal::new(TestBackend::new(120, 40)).unwrap();
-        t.draw(|f| draw(f, &records)).unwrap();
-        let screen: String = t
-            .backend()
-            .buffer()
-            .content()
-            .iter()
-            .map(|c| c.symbol())
-            .collect();
+        let mut t = Terminal::new(TestBackend::new(200, 40)).unwrap();
+        let screen = |t: &mut Terminal<TestBackend>, refused: bool| -> String {
+            t.draw(|f| draw(f, &records, refused)).unwrap();
+            t.backend()
+                .buffer()
+                .content()
+                .iter()
+                .map(|c| c.symbol())
+                .collect()
+        };
+        let plain = screen(&mut t, false);
         for text in [
             "mode Sensorless",
             "speed 501.0 rpm",
@@ -221,7 +238,16 @@ mod tests {
             "currents [A]",
             "residuals",
         ] {
-            assert!(screen.contains(text), "{text}");
+            assert!(plain.contains(text), "{text}");
         }
+        assert!(!plain.contains("warning"));
+        // A start whose resistance measurement was refused: the warning under the status,
+        // with the resistance the drive runs on.
+        let warned = screen(&mut t, true);
+        assert!(
+            warned.contains("warning: the start's resistance measurement was refused"),
+            "{warned}"
+        );
+        assert!(warned.contains("r_ohm = 2.5 Ω"), "{warned}");
     }
 }

@@ -9,7 +9,7 @@
 
 use pmsm_link::frame::{self, MAX_FRAME};
 use pmsm_link::wire::{self, Mode};
-use pmsm_link::{DeviceMsg, Event, HostMsg, Key, LinkError, Request, Settings};
+use pmsm_link::{DeviceMsg, Event, HostMsg, Key, LinkError, Request, Settings, PROTOCOL_VERSION};
 use pmsm_sensorless::motor::{Motor, HORNG_SINANO, ORTEGA_TEST_0P3KW};
 use pmsm_tool::client::{connect, Client, Target, ToolError};
 use pmsm_tool::ops;
@@ -173,6 +173,47 @@ fn a_fault_is_raised_and_cleared_through_the_link() {
     ops::stop(&mut c).unwrap();
 }
 
+#[test]
+fn a_refused_start_resistance_reaches_the_host() {
+    let served = device(ORTEGA_TEST_0P3KW, true);
+    let mut c = link(&served);
+    // The drive told a fifth of the motor's resistance: its start measures five times it,
+    // beyond 3 R₀.
+    let r0 = ORTEGA_TEST_0P3KW.params.r_ohm / 5.0;
+    ops::config_set(&mut c, "r_ohm", &format!("{r0}")).unwrap();
+    let run = ops::run(&mut c, 300.0, 0.5, 20).unwrap();
+    let refused = wire::Transition {
+        from: Mode::Align,
+        to: Mode::OpenLoop,
+        reason: wire::Reason::ResistanceRefused,
+    };
+    assert!(run.transitions.contains(&refused), "{:?}", run.transitions);
+    assert_eq!(
+        ops::transition_text(&refused),
+        "Align -> OpenLoop (ResistanceRefused)"
+    );
+    // The model kept: the drive runs on R₀.
+    let last = run.records.last().unwrap();
+    assert_eq!(last.r_ohm, r0);
+    assert!(ops::refused_warning(last.r_ohm).contains(&format!("r_ohm = {r0} Ω")));
+    ops::stop(&mut c).unwrap();
+    // The motor's own resistance (a device of the defaults for it): taken.
+    let served = device(ORTEGA_TEST_0P3KW, true);
+    let mut c = link(&served);
+    let r_motor = ORTEGA_TEST_0P3KW.params.r_ohm;
+    let run = ops::run(&mut c, 300.0, 0.5, 20).unwrap();
+    let aligned = run.transitions.iter().find(|t| t.from == Mode::Align);
+    assert_eq!(
+        aligned.map(|t| t.reason),
+        Some(wire::Reason::Aligned),
+        "{:?}",
+        run.transitions
+    );
+    let r = run.records.last().unwrap().r_ohm;
+    assert!((r / r_motor - 1.0).abs() < 0.02, "R {r} Ω");
+    ops::stop(&mut c).unwrap();
+}
+
 /// Sends `bytes`, returns the device's first message (events skipped).
 fn raw_answer(c: &mut Link, bytes: &[u8]) -> DeviceMsg {
     c.send_bytes(bytes).unwrap();
@@ -277,12 +318,9 @@ fn a_wrong_version_a_missing_port_and_a_silent_board_are_clear_errors() {
     let mut c = link(&served);
     let before = snapshot(&served);
     match c.request(Request::Hello { version: 999 }) {
-        Err(
-            e @ ToolError::Version {
-                device: 1,
-                host: 999,
-            },
-        ) => assert_eq!(e.exit_code(), 4),
+        Err(e @ ToolError::Version { device, host: 999 }) if device == PROTOCOL_VERSION => {
+            assert_eq!(e.exit_code(), 4)
+        }
         other => panic!("{other:?}"),
     }
     assert_eq!(snapshot(&served), before);

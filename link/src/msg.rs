@@ -15,8 +15,10 @@ use crate::wire::{Fault, Identified, Mode, Telemetry, Transition};
 use heapless::String;
 use serde::{Deserialize, Serialize};
 
-/// The protocol's version: a host and a device talk only if theirs are equal.
-pub const PROTOCOL_VERSION: u16 = 1;
+/// The protocol's version: a host and a device talk only if theirs are equal. 2: the events
+/// may carry `Reason::ResistanceRefused` and `Fault::OpenWinding` (appended to their enums; a
+/// host of version 1 could not read such an event, so it is refused at the hello instead).
+pub const PROTOCOL_VERSION: u16 = 2;
 
 /// A field's name in an error (the longest setting's name is 33 bytes).
 pub type FieldName = String<40>;

@@ -68,6 +68,7 @@ pub enum Fault {
     Overspeed,
     CurrentSensor,
     Identify(IdentifyError),
+    OpenWinding,
 }
 
 impl From<core_drive::Fault> for Fault {
@@ -88,6 +89,7 @@ impl From<core_drive::Fault> for Fault {
             C::Overspeed => Self::Overspeed,
             C::CurrentSensor => Self::CurrentSensor,
             C::Identify(e) => Self::Identify(e.into()),
+            C::OpenWinding => Self::OpenWinding,
         }
     }
 }
@@ -110,6 +112,7 @@ impl From<Fault> for core_drive::Fault {
             W::Overspeed => Self::Overspeed,
             W::CurrentSensor => Self::CurrentSensor,
             W::Identify(e) => Self::Identify(e.into()),
+            W::OpenWinding => Self::OpenWinding,
         }
     }
 }
@@ -135,6 +138,7 @@ pub enum Reason {
     Identify,
     Calibrated,
     Identified,
+    ResistanceRefused,
 }
 
 impl From<core_drive::Reason> for Reason {
@@ -158,6 +162,7 @@ impl From<core_drive::Reason> for Reason {
             C::Identify => Self::Identify,
             C::Calibrated => Self::Calibrated,
             C::Identified => Self::Identified,
+            C::ResistanceRefused => Self::ResistanceRefused,
         }
     }
 }

@@ -575,12 +575,49 @@ fn telemetry_streams_at_the_rate_asked_and_transitions_are_events() {
 }
 
 #[test]
+fn a_refused_start_resistance_and_an_open_winding_are_events() {
+    let mut dev = Mock::configured();
+    let mut s = Server::new();
+    // The alignment refused its measurement: the transition names it, no fault.
+    let refused = Transition {
+        from: core_drive::Mode::Align,
+        to: core_drive::Mode::OpenLoop,
+        reason: Reason::ResistanceRefused,
+    };
+    // A winding that does not carry the current: the start refused with its fault.
+    let open = Transition {
+        from: core_drive::Mode::Align,
+        to: core_drive::Mode::Fault,
+        reason: Reason::Fault(Fault::OpenWinding),
+    };
+    dev.transitions.extend([refused, open]);
+    let msgs = feed(&mut s, &mut dev, &[]);
+    assert_eq!(
+        msgs,
+        [
+            DeviceMsg::Event(Event::Transition(wire::Transition {
+                from: Mode::Align,
+                to: Mode::OpenLoop,
+                reason: wire::Reason::ResistanceRefused,
+            })),
+            DeviceMsg::Event(Event::Transition(wire::Transition {
+                from: Mode::Align,
+                to: Mode::Fault,
+                reason: wire::Reason::Fault(wire::Fault::OpenWinding),
+            })),
+            DeviceMsg::Event(Event::Fault(wire::Fault::OpenWinding)),
+        ]
+    );
+}
+
+#[test]
 fn the_core_types_convert_both_ways() {
     use pmsm_sensorless::drive::IdentifyError;
     for f in [
         Fault::Overcurrent,
         Fault::CurrentSensor,
         Fault::Identify(IdentifyError::InertiaOutOfRange),
+        Fault::OpenWinding,
     ] {
         let w: wire::Fault = f.into();
         assert_eq!(Fault::from(w), f);

@@ -22,6 +22,50 @@
 //! Both stay within bounds around the configured values ([`Settings`]): a measurement beyond
 //! them is refused, so no disturbance walks the model away.
 //!
+//! **A start's resistance that is not taken is reported, never dropped silently.** The
+//! alignment's measurement (`align.rs`) comes to one of three ends:
+//! - `R` within `R₀/3 ..= 3 R₀` (`config.rs`: a copper winding from −40 °C to 150 °C spans
+//!   1.75×, a datasheet's line-to-line figure taken for the phase's is 2× off): taken; the
+//!   transition `Align → OpenLoop` says [`Reason::Aligned`](super::Reason::Aligned).
+//! - `R` beyond that range, or none (the rotor not at rest): refused, the model kept, the start
+//!   goes on, and the transition says
+//!   [`Reason::ResistanceRefused`](super::Reason::ResistanceRefused); the state holds what was
+//!   measured and the range
+//!   ([`DriveState::resistance_refused`](super::DriveState::resistance_refused)) from then on, for
+//!   the log, until an alignment's measurement is taken. (Not in the transition: a payload in
+//!   `Reason`, 8 bytes or more instead of 1, costs every step 12 to 15 cycles on the emulated
+//!   Cortex-M4F, measured; nor in the telemetry record, at its 64 bytes.) A warning, not a fault:
+//!   the current followed its reference, so the winding carries current, and the start is
+//!   current-controlled (alignment, I/f open loop): it makes its torque whatever `R`. `R` enters
+//!   only the observers, whose error from it grows as the speed falls (`R i` against the back-EMF);
+//!   whether the motor runs on the kept model is the supervision's to judge on the observers' own
+//!   evidence (health, stall and loss faults, `supervision.rs`). The drive cannot tell a disturbed
+//!   measurement (a load moving the rotor within the at-rest bound, a bus sag between the levels)
+//!   from a motor file that is wrong, and the configured value is the one its gains and limits were
+//!   validated with. Drives that re-measure `R_s` at each start (TI InstaSPIN-FOC's `R_s`
+//!   recalibration) update a configured model so, and Piippo, Hinkkanen & Luomi bound the adapted
+//!   parameters likewise; a value out of range *at commissioning*, where no model exists to fall
+//!   back on, is an error instead (ODrive's calibration, `ERROR_PHASE_RESISTANCE_OUT_OF_RANGE`;
+//!   this drive's `IdentifyError::ResistanceOutOfRange`). On the simulated board
+//!   (`host-sim/tests/start_resistance.rs`, 1 s at half the rated speed), the motor file's `R` a
+//!   fifth of the plant's, or the plant's a quarter of the file's: some starts run on, the others
+//!   end in the supervision's `Stall` or `ObserverLoss`.
+//! - The current did not follow its reference (less than half the level step on the d axis,
+//!   or a mean q current beyond a quarter of the alignment's where none was asked): the start
+//!   is refused with [`Fault::OpenWinding`](super::Fault::OpenWinding), PWM off. No number
+//!   came out: the winding does not carry the current. A phase or the motor not connected (an
+//!   open phase b or c lets the current flow only along the line of the other two, 30° off
+//!   the d axis), or a resistance the bus cannot drive the alignment's current through. An
+//!   open loop on it cannot make its torque: on the simulated board, running on ended in
+//!   `Stall` at the open loop's time limit, or in an `Overcurrent` trip when the wound-up
+//!   current loop met a direction that conducts (Ortega's test motor). This is the usual
+//!   open-phase diagnosis, the phase current departing from the reference the controller
+//!   drives it to (the identification tells an open phase by the conductance in two
+//!   directions, `IdentifyError::OpenPhase`). A short between terminals is the over-current
+//!   trip's; a winding shorted to its star point reads `R/3` along its axis, which one axis
+//!   cannot tell from a smaller winding (the identification's conductance check names it):
+//!   refused and reported if beyond the range, like any other value.
+//!
 //! **How the observers take the model.** The observers keep the configured model
 //! (`R₀`, `ψ₀`, their coefficients precomputed, the papers' equations unchanged). The stator
 //! equation `v = R i + L di/dt + e(ψ_f)` is linear in `(v, i, ψ_f)`: the motor with
@@ -29,6 +73,7 @@
 //! configured one. The drive hands the observers `(i', v')`. Their angle and speed are the
 //! motor's; a torque in their units is `s²` times the motor's ([`Model::torque_from_observer`]).
 
+use super::io::ResistanceRefused;
 use crate::frames::AlphaBeta;
 use crate::math::sqrt_or_zero;
 
@@ -122,13 +167,27 @@ impl Settings {
         m.scaled_dr_ohm = m.scale * (r_ohm - self.r0_ohm);
     }
 
-    /// Takes a standstill measurement of R \[Ω] (`align.rs`); one beyond the range (a
-    /// disturbed or impossible measurement) is refused and the model kept.
-    pub(super) fn take_resistance(&self, m: &mut Model, r_ohm: f32) {
+    /// Takes a standstill measurement of R \[Ω] (`align.rs`; `None`: the rotor was not at
+    /// rest, nothing measured). One beyond the range (a disturbed or impossible measurement,
+    /// or a motor unlike its configuration) is refused, the model kept, and the refusal
+    /// returned for the log (module doc).
+    pub(super) fn take_resistance(
+        &self,
+        m: &mut Model,
+        r_ohm: Option<f32>,
+    ) -> Result<(), ResistanceRefused> {
         let (lo, hi) = self.r_range;
-        if r_ohm >= lo && r_ohm <= hi {
-            // false for NaN
-            self.set(m, r_ohm, m.flux_wb);
+        match r_ohm {
+            // (false for NaN)
+            Some(r) if r >= lo && r <= hi => {
+                self.set(m, r, m.flux_wb);
+                Ok(())
+            }
+            measured_ohm => Err(ResistanceRefused {
+                measured_ohm,
+                min_ohm: lo,
+                max_ohm: hi,
+            }),
         }
     }
 

@@ -16,6 +16,15 @@
 //! swinging), the measurement is refused. The current loop's answer to 1 % current noise is
 //! far below it (about 0.3 V on the Sinano motor, against 1.2 V).
 //!
+//! The measurement also checks that the current followed its reference: at least half the
+//! step between the levels on the d axis, and a mean q current within [`Q_CURRENT_MAX`] of the
+//! alignment's current (a current loop holds its reference's mean, whatever the noise or an
+//! offset). An open phase a leaves no d current; an open phase b or c lets the current flow
+//! only along the line of the other two, at ±30° from the d axis, a q current of
+//! `tan 30° = 0.58` times the d current (on the simulated board every open phase of both
+//! drive motors is caught, `host-sim/tests/start_resistance.rs`). Either way the start is
+//! refused (`Fault::OpenWinding`, `adaptation.rs`).
+//!
 //! A rotor the current does not hold (an active load beyond the alignment's torque drags it)
 //! shows a back-EMF that turns on in one direction: the drive watches it every step
 //! (`catch_zero::Watch`, `DriveState::watch`) and, after a full electrical turn while measurable
@@ -32,6 +41,9 @@ pub(super) const LOW_LEVEL: f32 = 2.0 / 3.0;
 /// At rest: the q voltage's RMS in the windows below the back-EMF of this fraction of the
 /// rated speed.
 pub(super) const REST_SPEED: f32 = 0.05;
+
+/// The largest mean q current of the two windows, a fraction of the alignment's current.
+pub(super) const Q_CURRENT_MAX: f32 = 0.25;
 
 /// Align's per-step coefficients.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -55,6 +67,8 @@ pub(super) struct Align {
     sum_i: [f32; 2],
     /// Sum of the squared q voltage over both windows \[V²].
     sum_vq2: f32,
+    /// Sum of the q current over both windows \[A].
+    sum_iq: f32,
 }
 
 impl Settings {
@@ -81,6 +95,7 @@ impl Settings {
             a.sum_v[w] += v_ab.alpha;
             a.sum_i[w] += i_ab.alpha;
             a.sum_vq2 += v_ab.beta * v_ab.beta;
+            a.sum_iq += i_ab.beta;
         }
         a.steps_done = n.saturating_add(1);
         let level = if low { LOW_LEVEL } else { 1.0 };
@@ -93,18 +108,36 @@ impl Settings {
         (req, done)
     }
 
-    /// The resistance measured \[Ω]: `Δv/Δi` of the two levels' means (equal windows); NaN if
-    /// the currents did not differ by at least half the intended step (an open phase, a
-    /// current the loop could not drive) or the rotor turned (see the module's doc).
-    pub(super) fn resistance(&self, a: &Align) -> f32 {
+    /// What the alignment measured of the resistance: `Δv/Δi` of the two levels' means
+    /// (equal windows) \[Ω], unless the current did not follow its reference
+    /// ([`Measured::NotFollowed`]) or the rotor was not at rest ([`Measured::NotAtRest`]; see
+    /// the module's doc).
+    pub(super) fn resistance(&self, a: &Align) -> Measured {
         let di = a.sum_i[1] - a.sum_i[0];
         let samples = (2 * self.sixteenth) as f32;
         let intended = (1.0 - LOW_LEVEL) * self.current_a * samples;
         let at_rest = a.sum_vq2 <= self.rest_vq2 * (2.0 * samples);
-        if di.abs() >= 0.5 * intended && at_rest {
-            (a.sum_v[1] - a.sum_v[0]) / di
+        let q_held = a.sum_iq.abs() <= Q_CURRENT_MAX * self.current_a * (2.0 * samples);
+        // (false for NaN: not followed.)
+        if !(di.abs() >= 0.5 * intended && q_held) {
+            Measured::NotFollowed
+        } else if !at_rest {
+            Measured::NotAtRest
         } else {
-            f32::NAN
+            Measured::Ohm((a.sum_v[1] - a.sum_v[0]) / di)
         }
     }
+}
+
+/// The alignment's measurement of the stator resistance ([`Settings::resistance`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum Measured {
+    /// `R = Δv/Δi` \[Ω], to be judged against the motor's range (`adaptation.rs`).
+    Ohm(f32),
+    /// The rotor was not at rest (a back-EMF in the q voltage): no measurement.
+    NotAtRest,
+    /// The current did not follow its reference: less than half the step between the levels
+    /// flowed on the d axis, or a mean q current beyond [`Q_CURRENT_MAX`] of the alignment's
+    /// where none was asked. The winding does not carry the alignment's current.
+    NotFollowed,
 }

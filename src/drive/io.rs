@@ -85,6 +85,14 @@ pub enum Fault {
     /// (`plausibility.rs`). A current sensor stuck, reading zero or off by a gain while current
     /// flows (its error is the sum), or a broken sensing path.
     CurrentSensor,
+    /// The alignment's current did not follow its reference (less than half the step between
+    /// its two levels flowed on the d axis, or a mean q current beyond a quarter of the
+    /// alignment's where none was asked): the motor does not carry the start's current. A
+    /// phase or the whole motor not connected (a broken wire, a loose connector), or a
+    /// winding whose resistance the bus cannot drive the alignment's current through. The
+    /// start is refused at the alignment's end, PWM off, instead of an open loop that cannot
+    /// make its torque (`adaptation.rs`).
+    OpenWinding,
     /// The identification stopped: why (with the feature `identify`).
     #[cfg(feature = "identify")]
     Identify(super::identify::IdentifyError),
@@ -101,7 +109,7 @@ pub enum Reason {
     Caught,
     /// The rotor is at rest (or too slow to see): align it.
     AtRest,
-    /// Alignment time elapsed.
+    /// Alignment time elapsed (the resistance it measured taken).
     Aligned,
     /// An observer is healthy on its own evidence: closed loop on it.
     HandOver,
@@ -133,6 +141,25 @@ pub enum Reason {
     Calibrated,
     /// Every identification measurement done.
     Identified,
+    /// Alignment time elapsed, the resistance it measured refused: beyond the motor's range,
+    /// or not measured (the rotor not at rest). The drive starts on the resistance it had (a
+    /// warning, not a fault: `adaptation.rs`); what was measured and the range:
+    /// [`DriveState::resistance_refused`](super::DriveState::resistance_refused).
+    ResistanceRefused,
+}
+
+/// An alignment's stator-resistance measurement the drive did not take
+/// ([`Reason::ResistanceRefused`]): what was measured and the range it is taken in. The drive
+/// kept the resistance it had ([`Telemetry::r_ohm`]).
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ResistanceRefused {
+    /// The alignment's `Δv/Δi` \[Ω]; `None`: nothing measured, the rotor was not at rest.
+    pub measured_ohm: Option<f32>,
+    /// The lowest resistance taken, `R₀/3` \[Ω] (`R₀` the configured).
+    pub min_ohm: f32,
+    /// The highest resistance taken, `3 R₀` \[Ω].
+    pub max_ohm: f32,
 }
 
 /// One mode change, for the log.

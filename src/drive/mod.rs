@@ -65,7 +65,9 @@ pub use crate::power_stage::DriveInput;
 pub use crate::schedule::{Schedule, SLOTS};
 pub use config::{DriveConfig, HealthConfig, Limits, PowerStageConfig, StartConfig};
 pub use identify::{Identified, IdentifyConfig, IdentifyError, IdentifyPhase};
-pub use io::{Command, DriveOutput, Fault, Mode, Reason, Role, Telemetry, Transition};
+pub use io::{
+    Command, DriveOutput, Fault, Mode, Reason, ResistanceRefused, Role, Telemetry, Transition,
+};
 pub use report::{Derived, DerivedRow, Warning};
 pub use safe_state::{allows_short_circuit, SafeState};
 pub use state::{DriveState, StateOf};
@@ -73,7 +75,7 @@ pub use state::{DriveState, StateOf};
 use crate::foc::{Foc, Request};
 use crate::frames::{AlphaBeta, Dq};
 use crate::observer::{Observer, ReadOut, Rotor};
-use align::Align;
+use align::{Align, Measured};
 use catch::{Catch, Seen};
 use catch_zero::{CatchZero, Probe};
 use core::hint::cold_path;
@@ -547,17 +549,27 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                     Outcome::Switch(request, ModeState::CatchZero(c), Reason::Turning)
                 } else if done {
                     cold_path();
-                    // The resistance of this start (kept unless implausible).
-                    let r_ohm = self.align.resistance(a);
-                    self.adaptation.take_resistance(&mut st.obs.model, r_ohm);
+                    // The resistance of this start: taken if plausible, else the model's kept
+                    // and the refusal reported; a winding that did not carry the current
+                    // refuses the start (`adaptation.rs`).
+                    let r_ohm = match self.align.resistance(a) {
+                        Measured::NotFollowed => {
+                            st.resistance_refused = None;
+                            return Outcome::Fault(Fault::OpenWinding);
+                        }
+                        Measured::NotAtRest => None,
+                        Measured::Ohm(r) => Some(r),
+                    };
+                    let taken = self.adaptation.take_resistance(&mut st.obs.model, r_ohm);
+                    st.resistance_refused = taken.err();
+                    let reason = match taken {
+                        Ok(()) => Reason::Aligned,
+                        Err(_) => Reason::ResistanceRefused,
+                    };
                     // Rotor at θ_e = 0, at rest: start the observers there, both locked.
                     self.seed_observers(&mut st.obs, Seed::BOTH, i_ab, Rotor::default());
                     st.obs.health = Health::AT_KNOWN_STATE;
-                    Outcome::Switch(
-                        request,
-                        ModeState::OpenLoop(OpenLoop::AT_REST),
-                        Reason::Aligned,
-                    )
+                    Outcome::Switch(request, ModeState::OpenLoop(OpenLoop::AT_REST), reason)
                 } else {
                     Outcome::Run(request)
                 }

@@ -90,7 +90,8 @@ pub fn allows_short_circuit(fault: Fault) -> bool {
         | Fault::BusUndervoltage
         | Fault::Overrun
         | Fault::AdcOffset
-        | Fault::CurrentSensor => false,
+        | Fault::CurrentSensor
+        | Fault::OpenWinding => false,
         #[cfg(feature = "identify")]
         Fault::Identify(_) => false,
     }

@@ -10,7 +10,7 @@ use super::identify::offset::Offsets;
 #[cfg(feature = "identify")]
 use super::identify::Identify;
 use super::identify::{Identified, IdentifyPhase};
-use super::io::{Fault, Mode, Role};
+use super::io::{Fault, Mode, ResistanceRefused, Role};
 use super::observers::ObserverStates;
 use super::open_loop::OpenLoop;
 use super::protection::Arming;
@@ -60,6 +60,9 @@ pub struct DriveState<PS, MS> {
     /// The back-EMF watched in the alignment and the catch without terminal sensing
     /// (`catch_zero.rs`); last, so that it moves none of the fields before it.
     pub(super) watch: Watch,
+    /// The last alignment's resistance measurement, if refused (`adaptation.rs`), for the
+    /// log; kept across restarts like the model. After everything the step reads.
+    pub(super) resistance_refused: Option<ResistanceRefused>,
 }
 
 impl<PS: Default, MS: Default> Default for DriveState<PS, MS> {
@@ -79,12 +82,14 @@ impl<PS: Default, MS: Default> Default for DriveState<PS, MS> {
             #[cfg(feature = "identify")]
             identify: Identify::new(),
             watch: Watch::default(),
+            resistance_refused: None,
         }
     }
 }
 
 impl<PS: Default, MS: Default> DriveState<PS, MS> {
-    /// Starts afresh in `mode`, the adapted motor model and the offsets measured kept.
+    /// Starts afresh in `mode`, the adapted motor model, the offsets measured and the last
+    /// alignment's refused resistance kept.
     // Out of line: a mode change (enable, disable, stop, clear), one copy for all of them.
     #[inline(never)]
     pub(super) fn restart(&mut self, mode: ModeState) {
@@ -92,6 +97,7 @@ impl<PS: Default, MS: Default> DriveState<PS, MS> {
         *self = DriveState {
             mode,
             offsets: self.offsets.kept(),
+            resistance_refused: self.resistance_refused,
             ..DriveState::default()
         };
         self.obs.model = model;
@@ -181,6 +187,18 @@ impl<PS, MS> DriveState<PS, MS> {
     /// can take these.
     pub fn offset_ab(&self) -> AlphaBeta {
         self.offsets.ab()
+    }
+
+    /// The last alignment's stator-resistance measurement, if the drive refused it (beyond
+    /// `R₀/3 ..= 3 R₀`, or none: the rotor not at rest): what was measured and the range. The
+    /// drive kept the resistance it had ([`Telemetry::r_ohm`](super::Telemetry::r_ohm)); the
+    /// transition out of that alignment said
+    /// [`Reason::ResistanceRefused`](super::Reason::ResistanceRefused). Kept across restarts
+    /// (stop, disable, a fault cleared) for the log; `None` once an alignment's measurement is
+    /// taken or its current did not flow (`Fault::OpenWinding`), and before the first. Not in
+    /// the telemetry record, which stays at its 64 bytes.
+    pub fn resistance_refused(&self) -> Option<ResistanceRefused> {
+        self.resistance_refused
     }
 
     /// The latched fault, if any.

@@ -29,7 +29,7 @@ PLACES = [
     ("src/observer/flux_speed.rs", "fn update(&self, st: &mut FluxIiState, i_ab: AlphaBeta, v_ab: AlphaBeta) -> bool {", 1, "FluxIi: update"),
     ("src/observer/flux_speed.rs", "fn read_out(&self, st: &mut FluxIiState, part: ReadOut) {", 1, "FluxIi: I&I speed and load read-outs"),
     ("src/drive/align.rs", "pub(super) fn step(&self, a: &mut Align, i_ab: AlphaBeta, v_ab: AlphaBeta) -> (Request, bool) {", 1, "mode Align (and the sums of its R measurement)"),
-    ("src/drive/align.rs", "pub(super) fn resistance(&self, a: &Align) -> f32 {", 1, "Align: the measured resistance"),
+    ("src/drive/align.rs", "pub(super) fn resistance(&self, a: &Align) -> Measured {", 1, "Align: the measured resistance"),
     ("src/drive/adaptation.rs", "pub(super) fn observer_input(", 1, "adaptation: the observers' inputs through the model"),
     ("src/drive/adaptation.rs", "pub(super) fn take_resistance(", 1, "adaptation: R taken"),
     ("src/drive/adaptation.rs", "pub(super) fn track_flux(", 1, "adaptation: psi_f tracked"),

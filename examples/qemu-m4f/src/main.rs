@@ -24,7 +24,7 @@ mod firmware {
     use panic_probe as _;
     use pmsm_plant::{Inverter, Plant, PlantParams, StiffBus};
     use pmsm_sensorless::control::{Commands, Control};
-    use pmsm_sensorless::drive::{Drive, DriveConfig, DriveInput, Mode};
+    use pmsm_sensorless::drive::{Drive, DriveConfig, DriveInput, Mode, Reason};
     use pmsm_sensorless::frames::Abc;
     use pmsm_sensorless::math::wrap_pi;
     use pmsm_sensorless::motor::HORNG_SINANO;
@@ -120,6 +120,12 @@ mod firmware {
             let (stepped, ticked) = control.run(&cmd);
             for tr in stepped.transition.into_iter().chain(ticked.transitions()) {
                 defmt::info!("t = {=f32} s: {} -> {} ({})", t, tr.from, tr.to, tr.reason);
+                if tr.reason == Reason::ResistanceRefused {
+                    defmt::warn!(
+                        "the start's resistance refused, the model's kept: {}",
+                        control.state().resistance_refused()
+                    );
+                }
                 if tr.to == Mode::Sensorless && tr.from != Mode::Sensorless {
                     handovers += 1;
                 }

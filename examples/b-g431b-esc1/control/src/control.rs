@@ -28,6 +28,7 @@ use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use cortex_m::interrupt::Mutex;
 use cortex_m::peripheral::NVIC;
 use pmsm_sensorless::control::{Commands, TickCopy};
+use pmsm_sensorless::drive::Reason;
 use stm32g4::stm32g431::{interrupt, Interrupt};
 
 use crate::power_stage::Esc1;
@@ -145,7 +146,15 @@ impl Control {
         }
         let out = self.control.step(&cmd);
         if let Some(tr) = out.transition {
-            self.events.send(Event::Transition { step: out.step, tr });
+            // A start's resistance measurement refused: what was measured, for the log.
+            let refused = (tr.reason == Reason::ResistanceRefused)
+                .then(|| self.control.state().resistance_refused())
+                .flatten();
+            self.events.send(Event::Transition {
+                step: out.step,
+                tr,
+                refused,
+            });
         }
         if let Some(r) = out.record {
             self.events.send(Event::Telemetry {
@@ -220,7 +229,11 @@ impl Tick {
         TICK_ALIVE.store(true, Ordering::Relaxed);
         let step = self.copy.steps();
         for tr in ticked.transitions() {
-            self.events.send(Event::Transition { step, tr });
+            self.events.send(Event::Transition {
+                step,
+                tr,
+                refused: None,
+            });
         }
         #[cfg(feature = "identify")]
         if let Some(motor) = ticked.identified {

@@ -9,7 +9,7 @@ use defmt_rtt as _;
 use heapless::spsc::{Consumer, Producer, Queue};
 #[cfg(feature = "identify")]
 use pmsm_sensorless::drive::Identified;
-use pmsm_sensorless::drive::{Mode, Telemetry, Transition};
+use pmsm_sensorless::drive::{Mode, ResistanceRefused, Telemetry, Transition};
 use pmsm_sensorless::frames::Abc;
 
 use pmsm_b_g431b_esc1::config::SETTINGS;
@@ -37,13 +37,12 @@ pub enum Event {
     Transition {
         step: u32,
         tr: Transition,
+        /// With `Reason::ResistanceRefused`: what the alignment measured and the range.
+        refused: Option<ResistanceRefused>,
     },
     /// The identification's results: the motor file's lines (the commissioning firmware).
     #[cfg(feature = "identify")]
-    Identified {
-        step: u32,
-        motor: Identified,
-    },
+    Identified { step: u32, motor: Identified },
 }
 
 impl Event {
@@ -72,14 +71,19 @@ impl Event {
 impl defmt::Format for Event {
     fn format(&self, f: defmt::Formatter) {
         match self {
-            Event::Transition { step, tr } => defmt::write!(
-                f,
-                "t = {=f32} s: {} -> {} ({})",
-                seconds(*step),
-                tr.from,
-                tr.to,
-                tr.reason
-            ),
+            Event::Transition { step, tr, refused } => {
+                defmt::write!(
+                    f,
+                    "t = {=f32} s: {} -> {} ({})",
+                    seconds(*step),
+                    tr.from,
+                    tr.to,
+                    tr.reason
+                );
+                if let Some(r) = refused {
+                    defmt::write!(f, "; the model's resistance kept, refused: {}", r);
+                }
+            }
             // The motor file `pmsm-sim run --motor-file` loads (README, "Your motor"), with the
             // pole pairs and ratings of `MOTOR`.
             #[cfg(all(feature = "identify", not(feature = "link")))]

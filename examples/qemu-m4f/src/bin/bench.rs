@@ -305,14 +305,32 @@ mod firmware {
         );
         // Start-up: open loop at 60 rpm, past half the hand-over speed (the observers have
         // restarted), below the hand-over: reached from idle through the alignment (0.2 s)
-        // and the ramp (60 ms), not measured.
+        // and the ramp (60 ms), not measured. The alignment's samples are a winding's at
+        // rest, `L di/dt = v − R i` (forward Euler over a step): the current follows the
+        // drive's voltage, as the alignment checks (`Fault::OpenWinding`); then those of a
+        // turning rotor.
         let open_loop_cmd = Command {
             speed_rpm: 60.0,
             ..cmd
         };
         let mut open_loop = StateOf::<SlidingObserver, FluxPll>::default();
+        let (r, per_step) = (m.params.r_ohm, m.params.r_ohm / (m.params.l_h * rate));
+        let mut i_winding = AlphaBeta::default();
         for k in 0..300 * steps_per_ms {
-            control_step(&drive, &mut open_loop, &input(theta0, k), &open_loop_cmd);
+            let sample = if open_loop.mode() == Mode::Align {
+                let v = open_loop.v_ab_applied();
+                i_winding = AlphaBeta::new(
+                    i_winding.alpha + per_step * (v.alpha / r - i_winding.alpha),
+                    i_winding.beta + per_step * (v.beta / r - i_winding.beta),
+                );
+                DriveInput {
+                    i_abc: i_winding.to_abc(),
+                    ..input(theta0, k)
+                }
+            } else {
+                input(theta0, k)
+            };
+            control_step(&drive, &mut open_loop, &sample, &open_loop_cmd);
             if open_loop.tick_due() {
                 control_tick(&drive, &mut open_loop, &open_loop_cmd);
             }

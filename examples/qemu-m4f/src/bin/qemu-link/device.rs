@@ -22,7 +22,7 @@ use heapless::Deque;
 use pmsm_link::{identification_motor, Device, DeviceError, Settings};
 use pmsm_sensorless::control::{Commands, Control};
 use pmsm_sensorless::drive::identify::SPIN_SPEED_SHARE;
-use pmsm_sensorless::drive::{Drive, Identified, Mode, Telemetry, Transition};
+use pmsm_sensorless::drive::{Drive, Identified, Mode, Reason, Telemetry, Transition};
 use pmsm_sensorless::motor::Motor;
 use pmsm_sensorless::observer::flux_speed::FluxPll;
 use pmsm_sensorless::observer::sliding::SlidingObserver;
@@ -117,6 +117,12 @@ impl Firmware {
                         tr.to,
                         tr.reason
                     );
+                    if tr.reason == Reason::ResistanceRefused {
+                        defmt::warn!(
+                            "the start's resistance refused, the model's kept: {}",
+                            control.state().resistance_refused()
+                        );
+                    }
                     if self.transitions.is_full() {
                         self.transitions.pop_front();
                     }
