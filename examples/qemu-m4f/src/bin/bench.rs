@@ -31,6 +31,7 @@ mod firmware {
     };
     use pmsm_sensorless::fixed::current::{CurrentLoopOutputQ, CurrentLoopQ, CurrentLoopStateQ};
     use pmsm_sensorless::fixed::flux::{FluxObserverQ, FluxStateQ};
+    use pmsm_sensorless::fixed::pll::{PllQ, PllStateQ};
     use pmsm_sensorless::fixed::pu::PerUnit;
     use pmsm_sensorless::fixed::{AbcQ15, AlphaBetaQ15, Angle, DqQ15, Q15};
     use pmsm_sensorless::foc::{CurrentLoopState, Foc, FocConfig, FocInput, FocOutput, Reference};
@@ -81,6 +82,7 @@ mod firmware {
         bench_begin_fixed_frames, bench_end_fixed_frames, 21u32;
         bench_begin_fixed_flux, bench_end_fixed_flux, 22u32;
         bench_begin_fixed_current, bench_end_fixed_current, 23u32;
+        bench_begin_fixed_pll, bench_end_fixed_pll, 24u32;
     }
 
     /// Steps measured per case.
@@ -123,7 +125,8 @@ mod firmware {
     }
 
     /// The fixed-point blocks (issue #30), each in a function of its own: the frames (sin/cos,
-    /// Clarke, Park, inverse Park), Ortega's flux observer eq (9), the current loop.
+    /// Clarke, Park, inverse Park), Ortega's flux observer eq (9), the current loop, the PLL
+    /// of Sec V iii with its speed in per unit.
     #[inline(never)]
     fn fixed_frames(abc: AbcQ15, angle: Angle, v: DqQ15) -> (DqQ15, AlphaBetaQ15) {
         let sc = angle.sin_cos();
@@ -150,6 +153,11 @@ mod firmware {
         v_max: Q15,
     ) -> CurrentLoopOutputQ {
         cl.update(st, i, i_ref, omega_e, v_max)
+    }
+
+    #[inline(never)]
+    fn fixed_pll(pll: &PllQ, st: &mut PllStateQ, theta: Angle) -> (i32, Q15) {
+        (pll.update(st, theta), pll.omega_q15(st))
     }
 
     #[inline(never)]
@@ -462,15 +470,28 @@ mod firmware {
             black_box(&out);
             bench_end_foc_svpwm();
         }
-        // The fixed-point blocks on the same motor and settings (per unit from the drive's).
+        // The fixed-point blocks on the same motor and settings (per unit from the drive's; the
+        // PLL as the drive's, in its 1 kHz task).
+        let pll_q_cfg = PllConfig {
+            rate_hz: rate / steps_per_ms.max(1) as f32,
+            bandwidth_hz: 50.0,
+            damping: 1.0,
+        };
         let fixed = PerUnit::of_drive(&cfg).and_then(|pu| {
             Ok((
                 pu,
                 FluxObserverQ::build(&cfg.flux_config(), &pu)?,
                 CurrentLoopQ::build(&cfg.foc_config(), &pu)?,
+                PllQ::build(&pll_q_cfg, &pu)?,
             ))
         });
-        if let Ok((pu, flux_q, current_q)) = fixed {
+        if let Ok((pu, flux_q, current_q, pll_q)) = fixed {
+            let mut pll_state = PllStateQ::default();
+            pll_q.reset(
+                &mut pll_state,
+                Angle::from_rad(theta0),
+                pu.speed(4.0 * omega_m),
+            );
             let mut f_state = FluxStateQ::default();
             let mut c_state = CurrentLoopStateQ::default();
             let i_ab = AlphaBetaQ15 {
@@ -504,6 +525,9 @@ mod firmware {
                     20_000,
                 ));
                 bench_end_fixed_current();
+                bench_begin_fixed_pll();
+                black_box(fixed_pll(&pll_q, &mut pll_state, angle));
+                bench_end_fixed_pll();
             }
         } else {
             defmt::error!("the fixed-point blocks do not build for the bench's motor");

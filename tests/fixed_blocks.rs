@@ -1,0 +1,267 @@
+//! The fixed-point PLL, SVPWM and sliding observer (`pmsm_sensorless::fixed::{pll, svpwm,
+//! sliding}`, issue #30) against their f32 references, on every zoo motor and the presets in
+//! the per-unit bases of its drive configuration (`PerUnit::of_drive`), over the range of
+//! speeds and voltages that motor reaches. Bounds are stated and derived in each test.
+
+use pmsm_host_sim::motor_file;
+use pmsm_sensorless::drive::DriveConfig;
+use pmsm_sensorless::fixed::pll::{PllQ, PllStateQ};
+use pmsm_sensorless::fixed::pu::PerUnit;
+use pmsm_sensorless::fixed::Angle;
+use pmsm_sensorless::motor::Motor;
+use pmsm_sensorless::observer::pll::{PllConfig, PllState};
+use std::f64::consts::{PI, TAU};
+
+/// Every zoo motor and the presets, by name.
+fn all_motors() -> Vec<(String, Motor)> {
+    let dir = format!("{}/host-sim/motors/zoo", env!("CARGO_MANIFEST_DIR"));
+    let mut all: Vec<(String, Motor)> = std::fs::read_dir(&dir)
+        .unwrap()
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+        .filter_map(|p| {
+            let m = motor_file::load(&p).ok()?.1;
+            Some((p.file_stem()?.to_string_lossy().into_owned(), m))
+        })
+        .collect();
+    all.sort_by(|a, b| a.0.cmp(&b.0));
+    for m in pmsm_sensorless::motor::PRESETS {
+        all.push((m.name.to_string(), m));
+    }
+    all
+}
+
+/// A seeded generator in [−1, 1] (deterministic).
+struct Lcg(u64);
+
+impl Lcg {
+    fn next(&mut self) -> f64 {
+        self.0 = self
+            .0
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    }
+}
+
+/// An angle in turns (any real) as a binary angle, rounded to 2⁻³² turn.
+fn angle_of_turns(turns: f64) -> Angle {
+    Angle(((turns.rem_euclid(1.0) * 4_294_967_296.0).round() as u64) as u32)
+}
+
+fn wrap(x: f64) -> f64 {
+    (x + PI).rem_euclid(TAU) - PI
+}
+
+/// The worst differences of one run: after the transients (0.1 s from the start and from the
+/// angle step) and over the whole run.
+#[derive(Default, Debug, Clone, Copy)]
+struct PllDiff {
+    /// |ω̂ fixed − ω̂ f32| \[rad/s], after the transients.
+    speed: f64,
+    /// |z1 fixed − z1 f32| \[°], after the transients.
+    angle_deg: f64,
+    /// The same over the whole run.
+    speed_all: f64,
+    angle_all_deg: f64,
+    /// |omega_q15 − Δ in Q15 of ω_b| \[LSB] (where ω̂ is within ±1 pu).
+    q15_lsb: f64,
+}
+
+impl PllDiff {
+    fn max(self, o: Self) -> Self {
+        Self {
+            speed: self.speed.max(o.speed),
+            angle_deg: self.angle_deg.max(o.angle_deg),
+            speed_all: self.speed_all.max(o.speed_all),
+            angle_all_deg: self.angle_all_deg.max(o.angle_all_deg),
+            q15_lsb: self.q15_lsb.max(o.q15_lsb),
+        }
+    }
+}
+
+/// The input sequences: `(name, duration [s], ω(t) [rad/s], angle offset(t) [rad], noise [rad])`
+/// with `w` the top speed.
+type Sequence = (&'static str, f64, Box<dyn Fn(f64) -> f64>, f64, f64);
+
+fn sequences(w: f64) -> Vec<Sequence> {
+    vec![
+        // A ramp from rest to the top speed in 1 s, held 0.5 s.
+        (
+            "ramp",
+            1.5,
+            Box::new(move |t: f64| w * t.min(1.0)),
+            0.0,
+            0.0,
+        ),
+        // A reversal through zero at a constant acceleration (−w to w in 2 s).
+        (
+            "reversal",
+            2.0,
+            Box::new(move |t: f64| w * (t - 1.0)),
+            0.0,
+            0.0,
+        ),
+        // Constant speed, the angle stepping by 60° at 0.5 s.
+        ("step", 1.0, Box::new(move |_| w), 60f64.to_radians(), 0.0),
+        // Half the top speed, ±2° of uniform noise on every sample (seeded).
+        (
+            "noise",
+            1.0,
+            Box::new(move |_| 0.5 * w),
+            0.0,
+            2f64.to_radians(),
+        ),
+        // A speed oscillating at 5 Hz between 0.2 and the top speed: accelerations of 2πf·0.4w.
+        (
+            "wobble",
+            1.0,
+            Box::new(move |t: f64| w * (0.6 + 0.4 * (TAU * 5.0 * t).sin())),
+            0.0,
+            0.0,
+        ),
+    ]
+}
+
+/// One sequence through the f32 and the fixed-point PLL: the same binary input angles (the
+/// f32 PLL takes each as `Angle::to_rad`), both started at the sequence's first angle and
+/// speed (the f32 one at the speed the fixed reset gives).
+fn pll_run(cfg: &PllConfig, pu: &PerUnit, seq: &Sequence, seed: u64) -> PllDiff {
+    let reference = cfg.build().unwrap();
+    let q = PllQ::build(cfg, pu).unwrap();
+    let ts = 1.0 / f64::from(cfg.rate_hz);
+    let (_, duration, omega, step, noise) = seq;
+    let mut rng = Lcg(seed);
+    let n = (duration / ts) as usize;
+    let mut turns = 0.0f64;
+    let theta_at = |turns: f64, t: f64, rng: &mut Lcg| {
+        let offset = if t >= 0.5 { *step } else { 0.0 } + noise * rng.next();
+        angle_of_turns(turns + offset / TAU)
+    };
+    let (mut st_q, mut st_f) = (PllStateQ::default(), PllState::default());
+    let theta0 = theta_at(0.0, 0.0, &mut rng);
+    q.reset(&mut st_q, theta0, pu.speed(omega(0.0) as f32));
+    reference.reset(&mut st_f, theta0.to_rad(), q.omega_rad_s(st_q.delta));
+    let mut d = PllDiff::default();
+    let lsb = 32_768.0 / f64::from(pu.omega_base_e);
+    for k in 1..n {
+        let t = k as f64 * ts;
+        // The angle integrates ω(t) (trapezoid).
+        turns += 0.5 * (omega(t - ts) + omega(t)) * ts / TAU;
+        let theta = theta_at(turns, t, &mut rng);
+        let delta = q.update(&mut st_q, theta);
+        reference.update(&mut st_f, theta.to_rad());
+        let w_q = f64::from(q.omega_rad_s(delta));
+        let speed = (w_q - f64::from(st_f.omega)).abs();
+        let angle = wrap(f64::from(st_q.z1.to_rad()) - f64::from(st_f.z1))
+            .abs()
+            .to_degrees();
+        d.speed_all = d.speed_all.max(speed);
+        d.angle_all_deg = d.angle_all_deg.max(angle);
+        if t >= 0.1 && !(0.5..0.6).contains(&t) {
+            d.speed = d.speed.max(speed);
+            d.angle_deg = d.angle_deg.max(angle);
+        }
+        // The read-out in Q15 against Δ's exact value (where it is inside ±1 pu).
+        let exact = w_q * lsb;
+        if exact.abs() < 32_767.0 {
+            d.q15_lsb = d.q15_lsb.max((f64::from(q.omega_q15(&st_q)) - exact).abs());
+        }
+    }
+    d
+}
+
+/// The fixed-point PLL against the f32 `Pll` on the same binary angle sequences (a ramp, a
+/// reversal at constant acceleration, a 60° step, ±2° of seeded noise, an oscillating speed),
+/// on every zoo motor and preset, scaled to its rated electrical speed `ω_r` (capped at a
+/// fifth of a turn per PLL sample, where the sampled angle still tells the speed), with three
+/// PLLs: the drive's (its 1 kHz task, 50 Hz, ζ = 1, as `DriveConfig`'s PLL), the same at the
+/// control rate, and a faster, lightly damped one (200 Hz, ζ = 0.7) at the control rate.
+///
+/// Required (issue #30): the speeds within 0.5 % of `ω_r` and the angles within 0.1° after
+/// the transients. What the fixed PLL's own roundings leave is far below: the error rounded
+/// to 2⁻¹⁷ turn (2.4·10⁻⁵ rad at most) moves `Δ` by `Kp·2.4·10⁻⁵` rad/s through the
+/// proportional path, and the loop, linear, turns a bounded error at its input into a bounded
+/// difference of the same order; the figures are printed. The Q15 read-out is within 1.5 LSB
+/// of `Δ`'s exact per-unit value (`PllQ::omega_q15`).
+#[test]
+fn pll_matches_the_f32_pll() {
+    let mut worst_rel = (0.0f64, 0.0f64, 0.0f64);
+    for (name, motor) in all_motors() {
+        let cfg = DriveConfig::new(&motor);
+        let pu = PerUnit::of_drive(&cfg).unwrap();
+        let rated = f64::from(motor.ratings.speed_rpm * motor.params.n()) * TAU / 60.0;
+        let tick_rate = cfg.rate_hz / (cfg.rate_hz / 1000.0).round().max(1.0);
+        let plls = [
+            ("drive (1 kHz task)", tick_rate, 50.0, 1.0),
+            ("control rate", cfg.rate_hz, 50.0, 1.0),
+            ("control rate, 200 Hz ζ 0.7", cfg.rate_hz, 200.0, 0.7),
+        ];
+        for (which, rate_hz, bandwidth_hz, damping) in plls {
+            let pll_cfg = PllConfig {
+                rate_hz,
+                bandwidth_hz,
+                damping,
+            };
+            let top = rated.min(0.2 * TAU * f64::from(rate_hz));
+            let mut d = PllDiff::default();
+            for (k, seq) in sequences(top).iter().enumerate() {
+                let r = pll_run(&pll_cfg, &pu, seq, 17 + k as u64);
+                d = d.max(r);
+            }
+            println!(
+                "{name:34} {which:28} top {top:8.0} rad/s (rated {rated:8.0}): speed {:.4} rad/s ({:.2e} of rated; all {:.2e}), angle {:.5}° (all {:.5}°), Q15 read-out {:.2} LSB",
+                d.speed,
+                d.speed / rated,
+                d.speed_all / rated,
+                d.angle_deg,
+                d.angle_all_deg,
+                d.q15_lsb
+            );
+            worst_rel.0 = worst_rel.0.max(d.speed / rated);
+            worst_rel.1 = worst_rel.1.max(d.angle_deg);
+            worst_rel.2 = worst_rel.2.max(d.q15_lsb);
+            assert!(d.speed <= 0.005 * rated, "{name} {which}: {d:?}");
+            assert!(d.angle_deg <= 0.1, "{name} {which}: {d:?}");
+            assert!(d.q15_lsb <= 1.5, "{name} {which}: {d:?}");
+        }
+    }
+    println!(
+        "worst: speed {:.2e} of rated, angle {:.5}°, Q15 read-out {:.2} LSB",
+        worst_rel.0, worst_rel.1, worst_rel.2
+    );
+}
+
+/// Reset and read-out: a speed set in Q15 reads back within 2 LSB (the reset's ½, the
+/// read-out's 1.5: `PllQ::reset`, `PllQ::omega_q15`), the angle exactly; the
+/// error wraps (an input half a turn away is ±π, never beyond).
+#[test]
+fn pll_reset_and_wrap() {
+    for (name, motor) in all_motors() {
+        let cfg = DriveConfig::new(&motor);
+        let pu = PerUnit::of_drive(&cfg).unwrap();
+        let pll_cfg = PllConfig {
+            rate_hz: cfg.rate_hz,
+            bandwidth_hz: 50.0,
+            damping: 1.0,
+        };
+        let q = PllQ::build(&pll_cfg, &pu).unwrap();
+        let mut st = PllStateQ::default();
+        for w in [-32_768i16, -20_000, -1, 0, 1, 123, 16_384, 32_767] {
+            q.reset(&mut st, Angle(0x8000_0000), w);
+            assert_eq!(st.z1, Angle(0x8000_0000));
+            let back = q.omega_q15(&st);
+            // Δ saturates at half a turn per sample: a faster base speed reads back lower.
+            let nyquist = pu.speed(std::f32::consts::PI * pll_cfg.rate_hz);
+            let want = w.clamp(-nyquist, nyquist);
+            assert!(
+                (i32::from(back) - i32::from(want)).abs() <= 2,
+                "{name}: {w} -> {back}"
+            );
+        }
+        q.reset(&mut st, Angle(0), 0);
+        q.update(&mut st, Angle(0x8000_0000));
+        assert_eq!(st.error, i32::MIN, "{name}");
+        assert_eq!(st.error_over_quarter_q15(), 65_536);
+    }
+}
