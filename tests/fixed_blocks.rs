@@ -7,9 +7,12 @@ use pmsm_host_sim::motor_file;
 use pmsm_sensorless::drive::DriveConfig;
 use pmsm_sensorless::fixed::pll::{PllQ, PllStateQ};
 use pmsm_sensorless::fixed::pu::PerUnit;
-use pmsm_sensorless::fixed::Angle;
+use pmsm_sensorless::fixed::svpwm::{svpwm_limited_q15, svpwm_q15, DutiesQ15, DUTY_ONE};
+use pmsm_sensorless::fixed::{AlphaBetaQ15, Angle};
+use pmsm_sensorless::frames::AlphaBeta;
 use pmsm_sensorless::motor::Motor;
 use pmsm_sensorless::observer::pll::{PllConfig, PllState};
+use pmsm_sensorless::svpwm::svpwm;
 use std::f64::consts::{PI, TAU};
 
 /// Every zoo motor and the presets, by name.
@@ -264,4 +267,172 @@ fn pll_reset_and_wrap() {
         assert_eq!(st.error, i32::MIN, "{name}");
         assert_eq!(st.error_over_quarter_q15(), 65_536);
     }
+}
+
+/// The f32 duties of `v` (per unit of the bus) as min–max injection without any cut, in
+/// f64 (the f32 `svpwm_limited` is the crate's own; this is its formula).
+fn injection_f64(alpha: f64, beta: f64) -> [f64; 3] {
+    let a = alpha;
+    let b = -0.5 * alpha + 0.75f64.sqrt() * beta;
+    let c = -a - b;
+    let v0 = -0.5 * (a.max(b).max(c) + a.min(b).min(c));
+    [a, b, c].map(|v| (0.5 + v + v0).clamp(0.0, 1.0))
+}
+
+/// The largest difference in Q15 LSB of the duty between the fixed duties and `want`.
+fn duty_lsb(d: DutiesQ15, want: [f64; 3]) -> f64 {
+    [d.a, d.b, d.c]
+        .iter()
+        .zip(want)
+        .map(|(&q, w)| (f64::from(q) - w * 32_768.0).abs())
+        .fold(0.0, f64::max)
+}
+
+/// The vectors of the SVPWM tests (per unit of the bus, as Q15): a grid over the whole Q15
+/// square (step 1/256, the over-modulation region included), and rings at 4096 angles at and
+/// about the circle (1/√3 ± 4 LSB) and the hexagon's corners (2/3 ± 4 LSB), and a ring at
+/// the square's corner radius.
+fn svpwm_vectors() -> Vec<AlphaBetaQ15> {
+    let mut v = Vec::new();
+    for i in -128..128 {
+        for j in -128..128 {
+            v.push(AlphaBetaQ15 {
+                alpha: (i * 256) as i16,
+                beta: (j * 256) as i16,
+            });
+        }
+    }
+    let circle = 32_768.0 / 3f64.sqrt();
+    let corner = 32_768.0 * 2.0 / 3.0;
+    for r in [
+        circle - 4.0,
+        circle - 1.0,
+        circle,
+        circle + 1.0,
+        circle + 4.0,
+        corner - 4.0,
+        corner,
+        corner + 4.0,
+        32_767.0,
+        46_000.0,
+    ] {
+        for k in 0..4096 {
+            let th = k as f64 * TAU / 4096.0;
+            let q = |x: f64| x.round().clamp(-32_768.0, 32_767.0) as i16;
+            v.push(AlphaBetaQ15 {
+                alpha: q(r * th.cos()),
+                beta: q(r * th.sin()),
+            });
+        }
+    }
+    v
+}
+
+/// The fixed-point SVPWM (`svpwm_q15`) against the f32 `svpwm` on the same vectors (the Q15
+/// vector times a 24 V bus), over `svpwm_vectors`.
+///
+/// Bounds, in Q15 LSB of a duty (`pmsm_sensorless::fixed::svpwm`'s module doc): in the
+/// linear range 0.75 LSB (two phases' 0.11, one rounding's ½). Cut to the circle: the cut
+/// vector within `δ` = 1.46 LSB of the f32 one (the unit vector's direction, 2.4·10⁻⁵ rad at
+/// the circle: 0.46 LSB; the radius's Q17 rounding and its constant's, ⅛ + 0.11; the Q17
+/// components' ⅛ each; 0.58 for a component at −32 768), its Q15 report within `δ + √2/2`,
+/// and a duty `v_k + v0` moves by at most 1.5 `δ` (`v_a − (v_b + v_c)/2 = 1.5 v_a` for the
+/// middle phase): `1.5 δ + 0.75` LSB. The two agree on saturation but within `δ` of the
+/// circle.
+#[test]
+fn svpwm_matches_the_f32_svpwm() {
+    let v_bus = 24.0f32;
+    let (mut worst_lin, mut worst_cut, mut worst_applied) = (0.0f64, 0.0f64, 0.0f64);
+    let (mut n_lin, mut n_cut, mut n_disagree) = (0, 0, 0);
+    let delta = 0.46 + 0.125 + 0.11 + 2.0f64.sqrt() * 0.125 + 0.58;
+    let circle = 32_768.0 / 3f64.sqrt();
+    for v in svpwm_vectors() {
+        let q = svpwm_q15(v);
+        let va = AlphaBeta::new(
+            f32::from(v.alpha) / 32_768.0 * v_bus,
+            f32::from(v.beta) / 32_768.0 * v_bus,
+        );
+        let r = svpwm(va, v_bus);
+        let want = [r.duties.a, r.duties.b, r.duties.c].map(f64::from);
+        let err = duty_lsb(q.duties, want);
+        for d in [q.duties.a, q.duties.b, q.duties.c] {
+            assert!(d <= DUTY_ONE, "{v:?}: {d}");
+        }
+        if q.saturated != r.saturated {
+            n_disagree += 1;
+            let mag = f64::from(v.alpha).hypot(f64::from(v.beta));
+            assert!((mag - circle).abs() <= delta, "{v:?}: {mag}");
+            continue;
+        }
+        if q.saturated {
+            n_cut += 1;
+            worst_cut = worst_cut.max(err);
+            let applied = (f64::from(q.v_ab_applied.alpha)
+                - f64::from(r.v_ab_applied.alpha / v_bus) * 32_768.0)
+                .hypot(
+                    f64::from(q.v_ab_applied.beta)
+                        - f64::from(r.v_ab_applied.beta / v_bus) * 32_768.0,
+                );
+            worst_applied = worst_applied.max(applied);
+            assert!(
+                applied <= delta + 0.5 * 2f64.sqrt(),
+                "{v:?}: applied {applied}"
+            );
+            assert!(err <= 1.5 * delta + 0.75, "{v:?}: {err} LSB");
+        } else {
+            n_lin += 1;
+            worst_lin = worst_lin.max(err);
+            assert_eq!(q.v_ab_applied, v);
+            assert!(err <= 0.75, "{v:?}: {err} LSB");
+        }
+    }
+    println!(
+        "svpwm: linear {worst_lin:.3} LSB ({n_lin} vectors), cut {worst_cut:.3} LSB (bound {:.2}; {n_cut} vectors, applied vector within {worst_applied:.2} LSB), saturation differs on {n_disagree} vectors at the circle",
+        1.5 * delta + 0.75
+    );
+    assert_eq!(
+        svpwm_q15(AlphaBetaQ15::default()).duties,
+        DutiesQ15::NEUTRAL
+    );
+}
+
+/// The limited form (`svpwm_limited_q15`, the FOC's) against min–max injection without a cut
+/// (the f32 `svpwm_limited`'s formula, in f64) inside the hexagon, and against the f32
+/// `svpwm` beyond it: the same bounds as `svpwm_matches_the_f32_svpwm`; the two differ on
+/// whether a vector is inside only within an LSB of the hexagon (its span within 2 LSB of
+/// the bus).
+#[test]
+fn svpwm_limited_matches_the_f32_formula() {
+    let v_bus = 24.0f32;
+    let (mut worst_in, mut worst_out, mut n_edge) = (0.0f64, 0.0f64, 0);
+    let delta = 0.46 + 0.125 + 0.11 + 2.0f64.sqrt() * 0.125 + 0.58;
+    for v in svpwm_vectors() {
+        let q = svpwm_limited_q15(v);
+        let (al, be) = (f64::from(v.alpha) / 32_768.0, f64::from(v.beta) / 32_768.0);
+        let ph = [al, -0.5 * al + 0.75f64.sqrt() * be];
+        let c = -ph[0] - ph[1];
+        let span = (ph[0].max(ph[1]).max(c) - ph[0].min(ph[1]).min(c)) * 32_768.0;
+        if (span - 32_768.0).abs() <= 2.0 {
+            n_edge += 1;
+            continue;
+        }
+        if span < 32_768.0 {
+            assert!(!q.saturated, "{v:?}");
+            let err = duty_lsb(q.duties, injection_f64(al, be));
+            worst_in = worst_in.max(err);
+            assert!(err <= 0.75, "{v:?}: {err} LSB");
+        } else {
+            assert!(q.saturated, "{v:?}");
+            let r = svpwm(AlphaBeta::new(al as f32 * v_bus, be as f32 * v_bus), v_bus);
+            let err = duty_lsb(
+                q.duties,
+                [r.duties.a, r.duties.b, r.duties.c].map(f64::from),
+            );
+            worst_out = worst_out.max(err);
+            assert!(err <= 1.5 * delta + 0.75, "{v:?}: {err} LSB");
+        }
+    }
+    println!(
+        "svpwm limited: inside the hexagon {worst_in:.3} LSB, beyond it (cut) {worst_out:.3} LSB, {n_edge} vectors within 2 LSB of the hexagon not compared"
+    );
 }

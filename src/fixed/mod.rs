@@ -3,8 +3,8 @@
 //! and checked against it (`tests/fixed.rs`, over every angle and the full per-unit range).
 //! Not yet wired into a step. Beside the frames: the per-unit bases, gains and the
 //! division-free normalisation ([`pu`]), the current loop ([`current`]), Ortega's flux
-//! observer ([`flux`]) and the PLL on its angle ([`pll`]); the SVPWM, the speed loop and the
-//! protections follow.
+//! observer ([`flux`]), the PLL on its angle ([`pll`]) and the SVPWM ([`svpwm`]); the speed
+//! loop and the protections follow.
 //!
 //! Formats (the choice ST's motor-control SDK makes on Cortex-M0, and TI's IQmath in Q15):
 //! - An angle is a wrapping [`Angle`], one turn = 2³² (as `idsp`'s `W<i32>` phase): adding
@@ -21,6 +21,7 @@ pub mod current;
 pub mod flux;
 pub mod pll;
 pub mod pu;
+pub mod svpwm;
 
 /// An electrical angle: one turn is 2³², wrapping (θ = `0` is 0 rad, `1 << 31` is ±π).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

@@ -33,6 +33,7 @@ mod firmware {
     use pmsm_sensorless::fixed::flux::{FluxObserverQ, FluxStateQ};
     use pmsm_sensorless::fixed::pll::{PllQ, PllStateQ};
     use pmsm_sensorless::fixed::pu::PerUnit;
+    use pmsm_sensorless::fixed::svpwm::{svpwm_limited_q15, SvpwmQ15};
     use pmsm_sensorless::fixed::{AbcQ15, AlphaBetaQ15, Angle, DqQ15, Q15};
     use pmsm_sensorless::foc::{CurrentLoopState, Foc, FocConfig, FocInput, FocOutput, Reference};
     use pmsm_sensorless::frames::{AlphaBeta, Dq};
@@ -83,6 +84,7 @@ mod firmware {
         bench_begin_fixed_flux, bench_end_fixed_flux, 22u32;
         bench_begin_fixed_current, bench_end_fixed_current, 23u32;
         bench_begin_fixed_pll, bench_end_fixed_pll, 24u32;
+        bench_begin_fixed_svpwm, bench_end_fixed_svpwm, 25u32;
     }
 
     /// Steps measured per case.
@@ -126,7 +128,8 @@ mod firmware {
 
     /// The fixed-point blocks (issue #30), each in a function of its own: the frames (sin/cos,
     /// Clarke, Park, inverse Park), Ortega's flux observer eq (9), the current loop, the PLL
-    /// of Sec V iii with its speed in per unit.
+    /// of Sec V iii with its speed in per unit, the SVPWM (the FOC's limited form: a vector
+    /// inside the circle, one between the circle and the hexagon, one beyond it, cut).
     #[inline(never)]
     fn fixed_frames(abc: AbcQ15, angle: Angle, v: DqQ15) -> (DqQ15, AlphaBetaQ15) {
         let sc = angle.sin_cos();
@@ -158,6 +161,11 @@ mod firmware {
     #[inline(never)]
     fn fixed_pll(pll: &PllQ, st: &mut PllStateQ, theta: Angle) -> (i32, Q15) {
         (pll.update(st, theta), pll.omega_q15(st))
+    }
+
+    #[inline(never)]
+    fn fixed_svpwm(v_ab: AlphaBetaQ15) -> SvpwmQ15 {
+        svpwm_limited_q15(v_ab)
     }
 
     #[inline(never)]
@@ -528,6 +536,26 @@ mod firmware {
                 bench_begin_fixed_pll();
                 black_box(fixed_pll(&pll_q, &mut pll_state, angle));
                 bench_end_fixed_pll();
+                // Q15 of the bus: inside the circle (0.35), towards a hexagon's corner beyond
+                // the circle (0.62), beyond the hexagon (0.9): cut.
+                let v_bus_q15 = [
+                    AlphaBetaQ15 {
+                        alpha: 10_000,
+                        beta: -6_000,
+                    },
+                    AlphaBetaQ15 {
+                        alpha: 20_000,
+                        beta: 1_000,
+                    },
+                    AlphaBetaQ15 {
+                        alpha: -25_000,
+                        beta: 17_000,
+                    },
+                ];
+                let v_svpwm = v_bus_q15[(k as usize - 1) % 3];
+                bench_begin_fixed_svpwm();
+                black_box(fixed_svpwm(black_box(v_svpwm)));
+                bench_end_fixed_svpwm();
             }
         } else {
             defmt::error!("the fixed-point blocks do not build for the bench's motor");

@@ -179,6 +179,10 @@ fn cycles_m0(root: &std::path::Path, json: bool) -> anyhow::Result<String> {
             "fixed point: PLL (Sec V iii) + speed in per unit",
             r.fixed_pll_cycles_est,
         ),
+        (
+            "fixed point: SVPWM (worst: cut beyond the hexagon)",
+            r.fixed_svpwm_cycles_est,
+        ),
     ] {
         t.add_row([what.to_string(), c.to_string()]);
     }
