@@ -129,7 +129,7 @@ impl PllQ {
         st.error = e;
         st.integral = st.integral.saturating_add(self.ki.apply(x));
         // Kp T e: the gain's result is below 2²⁹ but for its mantissa's rounding.
-        let p = self.kp.apply(x).max(-(1 << 29)).min((1 << 29) - 1) << 2;
+        let p = self.kp.apply(x).clamp(-(1 << 29), (1 << 29) - 1) << 2;
         st.delta = p.saturating_add(st.integral);
         st.z1 = st.z1.advanced(Angle(st.delta as u32));
         st.delta
@@ -142,9 +142,7 @@ impl PllQ {
     #[inline(always)]
     pub fn omega_q15(&self, st: &PllStateQ) -> Q15 {
         let half = (1i32 << self.s_out) >> 1;
-        let x = (st.delta.saturating_add(half) >> self.s_out)
-            .max(-65_536)
-            .min(65_536);
+        let x = (st.delta.saturating_add(half) >> self.s_out).clamp(-65_536, 65_536);
         let mag = ((x.unsigned_abs() * self.m_out + (1 << 15)) >> 16) as i32;
         sat_q15(if x < 0 { -mag } else { mag })
     }

@@ -137,7 +137,7 @@ fn cut(x: i32, y: i32) -> (i32, i32) {
     let (c, s) = (i32::from(c), i32::from(s));
     // |u|² − 1 in Q30, within ±2¹⁸ (3 LSB of length: 2·3·2¹⁵; held there).
     let dev = ((c * c) as u32 + (s * s) as u32).wrapping_sub(1 << 30) as i32;
-    let dev = dev.max(-(1 << 18)).min(1 << 18);
+    let dev = dev.clamp(-(1 << 18), 1 << 18);
     // r = C (1 − dev/2³¹) in Q17: C_Q17 − C_Q15 (dev/2⁴)/2²⁵.
     let r = (CIRCLE_Q17 - ((CIRCLE_Q15 * (dev >> 4)) >> 25)) as u32;
     // |u_k| ≤ 32 767, r < 75 700: the product is below 2³²; Q32 to Q17.
@@ -168,7 +168,7 @@ fn injection(x: i32, y: i32) -> (DutiesQ15, i32) {
     // ½ + (v_k − (max + min)/2): Q19 of the bus to Q15, rounded once, clamped.
     let duty = |v: i32| {
         let d = (i32::from(DUTY_ONE) >> 1) + ((2 * v - sum + 8) >> 4);
-        d.max(0).min(i32::from(DUTY_ONE)) as u16
+        d.clamp(0, i32::from(DUTY_ONE)) as u16
     };
     (
         DutiesQ15 {
