@@ -4,14 +4,21 @@
 //! speeds and voltages that motor reaches. Bounds are stated and derived in each test.
 
 use pmsm_host_sim::motor_file;
+use pmsm_host_sim::observer::ObserverKind;
+use pmsm_host_sim::scenario::profile::Pwl;
+use pmsm_host_sim::scenario::{self, Scenario, Window};
+use pmsm_host_sim::sim::{Sim, SimConfig};
 use pmsm_sensorless::drive::DriveConfig;
 use pmsm_sensorless::fixed::pll::{PllQ, PllStateQ};
 use pmsm_sensorless::fixed::pu::PerUnit;
+use pmsm_sensorless::fixed::sliding::{SlidingObserverQ, SlidingStateQ};
 use pmsm_sensorless::fixed::svpwm::{svpwm_limited_q15, svpwm_q15, DutiesQ15, DUTY_ONE};
 use pmsm_sensorless::fixed::{AlphaBetaQ15, Angle};
-use pmsm_sensorless::frames::AlphaBeta;
+use pmsm_sensorless::frames::{Abc, AlphaBeta};
 use pmsm_sensorless::motor::Motor;
 use pmsm_sensorless::observer::pll::{PllConfig, PllState};
+use pmsm_sensorless::observer::sliding::SlidingState;
+use pmsm_sensorless::observer::{Observer, Rotor};
 use pmsm_sensorless::svpwm::svpwm;
 use std::f64::consts::{PI, TAU};
 
@@ -435,4 +442,182 @@ fn svpwm_limited_matches_the_f32_formula() {
     println!(
         "svpwm limited: inside the hexagon {worst_in:.3} LSB, beyond it (cut) {worst_out:.3} LSB, {n_edge} vectors within 2 LSB of the hexagon not compared"
     );
+}
+
+/// A motor held at `rpm` by the sensored controller under `load` of its rated torque.
+fn constant_speed(motor: Motor, rpm: f64, load: f64, duration_s: f64) -> Scenario {
+    Scenario {
+        name: "test-fixed-sliding".into(),
+        description: "constant speed, sensored".into(),
+        motor_name: motor.name.to_string(),
+        motor,
+        duration_s,
+        speed_cmd_rpm: Pwl::constant(rpm),
+        load_shape: Pwl::constant(1.0),
+        load_nm: load * f64::from(motor.ratings.torque_nm),
+        windows: vec![Window::new("all", 0.0, duration_s)],
+        initial_speed_rpm: rpm,
+        min_speed_rpm: rpm,
+        i_max_a: None,
+        figures: String::new(),
+        load_kind: scenario::LoadKind::Active,
+        drive: None,
+        speed_tolerance: 0.02,
+        locked_rotor: false,
+    }
+}
+
+/// Worst differences of one sliding-observer run after `settle_s`.
+#[derive(Default, Debug, Clone, Copy)]
+struct SlidingDiff {
+    /// |θ̂_e fixed − θ̂_e f32| \[°].
+    angle_deg: f64,
+    /// |ω̂ fixed − ω̂ f32| over the rated speed.
+    speed_rel: f64,
+    /// |τ̂_L fixed − τ̂_L f32| over the rated torque.
+    load_rel: f64,
+    /// Each observer's error to the true angle \[°].
+    fixed_true_deg: f64,
+    f32_true_deg: f64,
+}
+
+/// The plant of `motor` at its drive's rate, held at `rpm` under `load` by the encoder; the
+/// f32 sliding observer (`cfg.sliding_config()`) and the fixed one fed the same Q15-rounded
+/// currents and voltages, both started at the true rotor state.
+fn sliding_run(motor: Motor, rpm: f64, load: f64, duration_s: f64) -> SlidingDiff {
+    let cfg = DriveConfig::new(&motor);
+    let pu = PerUnit::of_drive(&cfg).unwrap();
+    let s_cfg = cfg.sliding_config();
+    let obs = s_cfg.build().unwrap();
+    let q = SlidingObserverQ::build(&s_cfg, &pu).unwrap();
+    let m = motor.params;
+    let n = f64::from(m.n());
+    let tau_b = m.flux_wb * m.n() * pu.i_base_a;
+    let rate = f64::from(cfg.rate_hz);
+    let sc = constant_speed(motor, rpm, load, duration_s);
+    let mut sim_cfg = SimConfig::new(sc, ObserverKind::Encoder);
+    sim_cfg.rate_hz = rate;
+    sim_cfg.substeps = (sim_cfg.substeps as f64 * 4000.0 / rate).ceil().max(1.0) as usize;
+    let steps = (duration_s * rate) as usize;
+    let mut sim = Sim::new(sim_cfg).unwrap();
+    let (mut st, mut st_q) = (SlidingState::default(), SlidingStateQ::default());
+    let mut v_last = AlphaBeta::default();
+    let mut d = SlidingDiff::default();
+    let fq = |x: i16| f32::from(x) / 32_768.0;
+    let rated_w = f64::from(motor.ratings.speed_rpm) * TAU / 60.0;
+    for k in 0..steps {
+        let p = sim.plant();
+        let i = p.i_abc();
+        let i_ab = Abc::new(i[0] as f32, i[1] as f32, i[2] as f32).to_alpha_beta();
+        let theta = wrap(p.state.theta_e(&p.params));
+        let omega_m = p.state.omega_m;
+        let i_q = AlphaBetaQ15 {
+            alpha: pu.current(i_ab.alpha),
+            beta: pu.current(i_ab.beta),
+        };
+        let v_q = AlphaBetaQ15 {
+            alpha: pu.voltage(v_last.alpha),
+            beta: pu.voltage(v_last.beta),
+        };
+        let i_r = AlphaBeta::new(fq(i_q.alpha) * pu.i_base_a, fq(i_q.beta) * pu.i_base_a);
+        let v_r = AlphaBeta::new(fq(v_q.alpha) * pu.v_base_v, fq(v_q.beta) * pu.v_base_v);
+        if k == 0 {
+            let rotor = Rotor {
+                theta_e: theta as f32,
+                omega_m: omega_m as f32,
+                load_nm: (load * f64::from(motor.ratings.torque_nm)) as f32,
+            };
+            obs.seed(&mut st, i_r, rotor);
+            q.reset(
+                &mut st_q,
+                i_q,
+                Angle::from_rad(theta as f32),
+                pu.speed(omega_m as f32 * m.n()),
+                pmsm_sensorless::fixed::pu::to_q15(st.load_nm / tau_b),
+            );
+        }
+        obs.update(&mut st, i_r, v_r);
+        q.update(&mut st_q, i_q, v_q);
+        if sim.t() >= 0.02 {
+            let deg = |a: f64, b: f64| wrap(a - b).abs().to_degrees();
+            let fixed = f64::from(st_q.theta_e.to_rad());
+            d.angle_deg = d.angle_deg.max(deg(fixed, f64::from(st.theta_e)));
+            d.fixed_true_deg = d.fixed_true_deg.max(deg(fixed, theta));
+            d.f32_true_deg = d.f32_true_deg.max(deg(f64::from(st.theta_e), theta));
+            let w_q = f64::from(st_q.omega) / 2_147_483_648.0 * f64::from(pu.omega_base_e) / n;
+            d.speed_rel = d
+                .speed_rel
+                .max((w_q - f64::from(st.omega_m)).abs() / rated_w);
+            let tau_q = f64::from(st_q.load) / 2_147_483_648.0 * f64::from(tau_b);
+            d.load_rel = d
+                .load_rel
+                .max((tau_q - f64::from(st.load_nm)).abs() / f64::from(motor.ratings.torque_nm));
+        }
+        let row = sim.step().unwrap();
+        v_last = AlphaBeta::new(row.v_alpha as f32, row.v_beta as f32);
+    }
+    d
+}
+
+/// The fixed-point sliding torque observer beside the f32 one on the plant's currents and
+/// voltages of a sensored run (0.3 s), at 50 % and 100 % of rated speed under half the rated
+/// torque, both started at the true rotor state, on every zoo motor and preset whose drive
+/// accepts the sliding observer (`DriveConfig::sliding_torque`). Printed: the differences and
+/// both observers' errors to the true angle.
+///
+/// Required where the f32 observer tracks the rotor (within 10° of the true angle: two locked
+/// observers compared), as of the PLL (issue #30): the angles within 0.5°, the speeds within
+/// 0.5 % of the rated speed, the load torques within 0.5 % of the rated torque. Where the f32
+/// observer itself is lost (on this sensored run: the EMRAX, the drone, the salient Brusa and
+/// the 40 kW machine at rated speed) the two drift apart as two runs of a chaotic system do;
+/// there the fixed observer's error to the true angle is held within the f32 observer's
+/// plus 0.5°.
+#[test]
+fn sliding_observer_matches_the_f32_observer_on_the_plant() {
+    let mut worst = Worst3::default();
+    for (name, motor) in all_motors() {
+        let cfg = DriveConfig::new(&motor);
+        let pu = PerUnit::of_drive(&cfg).unwrap();
+        let accepted = cfg.sliding_torque().is_ok();
+        let built = SlidingObserverQ::build(&cfg.sliding_config(), &pu);
+        if !accepted || built.is_err() {
+            println!(
+                "{name:34} drive accepts: {accepted}, fixed builds: {:?}",
+                built.err()
+            );
+            continue;
+        }
+        for frac in [0.5, 1.0] {
+            let rpm = frac * f64::from(motor.ratings.speed_rpm);
+            let d = sliding_run(motor, rpm, 0.5, 0.3);
+            println!(
+                "{name:34} {rpm:6.0} rpm: fixed vs f32: angle {:.4}°, speed {:.2e} of rated, load {:.2e} of rated; to the true angle: fixed {:.3}°, f32 {:.3}°",
+                d.angle_deg, d.speed_rel, d.load_rel, d.fixed_true_deg, d.f32_true_deg
+            );
+            if d.f32_true_deg <= 10.0 {
+                assert!(d.angle_deg <= 0.5, "{name} {rpm}: {d:?}");
+                assert!(d.speed_rel <= 0.005, "{name} {rpm}: {d:?}");
+                assert!(d.load_rel <= 0.005, "{name} {rpm}: {d:?}");
+                worst = worst.max(d.angle_deg, d.speed_rel, d.load_rel);
+            }
+            assert!(
+                d.fixed_true_deg <= d.f32_true_deg + 0.5,
+                "{name} {rpm}: {d:?}"
+            );
+        }
+    }
+    println!(
+        "worst where the f32 observer tracks: angle {:.4}°, speed {:.2e} of rated, load {:.2e} of rated",
+        worst.0, worst.1, worst.2
+    );
+}
+
+/// Running maxima of three figures.
+#[derive(Default, Clone, Copy)]
+struct Worst3(f64, f64, f64);
+
+impl Worst3 {
+    fn max(self, a: f64, b: f64, c: f64) -> Self {
+        Self(self.0.max(a), self.1.max(b), self.2.max(c))
+    }
 }

@@ -21,6 +21,7 @@ pub mod current;
 pub mod flux;
 pub mod pll;
 pub mod pu;
+pub mod sliding;
 pub mod svpwm;
 
 /// An electrical angle: one turn is 2³², wrapping (θ = `0` is 0 rad, `1 << 31` is ±π).

@@ -183,6 +183,10 @@ fn cycles_m0(root: &std::path::Path, json: bool) -> anyhow::Result<String> {
             "fixed point: SVPWM (worst: cut beyond the hexagon)",
             r.fixed_svpwm_cycles_est,
         ),
+        (
+            "fixed point: sliding torque observer (20)-(22), (34), (35)",
+            r.fixed_sliding_cycles_est,
+        ),
     ] {
         t.add_row([what.to_string(), c.to_string()]);
     }
