@@ -568,8 +568,8 @@ fn sliding_run(motor: Motor, rpm: f64, load: f64, duration_s: f64) -> SlidingDif
 /// Required where the f32 observer tracks the rotor (within 10° of the true angle: two locked
 /// observers compared), as of the PLL (issue #30): the angles within 0.5°, the speeds within
 /// 0.5 % of the rated speed, the load torques within 0.5 % of the rated torque. Where the f32
-/// observer itself is lost (on this sensored run: the EMRAX, the drone, the salient Brusa and
-/// the 40 kW machine at rated speed) the two drift apart as two runs of a chaotic system do;
+/// observer itself is lost (on this sensored run: the EMRAX and the drone at both speeds, the
+/// salient Brusa and the 40 kW machine at rated speed) the two drift apart as two runs of a chaotic system do;
 /// there the fixed observer's error to the true angle is held within the f32 observer's
 /// plus 0.5°.
 #[test]

@@ -3,8 +3,8 @@
 //! and checked against it (`tests/fixed.rs`, over every angle and the full per-unit range).
 //! Not yet wired into a step. Beside the frames: the per-unit bases, gains and the
 //! division-free normalisation ([`pu`]), the current loop ([`current`]), Ortega's flux
-//! observer ([`flux`]), the PLL on its angle ([`pll`]) and the SVPWM ([`svpwm`]); the speed
-//! loop and the protections follow.
+//! observer ([`flux`]), the PLL on its angle ([`pll`]), the SVPWM ([`svpwm`]) and Horng &
+//! Chin's sliding torque observer ([`sliding`]); the speed loop and the protections follow.
 //!
 //! Formats (the choice ST's motor-control SDK makes on Cortex-M0, and TI's IQmath in Q15):
 //! - An angle is a wrapping [`Angle`], one turn = 2³² (as `idsp`'s `W<i32>` phase): adding

@@ -24,18 +24,23 @@
 //! Formats and ranges:
 //! - `î`, `Ω`, `τ`: Q31 (`i32`), saturating at ±1 pu; their increments are formed from Q15
 //!   (or Q16) roundings of the states, each coefficient a [`Coef`] (15-bit mantissa, any
-//!   exponent) applied with one rounding and saturating: a sample's increment is resolved to
-//!   2⁻³¹ pu.
-//! - `θ̂_e`: [`Angle`]; `Δ` from `Ω` in Q16 (2⁻¹⁷ pu of rounding, 7.6·10⁻⁶ of `ω_b T`).
+//!   exponent, relative rounding 2⁻¹⁵) applied with one rounding and saturating: a sample's
+//!   increment is resolved to 2⁻³¹ pu. (`K_s T/I_b` up to 0.06 and `T V_b/(L I_b)` up to 1.03
+//!   on the zoo: a voltage beyond the current's range saturates `î`, it does not wrap.)
+//! - `θ̂_e`: [`Angle`], wrapping; `Δ` from `Ω` in Q16 (2⁻¹⁷ pu of rounding, 7.6·10⁻⁶ of
+//!   `ω_b T`), saturating at half a turn per sample.
 //! - `σ`: Q15 within ±32 767, from `S = î − i` in Q31 shifted so that the boundary layer `ε`
-//!   spans 2¹⁴..2¹⁵ LSB before its coefficient (a layer of 10⁻³ `I_b` still resolved to 2⁻¹⁴).
-//! - `R = 1/Ω_g`: `r·2^(e−13)` with `r` in (2¹³, 2¹⁴] (Q13, 1/m for the normalised
-//!   `m = Ω_g 2^e` in [½, 1): a linear start within 1/17, two Newton steps, 1.2·10⁻⁵) and
-//!   `e` = the leading zeros of `Ω_g` in Q31, less one. No division.
-//! - `P R`, `(P + Q) R`, `P R²`, `î_d P R`: each a Q15-sized integer times a power of two that
-//!   goes with `e`; the coefficient applies its own shift with it.
-//! - sin, cos: Q15 ([`Angle::sin_cos`], within 8 LSB): the f32 observer's are within 10⁻⁶;
-//!   that difference is the largest the test sees at speed (`tests/fixed_blocks.rs`).
+//!   spans 2¹⁴..2¹⁵ LSB before its coefficient (a layer of 10⁻³ `I_b`, the EMRAX's, still
+//!   resolved to 2⁻¹⁴ of `ε`).
+//! - `R = 1/Ω_g`: `r·2^(e−13)` with `r` in (2¹³, 2¹⁴] (Q13: 1/m for the normalised
+//!   `m = Ω_g 2^e` in [½, 1), from the linear start `48/17 − 32/17 m` within 1/17 and two
+//!   Newton steps, 1.2·10⁻⁵) and `e` the leading zeros of `Ω_g` in Q31 less one. No division.
+//! - `P R`, `(P + Q) R`, `P R²`, `î_d P R`: each an integer within ±2¹⁵ times a power of two
+//!   that goes with `e`; its coefficient applies that power with its own exponent.
+//! - sin, cos: Q15 ([`Angle::sin_cos`], within 8 LSB; the f32 observer's polynomial is within
+//!   10⁻⁶), of `θ̂_e` and of the EMF angle `θ̂_e + a Δ`.
+//!
+//! Checked against the f32 observer on the plant's samples (`tests/fixed_blocks.rs`).
 
 use super::flux::AlphaBetaQ31;
 use super::pu::PerUnit;
