@@ -22,21 +22,26 @@
 //! its gain factors, H and B the paper's model's).
 //!
 //! Formats and ranges:
-//! - `î`, `Ω`, `τ`: Q31 (`i32`), saturating at ±1 pu; their increments are formed from Q15
-//!   (or Q16) roundings of the states, each coefficient a [`Coef`] (15-bit mantissa, any
-//!   exponent, relative rounding 2⁻¹⁵) applied with one rounding and saturating: a sample's
-//!   increment is resolved to 2⁻³¹ pu. (`K_s T/I_b` up to 0.06 and `T V_b/(L I_b)` up to 1.03
-//!   on the zoo: a voltage beyond the current's range saturates `î`, it does not wrap.)
-//! - `θ̂_e`: [`Angle`], wrapping; `Δ` from `Ω` in Q16 (2⁻¹⁷ pu of rounding, 7.6·10⁻⁶ of
-//!   `ω_b T`), saturating at half a turn per sample.
+//! - `î`, `Ω`, `τ`: Q31 (`i32`), saturating at ±1 pu. Their increments are formed from the
+//!   Q31 states themselves: each coefficient a [`Coef`] (15-bit mantissa, any exponent,
+//!   relative rounding 2⁻¹⁵) applied to an `i32` by [`mul_hi`] (a 32×16 product from two
+//!   16×16 ones, to 2⁻¹⁶ of it; no 64-bit arithmetic), then one rounding shift, saturating: a
+//!   sample's increment is resolved to 2⁻³¹ pu. (`K_s T/I_b` up to 0.06 and `T V_b/(L I_b)`
+//!   up to 1.03 on the zoo: a voltage beyond the current's range saturates `î`, it does not
+//!   wrap.)
+//! - `θ̂_e`: [`Angle`], wrapping; `Δ = Ω ω_b T` from `Ω` in Q31, saturating at half a turn
+//!   per sample.
 //! - `σ`: Q15 within ±32 767, from `S = î − i` in Q31 shifted so that the boundary layer `ε`
 //!   spans 2¹⁴..2¹⁵ LSB before its coefficient (a layer of 10⁻³ `I_b`, the EMRAX's, still
 //!   resolved to 2⁻¹⁴ of `ε`).
 //! - `R = 1/Ω_g`: `r·2^(e−13)` with `r` in (2¹³, 2¹⁴] (Q13: 1/m for the normalised
 //!   `m = Ω_g 2^e` in [½, 1), from the linear start `48/17 − 32/17 m` within 1/17 and two
 //!   Newton steps, 1.2·10⁻⁵) and `e` the leading zeros of `Ω_g` in Q31 less one. No division.
-//! - `P R`, `(P + Q) R`, `P R²`, `î_d P R`: each an integer within ±2¹⁵ times a power of two
-//!   that goes with `e`; its coefficient applies that power with its own exponent.
+//! - `P R`, `(P + Q) R` (the exact products `p r`, within 2³⁰), `P R²`, `î_d P R` (through
+//!   [`mul_hi`]): each an integer times a power of two that goes with `e`; its coefficient
+//!   applies that power with its own exponent. (Taking `P R` to 16 bits first, as a first
+//!   version did, left the gain terms resolved to 10⁻³ pu of speed a sample at a tenth of the
+//!   rated speed, and the observer lost the Sinano's rotor there.)
 //! - sin, cos: Q15 ([`Angle::sin_cos`], within 8 LSB; the f32 observer's polynomial is within
 //!   10⁻⁶), of `θ̂_e` and of the EMF angle `θ̂_e + a Δ`.
 //!
@@ -89,6 +94,13 @@ impl Coef {
         shift_round(x * self.m, self.k - up)
     }
 
+    /// `x·c·2^up` for any `x` (`i32`): `x·m` formed as `(x·m)/2¹⁶` from two 16×16 products
+    /// ([`mul_hi`], within 1 of it), then rounded once and saturated.
+    #[inline(always)]
+    pub fn apply_wide(self, x: i32, up: i32) -> i32 {
+        shift_round(mul_hi(x, self.m), self.k - up - 16)
+    }
+
     /// The value (tests: f32).
     pub fn value(self) -> f32 {
         self.m as f32 * libm::exp2f(-(self.k as f32))
@@ -122,6 +134,14 @@ fn shift_round(x: i32, sh: i32) -> i32 {
             x << up
         }
     }
+}
+
+/// `⌊a·b/2¹⁶⌋` for any `a` and `|b| < 2¹⁵` without a 64-bit product: `a = a_h 2¹⁶ + a_l`
+/// (`a_l` in [0, 2¹⁶)), `a_h b + ⌊a_l b/2¹⁶⌋` (each product below 2³¹).
+#[inline(always)]
+pub fn mul_hi(a: i32, b: i32) -> i32 {
+    let (hi, lo) = (a >> 16, a & 0xFFFF);
+    hi * b + ((lo * b) >> 16)
 }
 
 /// Q31 to Q15, rounded (within ±2¹⁵).
@@ -292,7 +312,7 @@ impl SlidingObserverQ {
     /// The EMF angle `θ̂_e + a Δ`, its sin and cos.
     #[inline(always)]
     fn emf_angle(&self, theta: Angle, omega: i32) -> (Q15, Q15) {
-        let mid = self.inc_mid.apply(omega >> 15, -16);
+        let mid = self.inc_mid.apply_wide(omega, -31);
         theta.advanced(Angle(mid as u32)).sin_cos()
     }
 
@@ -330,56 +350,51 @@ impl SlidingObserverQ {
         let (s, c) = (i32::from(st.sc.0), i32::from(st.sc.1));
         let (sm, cm) = (i32::from(st.sc_mid.0), i32::from(st.sc_mid.1));
         let (sa, sb) = (i32::from(st.sigma.alpha), i32::from(st.sigma.beta));
-        let (ia, ib) = (q15(st.i_hat.alpha), q15(st.i_hat.beta));
-        let w15 = q15(st.omega);
-        // (20), (21).
-        let emf_a = ((w15 * sm) >> 15) + i32::from(v_ab.alpha);
-        let emf_b = -((w15 * cm) >> 15) + i32::from(v_ab.beta);
+        let (ia, ib) = (st.i_hat.alpha, st.i_hat.beta);
+        let w = st.omega;
+        // (20), (21) in Q29: Ω s_mid + v (each within ±1 pu).
+        let emf_a = (mul_hi(w, sm) >> 1) + (i32::from(v_ab.alpha) << 14);
+        let emf_b = -(mul_hi(w, cm) >> 1) + (i32::from(v_ab.beta) << 14);
         let di_a = self
             .kv
-            .apply(emf_a, 16)
-            .saturating_sub(self.ri.apply(ia, 16))
+            .apply_wide(emf_a, 2)
+            .saturating_sub(self.ri.apply_wide(ia, 0))
             .saturating_sub(self.kw.apply(sa, 16));
         let di_b = self
             .kv
-            .apply(emf_b, 16)
-            .saturating_sub(self.ri.apply(ib, 16))
+            .apply_wide(emf_b, 2)
+            .saturating_sub(self.ri.apply_wide(ib, 0))
             .saturating_sub(self.kw.apply(sb, 16));
-        // (22).
-        let w16 = st.omega >> 15;
-        let delta = self.inc.apply(w16, -16);
-        // The gains: P, Q, R at the old state.
+        // (22): Δ = Ω ω_b T in angle units.
+        let delta = self.inc.apply_wide(w, -31);
+        // The gains at the old state: P, Q (Q15), R = r 2^(e−13) signed as Ω.
         let p = (c * sa + s * sb) >> 15;
         let q = (s * sa - c * sb) >> 15;
-        let mag = st.omega.unsigned_abs().max(self.omega_low);
-        let (r, e) = reciprocal(mag);
-        let neg = st.omega < 0;
-        // R = r 2^(e−13), signed as Ω. P R = y_pr 2^(e−13) (y_pr = P r/2¹⁵, within 2^15).
-        let sgn = |x: i32| if neg { -x } else { x };
-        let pr = (p * r) >> 15;
-        let y_pr = sgn(pr);
-        let i_d = (ia * c + ib * s) >> 15;
-        // î_d P R = z1 2^(e−12) (z1 = î_d y_pr/2¹⁶), P R² = z3 2^(2e−11) (z3 = |P R| r/2¹⁵).
-        let z1 = (i_d * y_pr) >> 16;
-        let z3 = (pr * r) >> 15;
+        let (r, e) = reciprocal(w.unsigned_abs().max(self.omega_low));
+        let sgn = |x: i32| if w < 0 { -x } else { x };
+        // P R = pr 2^(e−28) (pr = p r, within 2³⁰, exact).
+        let pr = p * r;
+        // î_d, î_a s − î_b c in Q29.
+        let i_d = (mul_hi(ia, c) >> 1) + (mul_hi(ib, s) >> 1);
+        let d = (mul_hi(ia, s) >> 1) - (mul_hi(ib, c) >> 1);
+        // î_d P R = z1 2^(e−27) (z1 = pr î_d15/2¹⁶); P R² = z3 2^(2e−25) (z3 = |pr| r/2¹⁶).
+        let z1 = mul_hi(sgn(pr), (i_d >> 14).clamp(-32_767, 32_767));
+        let z3 = mul_hi(pr, r);
         // (35): Q31 increments, each `c·x·2^up`.
-        let t1 = self.c1.apply(z1, 19 + e);
-        let t2 = self.c2.apply(y_pr, 18 + e);
-        let t3 = self.c3.apply(z3, 20 + 2 * e);
+        let t1 = self.c1.apply_wide(z1, 4 + e);
+        let t2 = self.c2.apply_wide(sgn(pr), 3 + e);
+        let t3 = self.c3.apply_wide(z3, 6 + 2 * e);
         let t4 = self.c4.apply(q, 16);
         let t4 = if self.c4_negative { -t4 } else { t4 };
-        let d = (ia * s - ib * c) >> 15;
-        let tau15 = q15(st.load);
         let dw = t1
             .saturating_sub(t2)
             .saturating_add(t3)
             .saturating_add(t4)
-            .saturating_sub(self.kb.apply(w15, 16))
-            .saturating_sub(self.kt.apply(d, 16))
-            .saturating_sub(self.kt.apply(tau15, 16));
-        // (34): c5 (P + Q) R = c5 y_pq 2^(e−13).
-        let y_pq = sgn(((p + q) * r) >> 15);
-        let dtau = self.c5.apply(y_pq, 18 + e);
+            .saturating_sub(self.kb.apply_wide(w, 0))
+            .saturating_sub(self.kt.apply_wide(d, 2))
+            .saturating_sub(self.kt.apply_wide(st.load, 0));
+        // (34): c5 (P + Q) R = c5 pq 2^(e−28).
+        let dtau = self.c5.apply_wide(sgn((p + q) * r), 3 + e);
         st.i_hat.alpha = st.i_hat.alpha.saturating_add(di_a);
         st.i_hat.beta = st.i_hat.beta.saturating_add(di_b);
         st.theta_e = st.theta_e.advanced(Angle(delta as u32));
