@@ -377,7 +377,7 @@ impl SlidingObserverQ {
         // î_d, î_a s − î_b c in Q29.
         let i_d = (mul_hi(ia, c) >> 1) + (mul_hi(ib, s) >> 1);
         let d = (mul_hi(ia, s) >> 1) - (mul_hi(ib, c) >> 1);
-        // î_d P R = z1 2^(e−27) (z1 = pr î_d15/2¹⁶); P R² = z3 2^(2e−25) (z3 = |pr| r/2¹⁶).
+        // î_d P R = z1 2^(e−27) (z1 = pr î_d15/2¹⁶); P R² = z3 2^(2e−25) (z3 = pr r/2¹⁶).
         let z1 = mul_hi(sgn(pr), (i_d >> 14).clamp(-32_767, 32_767));
         let z3 = mul_hi(pr, r);
         // (35): Q31 increments, each `c·x·2^up`.
