@@ -103,8 +103,8 @@ impl DriveConfig {
     /// The sliding torque observer's settings (unvalidated): it drives above the hand-over
     /// speed. The paper's `K_s` = 1000π and ε = 1 A where that `K_s` lies inside this motor's
     /// window (Sec 4: below `(K_s,max)_T` and `(K_s,max)_E2` at the rated speed); else both
-    /// scaled from the motor as the paper placed them on its own ([`scaled_sliding`]).
-    pub(super) fn sliding_config(&self) -> SlidingConfig {
+    /// scaled from the motor as the paper placed them on its own (`scaled_sliding`).
+    pub fn sliding_config(&self) -> SlidingConfig {
         let paper = SlidingConfig {
             rate_hz: self.rate_hz,
             emf_advance_periods: ADVANCE_PERIODS,

@@ -2,8 +2,9 @@
 //! fixed-point step, each the f32 block of [`crate::frames`] it mirrors computed in integers,
 //! and checked against it (`tests/fixed.rs`, over every angle and the full per-unit range).
 //! Not yet wired into a step. Beside the frames: the per-unit bases, gains and the
-//! division-free normalisation ([`pu`]), the current loop ([`current`]) and Ortega's flux
-//! observer ([`flux`]); the SVPWM, the speed loop and the protections follow.
+//! division-free normalisation ([`pu`]), the current loop ([`current`]), Ortega's flux
+//! observer ([`flux`]), the PLL on its angle ([`pll`]), the SVPWM ([`svpwm`]) and Horng &
+//! Chin's sliding torque observer ([`sliding`]); the speed loop and the protections follow.
 //!
 //! Formats (the choice ST's motor-control SDK makes on Cortex-M0, and TI's IQmath in Q15):
 //! - An angle is a wrapping [`Angle`], one turn = 2³² (as `idsp`'s `W<i32>` phase): adding
@@ -18,7 +19,10 @@
 
 pub mod current;
 pub mod flux;
+pub mod pll;
 pub mod pu;
+pub mod sliding;
+pub mod svpwm;
 
 /// An electrical angle: one turn is 2³², wrapping (θ = `0` is 0 rad, `1 << 31` is ±π).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

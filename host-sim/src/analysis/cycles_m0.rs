@@ -84,6 +84,13 @@ pub struct M0Report {
     pub fixed_flux_cycles_est: u64,
     /// The current loop in fixed point (PI, decoupling, feed-forward, the radial cut).
     pub fixed_current_cycles_est: u64,
+    /// The PLL of Ortega Sec V iii in fixed point (one update and its speed in per unit).
+    pub fixed_pll_cycles_est: u64,
+    /// SVPWM in fixed point (min–max injection, the FOC's limited form; worst of a vector
+    /// inside the circle, one inside the hexagon, one cut).
+    pub fixed_svpwm_cycles_est: u64,
+    /// Horng & Chin's sliding torque observer in fixed point (one sample).
+    pub fixed_sliding_cycles_est: u64,
     /// `(worst step × 4 kHz + worst tick × 1 kHz) / 64 MHz` \[%].
     pub cpu_share_pct: f64,
     /// The emulated M0 drive image (`cargo emu-m0`): flash and static RAM \[bytes].
@@ -137,6 +144,9 @@ pub fn measure_m0(root: &Path) -> anyhow::Result<M0Report> {
         fixed_frames_cycles_est: worst("fixed_frames")?,
         fixed_flux_cycles_est: worst("fixed_flux")?,
         fixed_current_cycles_est: worst("fixed_current")?,
+        fixed_pll_cycles_est: worst("fixed_pll")?,
+        fixed_svpwm_cycles_est: worst("fixed_svpwm")?,
+        fixed_sliding_cycles_est: worst("fixed_sliding")?,
         cpu_share_pct: 100.0 * (step_max as f64 * M0_STEP_RATE_HZ + tick_max as f64 * 1000.0)
             / M0_CLOCK_HZ,
         image_flash_bytes,

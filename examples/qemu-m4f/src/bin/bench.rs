@@ -31,7 +31,10 @@ mod firmware {
     };
     use pmsm_sensorless::fixed::current::{CurrentLoopOutputQ, CurrentLoopQ, CurrentLoopStateQ};
     use pmsm_sensorless::fixed::flux::{FluxObserverQ, FluxStateQ};
+    use pmsm_sensorless::fixed::pll::{PllQ, PllStateQ};
     use pmsm_sensorless::fixed::pu::PerUnit;
+    use pmsm_sensorless::fixed::sliding::{SlidingObserverQ, SlidingStateQ};
+    use pmsm_sensorless::fixed::svpwm::{svpwm_limited_q15, SvpwmQ15};
     use pmsm_sensorless::fixed::{AbcQ15, AlphaBetaQ15, Angle, DqQ15, Q15};
     use pmsm_sensorless::foc::{CurrentLoopState, Foc, FocConfig, FocInput, FocOutput, Reference};
     use pmsm_sensorless::frames::{AlphaBeta, Dq};
@@ -81,6 +84,9 @@ mod firmware {
         bench_begin_fixed_frames, bench_end_fixed_frames, 21u32;
         bench_begin_fixed_flux, bench_end_fixed_flux, 22u32;
         bench_begin_fixed_current, bench_end_fixed_current, 23u32;
+        bench_begin_fixed_pll, bench_end_fixed_pll, 24u32;
+        bench_begin_fixed_svpwm, bench_end_fixed_svpwm, 25u32;
+        bench_begin_fixed_sliding, bench_end_fixed_sliding, 26u32;
     }
 
     /// Steps measured per case.
@@ -123,7 +129,10 @@ mod firmware {
     }
 
     /// The fixed-point blocks (issue #30), each in a function of its own: the frames (sin/cos,
-    /// Clarke, Park, inverse Park), Ortega's flux observer eq (9), the current loop.
+    /// Clarke, Park, inverse Park), Ortega's flux observer eq (9), the current loop, the PLL
+    /// of Sec V iii with its speed in per unit, the SVPWM (the FOC's limited form: a vector
+    /// inside the circle, one between the circle and the hexagon, one beyond it, cut), Horng
+    /// & Chin's sliding torque observer.
     #[inline(never)]
     fn fixed_frames(abc: AbcQ15, angle: Angle, v: DqQ15) -> (DqQ15, AlphaBetaQ15) {
         let sc = angle.sin_cos();
@@ -150,6 +159,27 @@ mod firmware {
         v_max: Q15,
     ) -> CurrentLoopOutputQ {
         cl.update(st, i, i_ref, omega_e, v_max)
+    }
+
+    #[inline(never)]
+    fn fixed_pll(pll: &PllQ, st: &mut PllStateQ, theta: Angle) -> (i32, Q15) {
+        (pll.update(st, theta), pll.omega_q15(st))
+    }
+
+    #[inline(never)]
+    fn fixed_sliding(
+        obs: &SlidingObserverQ,
+        st: &mut SlidingStateQ,
+        i: AlphaBetaQ15,
+        v: AlphaBetaQ15,
+    ) -> Q15 {
+        obs.update(st, i, v);
+        obs.omega_q15(st)
+    }
+
+    #[inline(never)]
+    fn fixed_svpwm(v_ab: AlphaBetaQ15) -> SvpwmQ15 {
+        svpwm_limited_q15(v_ab)
     }
 
     #[inline(never)]
@@ -462,15 +492,30 @@ mod firmware {
             black_box(&out);
             bench_end_foc_svpwm();
         }
-        // The fixed-point blocks on the same motor and settings (per unit from the drive's).
+        // The fixed-point blocks on the same motor and settings (per unit from the drive's; the
+        // PLL as the drive's, in its 1 kHz task).
+        let pll_q_cfg = PllConfig {
+            rate_hz: rate / steps_per_ms.max(1) as f32,
+            bandwidth_hz: 50.0,
+            damping: 1.0,
+        };
         let fixed = PerUnit::of_drive(&cfg).and_then(|pu| {
             Ok((
                 pu,
                 FluxObserverQ::build(&cfg.flux_config(), &pu)?,
                 CurrentLoopQ::build(&cfg.foc_config(), &pu)?,
+                PllQ::build(&pll_q_cfg, &pu)?,
+                SlidingObserverQ::build(&cfg.sliding_config(), &pu)?,
             ))
         });
-        if let Ok((pu, flux_q, current_q)) = fixed {
+        if let Ok((pu, flux_q, current_q, pll_q, sliding_q)) = fixed {
+            let mut sliding_state = SlidingStateQ::default();
+            let mut pll_state = PllStateQ::default();
+            pll_q.reset(
+                &mut pll_state,
+                Angle::from_rad(theta0),
+                pu.speed(4.0 * omega_m),
+            );
             let mut f_state = FluxStateQ::default();
             let mut c_state = CurrentLoopStateQ::default();
             let i_ab = AlphaBetaQ15 {
@@ -478,6 +523,13 @@ mod firmware {
                 beta: pu.current(-0.3),
             };
             flux_q.reset(&mut f_state, i_ab, Angle::from_rad(theta0));
+            sliding_q.reset(
+                &mut sliding_state,
+                i_ab,
+                Angle::from_rad(theta0),
+                pu.speed(4.0 * omega_m),
+                0,
+            );
             let v_ab = AlphaBetaQ15 {
                 alpha: 6000,
                 beta: 3000,
@@ -504,6 +556,32 @@ mod firmware {
                     20_000,
                 ));
                 bench_end_fixed_current();
+                bench_begin_fixed_pll();
+                black_box(fixed_pll(&pll_q, &mut pll_state, angle));
+                bench_end_fixed_pll();
+                // Q15 of the bus: inside the circle (0.35), towards a hexagon's corner beyond
+                // the circle (0.62), beyond the hexagon (0.9): cut.
+                let v_bus_q15 = [
+                    AlphaBetaQ15 {
+                        alpha: 10_000,
+                        beta: -6_000,
+                    },
+                    AlphaBetaQ15 {
+                        alpha: 20_000,
+                        beta: 1_000,
+                    },
+                    AlphaBetaQ15 {
+                        alpha: -25_000,
+                        beta: 17_000,
+                    },
+                ];
+                let v_svpwm = v_bus_q15[(k as usize - 1) % 3];
+                bench_begin_fixed_sliding();
+                black_box(fixed_sliding(&sliding_q, &mut sliding_state, i_ab, v_ab));
+                bench_end_fixed_sliding();
+                bench_begin_fixed_svpwm();
+                black_box(fixed_svpwm(black_box(v_svpwm)));
+                bench_end_fixed_svpwm();
             }
         } else {
             defmt::error!("the fixed-point blocks do not build for the bench's motor");

@@ -175,6 +175,18 @@ fn cycles_m0(root: &std::path::Path, json: bool) -> anyhow::Result<String> {
             r.fixed_flux_cycles_est,
         ),
         ("fixed point: current loop", r.fixed_current_cycles_est),
+        (
+            "fixed point: PLL (Sec V iii) + speed in per unit",
+            r.fixed_pll_cycles_est,
+        ),
+        (
+            "fixed point: SVPWM (worst: cut beyond the hexagon)",
+            r.fixed_svpwm_cycles_est,
+        ),
+        (
+            "fixed point: sliding torque observer (20)-(22), (34), (35)",
+            r.fixed_sliding_cycles_est,
+        ),
     ] {
         t.add_row([what.to_string(), c.to_string()]);
     }
