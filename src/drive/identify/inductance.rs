@@ -14,6 +14,21 @@
 //! ```
 //!
 //! exact for any `L/R` against `T` (not only `L/R ≫ T`), with `R` from the resistance test.
+//! A salient rotor need not rest with its d axis on the DC current: the reluctance torque
+//! `c N (L_d − L_q) i_d i_q` moves the equilibrium off it once `(L_q − L_d) I > ψ_f` (at
+//! `cos δ = ψ_f/((L_q − L_d) I)`: 48° on the Brusa traction motor at half its rated current),
+//! so the ripple along α alone is not `L_d`'s. Each injection's ripple is therefore taken along
+//! both axes: the two columns, over `2 V_h/R`, form `X`, whose symmetric part has the
+//! eigenvalues `x_d`, `x_q` (each axis an R-L circuit of its own, the resistance being the same
+//! in every direction) whatever the rotor's angle: the saliency-based position estimate of
+//! HF injection (M. J. Corley, R. D. Lorenz, "Rotor position and velocity estimation for a
+//! salient-pole PMSM at standstill and high speeds", IEEE Trans. Ind. Appl. 34(4), 1998),
+//! here at rest. The d axis is the eigen-axis nearer α, where the DC current holds the magnet
+//! (within 45° while `(L_q − L_d) I < √2 ψ_f`); eigen-axes of a salient rotor more than 20°
+//! off α and β say it is held off its d axis, and the test is repeated with half the DC
+//! current (at most three times), which returns the rotor to `δ = 0` once
+//! `(L_q − L_d) I < ψ_f`.
+//!
 //! `Δ` is the mean of `sign(v_{k−1}) (i_k − i_{k−1})` over 100 ms (slow disturbances such as
 //! the back-EMF of a rotor still swinging cancel between the signs). `V_h` starts at 2 % of
 //! the rated current's `R I` and doubles until the ripple is a tenth of the rated current (or
@@ -32,6 +47,15 @@ const SETTLE_MS: u32 = 5;
 const PRE_MEASURE_MS: u32 = 20;
 /// Averaging time \[ms].
 const MEASURE_MS: u32 = 100;
+/// A rotor held off its d axis (module doc): the DC voltage halved at most this many times,
+/// each followed by this wait for the rotor to settle \[ms] (the resistance test's settling).
+const MAX_HALVINGS: u32 = 3;
+const RESETTLE_MS: u32 = 100;
+/// Eigenvalues of `X` apart by more than this share of their mean: a salient rotor, whose
+/// axes mean something (twice the 5 % the identification answers for on each inductance).
+const SALIENT: f32 = 0.1;
+/// Axes more than 20° off α and β: `tan 40°`.
+const TAN_TWICE_OFF_AXIS: f32 = 0.839;
 
 /// Where the measurement is (milliseconds left).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -63,8 +87,11 @@ pub(in crate::drive) struct Inductance {
     stage: Stage,
     /// The resistance \[Ω].
     r_ohm: f32,
-    /// The d-axis result \[H], once measured.
-    l_d_h: f32,
+    /// The response to the injection along α (the first column of `X`, module doc), once
+    /// measured.
+    x_alpha: AlphaBeta,
+    /// Times the DC voltage was halved for a rotor held off its d axis (module doc).
+    halvings: u32,
 }
 
 impl Inductance {
@@ -80,7 +107,8 @@ impl Inductance {
             n: 0,
             stage: Stage::Adapt(SETTLE_MS),
             r_ohm,
-            l_d_h: 0.0,
+            x_alpha: AlphaBeta::default(),
+            halvings: 0,
         }
     }
 
@@ -161,25 +189,37 @@ impl Inductance {
                 return Progress::Stay;
             }
         }
-        // Measured: L from the ripple.
-        let x = self.r_ohm * ripple / (2.0 * self.v_h);
+        // Measured: this injection's column of `X`, the ripple along α and β over `2 V_h/R`.
+        let per_v = self.r_ohm / (2.0 * self.v_h * (self.n.max(1) as f32));
+        let column = AlphaBeta::new(self.acc.alpha * per_v, self.acc.beta * per_v);
         self.clear();
-        if !(x > 1e-6 && x < 0.99) {
-            return Progress::Fail(IdentifyError::InductanceOutOfRange);
-        }
-        let l_h = self.r_ohm * s.ts / super::ln((1.0 + x) / (1.0 - x));
-        if MotorParams::L_H.check("l_h", l_h).is_err() {
-            return Progress::Fail(IdentifyError::InductanceOutOfRange);
-        }
         if !self.on_q {
-            self.l_d_h = l_h;
+            self.x_alpha = column;
             self.on_q = true;
             self.v_h = 0.02 * self.r_ohm * s.i_test_a;
             self.stage = Stage::Adapt(SETTLE_MS);
             return Progress::Stay;
         }
-        result.l_d_h = self.l_d_h;
-        result.l_q_h = l_h;
+        let x = Axes::of(self.x_alpha, column);
+        if x.off_alpha() && self.halvings < MAX_HALVINGS {
+            // The rotor rests off the DC current by the reluctance torque: half the current,
+            // the rotor let settle, both axes again.
+            self.halvings += 1;
+            self.base = AlphaBeta::new(0.5 * self.base.alpha, 0.5 * self.base.beta);
+            self.on_q = false;
+            self.v_h = 0.02 * self.r_ohm * s.i_test_a;
+            self.stage = Stage::Adapt(RESETTLE_MS);
+            return Progress::Stay;
+        }
+        let (x_d, x_q) = x.d_q();
+        let (Some(l_d_h), Some(l_q_h)) = (
+            inductance(x_d, self.r_ohm, s.ts),
+            inductance(x_q, self.r_ohm, s.ts),
+        ) else {
+            return Progress::Fail(IdentifyError::InductanceOutOfRange);
+        };
+        result.l_d_h = l_d_h;
+        result.l_q_h = l_q_h;
         Progress::Next(Phase::Flux(FluxSpin::new(s, result)))
     }
 
@@ -188,4 +228,58 @@ impl Inductance {
         self.acc = AlphaBeta::default();
         self.n = 0;
     }
+}
+
+/// `X`'s symmetric part (module doc): the mean of its eigenvalues, half the difference of its
+/// diagonal and its off-diagonal element.
+struct Axes {
+    mean: f32,
+    half_diff: f32,
+    cross: f32,
+}
+
+impl Axes {
+    /// From the columns of `X` measured by the injections along α (`x_alpha`) and β
+    /// (`x_beta`).
+    fn of(x_alpha: AlphaBeta, x_beta: AlphaBeta) -> Self {
+        Self {
+            mean: 0.5 * (x_alpha.alpha + x_beta.beta),
+            half_diff: 0.5 * (x_alpha.alpha - x_beta.beta),
+            cross: 0.5 * (x_alpha.beta + x_beta.alpha),
+        }
+    }
+
+    /// Half the eigenvalues' difference.
+    fn spread(&self) -> f32 {
+        crate::math::sqrt(self.half_diff * self.half_diff + self.cross * self.cross)
+    }
+
+    /// A salient rotor (eigenvalues apart by more than `SALIENT` of their mean) whose axes lie
+    /// more than `OFF_AXIS_DEG` off α and β (`tan 2φ = cross/half_diff`).
+    fn off_alpha(&self) -> bool {
+        let salient = self.spread() > SALIENT * self.mean;
+        salient && self.cross.abs() > TAN_TWICE_OFF_AXIS * self.half_diff.abs()
+    }
+
+    /// The d and q axes' `x`: the eigenvalues, the d axis the eigen-axis nearer α, where the
+    /// DC current holds the magnet (the larger `x`, the smaller inductance, when `X_αα > X_ββ`).
+    fn d_q(&self) -> (f32, f32) {
+        let spread = self.spread();
+        let spread = if self.half_diff >= 0.0 {
+            spread
+        } else {
+            -spread
+        };
+        (self.mean + spread, self.mean - spread)
+    }
+}
+
+/// The inductance \[H] of an axis whose ripple is `x` (module doc) at `r_ohm` \[Ω] and the
+/// step `ts` \[s]; `None` outside the model's range or [`MotorParams::L_H`].
+fn inductance(x: f32, r_ohm: f32, ts: f32) -> Option<f32> {
+    if !(x > 1e-6 && x < 0.99) {
+        return None;
+    }
+    let l_h = r_ohm * ts / super::ln((1.0 + x) / (1.0 - x));
+    MotorParams::L_H.check("l_h", l_h).ok().map(|_| l_h)
 }
