@@ -27,7 +27,10 @@
 //! (within 45° while `(L_q − L_d) I < √2 ψ_f`); eigen-axes of a salient rotor more than 20°
 //! off α and β say it is held off its d axis, and the test is repeated with half the DC
 //! current (at most three times), which returns the rotor to `δ = 0` once
-//! `(L_q − L_d) I < ψ_f`.
+//! `(L_q − L_d) I < ψ_f`. A rotor still swinging to its rest turns the axes under the
+//! injection and pulls the two eigenvalues together (on the Brusa, L_d +7 %, L_q −15 %): a
+//! measurement whose DC current's two halves differ (the swing's back-EMF) is repeated after
+//! a wait.
 //!
 //! `Δ` is the mean of `sign(v_{k−1}) (i_k − i_{k−1})` over 100 ms (slow disturbances such as
 //! the back-EMF of a rotor still swinging cancel between the signs). `V_h` starts at 2 % of
@@ -35,7 +38,7 @@
 //! the inverter's limit), so a motor of any `L` gets a ripple well above the sensing noise.
 
 use super::flux::FluxSpin;
-use super::{Identified, IdentifyError, Phase, Progress, Settings};
+use super::{Identified, IdentifyError, Phase, Progress, Settings, SALIENT};
 use crate::foc::{Reference, Request};
 use crate::frames::{AlphaBeta, Dq, SinCos};
 use crate::motor::MotorParams;
@@ -51,9 +54,11 @@ const MEASURE_MS: u32 = 100;
 /// each followed by this wait for the rotor to settle \[ms] (the resistance test's settling).
 const MAX_HALVINGS: u32 = 3;
 const RESETTLE_MS: u32 = 100;
-/// Eigenvalues of `X` apart by more than this share of their mean: a salient rotor, whose
-/// axes mean something (twice the 5 % the identification answers for on each inductance).
-const SALIENT: f32 = 0.1;
+/// The DC current's means over the measurement's halves apart by more than this share of it:
+/// the rotor still moves (the resistance test's criterion), measured again at most this many
+/// times.
+const REST: f32 = 0.01;
+const MAX_REPEATS: u32 = 20;
 /// Axes more than 20° off α and β: `tan 40°`.
 const TAN_TWICE_OFF_AXIS: f32 = 0.839;
 
@@ -92,6 +97,12 @@ pub(in crate::drive) struct Inductance {
     x_alpha: AlphaBeta,
     /// Times the DC voltage was halved for a rotor held off its d axis (module doc).
     halvings: u32,
+    /// The currents summed since the last tick, or over the measurement \[A]; over the
+    /// measurement's first half, and their count.
+    dc_sum: AlphaBeta,
+    dc_first_half: (AlphaBeta, u32),
+    /// Measurements repeated for a rotor still moving.
+    repeats: u32,
 }
 
 impl Inductance {
@@ -109,6 +120,9 @@ impl Inductance {
             r_ohm,
             x_alpha: AlphaBeta::default(),
             halvings: 0,
+            dc_sum: AlphaBeta::default(),
+            dc_first_half: (AlphaBeta::default(), 0),
+            repeats: 0,
         }
     }
 
@@ -122,6 +136,7 @@ impl Inductance {
             self.acc.alpha + sg * (i_ab.alpha - self.i_prev.alpha),
             self.acc.beta + sg * (i_ab.beta - self.i_prev.beta),
         );
+        self.dc_sum = AlphaBeta::new(self.dc_sum.alpha + i_ab.alpha, self.dc_sum.beta + i_ab.beta);
         self.n += 1;
         self.i_prev = i_ab;
         let sg = -sg;
@@ -157,7 +172,17 @@ impl Inductance {
         let ripple = along / (self.n.max(1) as f32);
         match self.stage {
             Stage::Measure(ms) if ms > 1 => {
+                if ms == MEASURE_MS / 2 + 1 {
+                    self.dc_first_half = (self.dc_sum, self.n);
+                }
                 self.stage = Stage::Measure(ms - 1);
+                return Progress::Stay;
+            }
+            Stage::Measure(_) if !self.at_rest() && self.repeats < MAX_REPEATS => {
+                // The rotor still moves (its EMF in the DC current): wait, measure again.
+                self.repeats += 1;
+                self.clear();
+                self.stage = Stage::Wait(RESETTLE_MS);
                 return Progress::Stay;
             }
             Stage::Measure(_) => {}
@@ -226,7 +251,20 @@ impl Inductance {
     /// Sums cleared.
     fn clear(&mut self) {
         self.acc = AlphaBeta::default();
+        self.dc_sum = AlphaBeta::default();
         self.n = 0;
+    }
+
+    /// The DC current's means over the measurement's two halves agree within [`REST`] of it:
+    /// no back-EMF of a rotor still moving in the currents.
+    fn at_rest(&self) -> bool {
+        let (sum, n) = self.dc_first_half;
+        let (n1, n2) = (n.max(1) as f32, self.n.saturating_sub(n).max(1) as f32);
+        let first = AlphaBeta::new(sum.alpha / n1, sum.beta / n1);
+        let d_alpha = (self.dc_sum.alpha - sum.alpha) / n2 - first.alpha;
+        let d_beta = (self.dc_sum.beta - sum.beta) / n2 - first.beta;
+        let dc2 = first.alpha * first.alpha + first.beta * first.beta;
+        d_alpha * d_alpha + d_beta * d_beta <= REST * REST * dc2
     }
 }
 
