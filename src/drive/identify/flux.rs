@@ -131,6 +131,8 @@ pub(in crate::drive) struct FluxSpin {
     /// Back-EMF and voltage in the frame, summed since the last tick \[V].
     e_sum: Dq,
     v_sum: Dq,
+    /// The current in the frame, summed since the last tick \[A] (of a salient motor).
+    i_sum: Dq,
     n: u32,
     /// Σ|e|, Σe_q and Σ|v| over the measurement's milliseconds \[V].
     e_mag_sum: f32,
@@ -163,6 +165,7 @@ impl FluxSpin {
             i_prev: AlphaBeta::default(),
             e_sum: Dq::default(),
             v_sum: Dq::default(),
+            i_sum: Dq::default(),
             n: 0,
             e_mag_sum: 0.0,
             e_q_sum: 0.0,
@@ -193,6 +196,10 @@ impl FluxSpin {
         self.i_prev = i_ab;
         self.e_sum = Dq::new(self.e_sum.d + e.d, self.e_sum.q + e.q);
         self.v_sum = Dq::new(self.v_sum.d + v.d, self.v_sum.q + v.q);
+        if self.l_d_minus_q_h != 0.0 {
+            let i = i_ab.to_dq(self.frame);
+            self.i_sum = Dq::new(self.i_sum.d + i.d, self.i_sum.q + i.q);
+        }
         self.n += 1;
         self.frame = self.frame.rotated(self.step_rot);
         Request {
@@ -214,8 +221,10 @@ impl FluxSpin {
         let k = 1.0 / (self.n.max(1) as f32);
         let e = Dq::new(self.e_sum.d * k, self.e_sum.q * k);
         let v = Dq::new(self.v_sum.d * k, self.v_sum.q * k);
+        let i = Dq::new(self.i_sum.d * k, self.i_sum.q * k);
         self.e_sum = Dq::default();
         self.v_sum = Dq::default();
+        self.i_sum = Dq::default();
         self.n = 0;
         self.e_last = e;
         self.frame = self.frame.renormalized();
@@ -291,7 +300,7 @@ impl FluxSpin {
                 };
             }
             Stage::Measure(ms) => {
-                self.e_mag_sum += self.magnet_emf(s, e);
+                self.e_mag_sum += self.magnet_emf(s, e, i);
                 self.e_q_sum += e.q;
                 self.v_mag_sum += v.magnitude();
                 self.count += 1;
@@ -321,13 +330,13 @@ impl FluxSpin {
         b.e >= 0.8 * (a.e / a.w) * b.w && b.e >= 0.1 * b.v && a.w > 0.0 && b.w > 0.0
     }
 
-    /// The magnet's share of the back-EMF `e` (in the frame) \[V]: `|e|` less the saliency's
-    /// `ω_e (L_d − L_q) i_d` (module doc), `i_d` the current's projection on the rotor's d
-    /// axis, which lags the EMF by 90°.
-    fn magnet_emf(&self, s: &Settings, e: Dq) -> f32 {
+    /// The magnet's share of the back-EMF `e` \[V] with the current `i` \[A] (both in the
+    /// frame): `|e|` less the saliency's `ω_e (L_d − L_q) i_d` (module doc), `i_d` the
+    /// current's projection on the rotor's d axis, which lags the EMF by 90°.
+    fn magnet_emf(&self, s: &Settings, e: Dq, i: Dq) -> f32 {
         let mag = e.magnitude();
         let i_d = if mag > 0.0 {
-            self.i_ref * e.q / mag
+            (i.d * e.q - i.q * e.d) / mag
         } else {
             0.0
         };
