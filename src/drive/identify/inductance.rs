@@ -299,10 +299,16 @@ impl Axes {
         salient && self.cross.abs() > TAN_TWICE_OFF_AXIS * self.half_diff.abs()
     }
 
-    /// The d and q axes' `x`: the eigenvalues, the d axis the eigen-axis nearer α, where the
-    /// DC current holds the magnet (the larger `x`, the smaller inductance, when `X_αα > X_ββ`).
+    /// The d and q axes' `x`: of a salient rotor the eigenvalues, the d axis the eigen-axis
+    /// nearer α, where the DC current holds the magnet (the larger `x`, the smaller inductance,
+    /// when `X_αα > X_ββ`); else the diagonal.
     fn d_q(&self) -> (f32, f32) {
         let spread = self.spread();
+        if spread <= SALIENT * self.mean {
+            // Not salient: the diagonal, the responses along α and β (the off-diagonal element
+            // is noise, which would only push the eigenvalues apart).
+            return (self.mean + self.half_diff, self.mean - self.half_diff);
+        }
         let spread = if self.half_diff >= 0.0 {
             spread
         } else {
