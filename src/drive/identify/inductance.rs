@@ -215,8 +215,9 @@ impl Inductance {
             }
         }
         // Measured: this injection's column of `X`, the ripple along α and β over `2 V_h/R`.
-        let per_v = self.r_ohm / (2.0 * self.v_h * (self.n.max(1) as f32));
-        let column = AlphaBeta::new(self.acc.alpha * per_v, self.acc.beta * per_v);
+        let n = self.n.max(1) as f32;
+        let x = |acc: f32| self.r_ohm * (acc / n) / (2.0 * self.v_h);
+        let column = AlphaBeta::new(x(self.acc.alpha), x(self.acc.beta));
         self.clear();
         if !self.on_q {
             self.x_alpha = column;
@@ -268,11 +269,10 @@ impl Inductance {
     }
 }
 
-/// `X`'s symmetric part (module doc): the mean of its eigenvalues, half the difference of its
-/// diagonal and its off-diagonal element.
+/// `X`'s symmetric part (module doc): its diagonal and its off-diagonal element.
 struct Axes {
-    mean: f32,
-    half_diff: f32,
+    alpha: f32,
+    beta: f32,
     cross: f32,
 }
 
@@ -281,40 +281,43 @@ impl Axes {
     /// (`x_beta`).
     fn of(x_alpha: AlphaBeta, x_beta: AlphaBeta) -> Self {
         Self {
-            mean: 0.5 * (x_alpha.alpha + x_beta.beta),
-            half_diff: 0.5 * (x_alpha.alpha - x_beta.beta),
+            alpha: x_alpha.alpha,
+            beta: x_beta.beta,
             cross: 0.5 * (x_alpha.beta + x_beta.alpha),
         }
     }
 
-    /// Half the eigenvalues' difference.
-    fn spread(&self) -> f32 {
-        crate::math::sqrt(self.half_diff * self.half_diff + self.cross * self.cross)
+    /// The eigenvalues' mean and half their difference, and half the diagonal's difference.
+    fn spread(&self) -> (f32, f32, f32) {
+        let mean = 0.5 * (self.alpha + self.beta);
+        let half_diff = 0.5 * (self.alpha - self.beta);
+        let spread = crate::math::sqrt(half_diff * half_diff + self.cross * self.cross);
+        (mean, spread, half_diff)
     }
 
-    /// A salient rotor (eigenvalues apart by more than `SALIENT` of their mean) whose axes lie
-    /// more than `OFF_AXIS_DEG` off α and β (`tan 2φ = cross/half_diff`).
+    /// A salient rotor: eigenvalues apart by more than [`SALIENT`] of their mean.
+    fn salient(&self) -> bool {
+        let (mean, spread, _) = self.spread();
+        spread > SALIENT * mean
+    }
+
+    /// A salient rotor whose axes lie more than 20° off α and β (`tan 2φ = cross/half_diff`).
     fn off_alpha(&self) -> bool {
-        let salient = self.spread() > SALIENT * self.mean;
-        salient && self.cross.abs() > TAN_TWICE_OFF_AXIS * self.half_diff.abs()
+        let (_, _, half_diff) = self.spread();
+        self.salient() && self.cross.abs() > TAN_TWICE_OFF_AXIS * half_diff.abs()
     }
 
     /// The d and q axes' `x`: of a salient rotor the eigenvalues, the d axis the eigen-axis
     /// nearer α, where the DC current holds the magnet (the larger `x`, the smaller inductance,
-    /// when `X_αα > X_ββ`); else the diagonal.
+    /// when `X_αα > X_ββ`); else the diagonal, the responses along α and β (the off-diagonal
+    /// element is noise, which would only push the eigenvalues apart).
     fn d_q(&self) -> (f32, f32) {
-        let spread = self.spread();
-        if spread <= SALIENT * self.mean {
-            // Not salient: the diagonal, the responses along α and β (the off-diagonal element
-            // is noise, which would only push the eigenvalues apart).
-            return (self.mean + self.half_diff, self.mean - self.half_diff);
+        if !self.salient() {
+            return (self.alpha, self.beta);
         }
-        let spread = if self.half_diff >= 0.0 {
-            spread
-        } else {
-            -spread
-        };
-        (self.mean + spread, self.mean - spread)
+        let (mean, spread, half_diff) = self.spread();
+        let spread = if half_diff >= 0.0 { spread } else { -spread };
+        (mean + spread, mean - spread)
     }
 }
 
