@@ -30,7 +30,8 @@
 //! `(L_q − L_d) I < ψ_f`. A rotor still swinging to its rest turns the axes under the
 //! injection and pulls the two eigenvalues together (on the Brusa, L_d +7 %, L_q −15 %): a
 //! measurement whose DC current's two halves differ (the swing's back-EMF) is repeated after
-//! a wait.
+//! a wait. Only on a salient rotor: a non-salient one's swing turns nothing that matters,
+//! its back-EMF cancels between the signs.
 //!
 //! `Δ` is the mean of `sign(v_{k−1}) (i_k − i_{k−1})` over 100 ms (slow disturbances such as
 //! the back-EMF of a rotor still swinging cancel between the signs). `V_h` starts at 2 % of
@@ -54,9 +55,9 @@ const MEASURE_MS: u32 = 100;
 /// each followed by this wait for the rotor to settle \[ms] (the resistance test's settling).
 const MAX_HALVINGS: u32 = 3;
 const RESETTLE_MS: u32 = 100;
-/// The DC current's means over the measurement's halves apart by more than this share of it:
-/// the rotor still moves (the resistance test's criterion), measured again at most this many
-/// times.
+/// The DC current's means over a measurement's halves apart by more than this share of it:
+/// the rotor still moves (the resistance test's criterion); a salient rotor's two measurements
+/// repeated at most this many times.
 const REST: f32 = 0.01;
 const MAX_REPEATS: u32 = 20;
 /// Axes more than 20° off α and β: `tan 40°`.
@@ -101,7 +102,9 @@ pub(in crate::drive) struct Inductance {
     /// measurement's first half, and their count.
     dc_sum: AlphaBeta,
     dc_first_half: (AlphaBeta, u32),
-    /// Measurements repeated for a rotor still moving.
+    /// A measurement's DC current moved (the rotor was not at rest), and the measurements
+    /// repeated so.
+    moved: bool,
     repeats: u32,
 }
 
@@ -122,6 +125,7 @@ impl Inductance {
             halvings: 0,
             dc_sum: AlphaBeta::default(),
             dc_first_half: (AlphaBeta::default(), 0),
+            moved: false,
             repeats: 0,
         }
     }
@@ -178,13 +182,6 @@ impl Inductance {
                 self.stage = Stage::Measure(ms - 1);
                 return Progress::Stay;
             }
-            Stage::Measure(_) if !self.at_rest() && self.repeats < MAX_REPEATS => {
-                // The rotor still moves (its EMF in the DC current): wait, measure again.
-                self.repeats += 1;
-                self.clear();
-                self.stage = Stage::Wait(RESETTLE_MS);
-                return Progress::Stay;
-            }
             Stage::Measure(_) => {}
             Stage::Adapt(ms) if ms > 0 => {
                 self.clear();
@@ -214,6 +211,7 @@ impl Inductance {
                 return Progress::Stay;
             }
         }
+        self.moved |= !self.at_rest();
         // Measured: this injection's column of `X`, the ripple along α and β over `2 V_h/R`.
         let n = self.n.max(1) as f32;
         let x = |acc: f32| self.r_ohm * (acc / n) / (2.0 * self.v_h);
@@ -227,12 +225,20 @@ impl Inductance {
             return Progress::Stay;
         }
         let x = Axes::of(self.x_alpha, column);
-        if x.off_alpha() && self.halvings < MAX_HALVINGS {
-            // The rotor rests off the DC current by the reluctance torque: half the current,
-            // the rotor let settle, both axes again.
-            self.halvings += 1;
-            self.base = AlphaBeta::new(0.5 * self.base.alpha, 0.5 * self.base.beta);
+        let off_alpha = x.off_alpha() && self.halvings < MAX_HALVINGS;
+        let moved = x.salient() && self.moved && self.repeats < MAX_REPEATS;
+        if off_alpha || moved {
+            if off_alpha {
+                // The rotor rests off the DC current by the reluctance torque: half the
+                // current.
+                self.halvings += 1;
+                self.base = AlphaBeta::new(0.5 * self.base.alpha, 0.5 * self.base.beta);
+            } else {
+                self.repeats += 1;
+            }
+            // The rotor let settle, both axes again.
             self.on_q = false;
+            self.moved = false;
             self.v_h = 0.02 * self.r_ohm * s.i_test_a;
             self.stage = Stage::Adapt(RESETTLE_MS);
             return Progress::Stay;
