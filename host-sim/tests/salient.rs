@@ -17,9 +17,12 @@ use pmsm_sensorless::svpwm::Duties;
 use std::path::Path;
 
 /// The salient zoo motors (not in the zoo matrix yet: the drive has one L).
-const SALIENT_ZOO: [&str; 2] = [
+const SALIENT_ZOO: [&str; 5] = [
     "motors/zoo/salient/industrial-ipm-aalto-2.2kw.toml",
     "motors/zoo/salient/traction-ipm-brusa-hsm1-6.17.12-salient.toml",
+    "motors/zoo/salient/fs-ipm-amk-dd5-14-10-pow.toml",
+    "motors/zoo/salient/industrial-ipm-caruso-2019.toml",
+    "motors/zoo/salient/traction-pmasynrm-zou-350kw.toml",
 ];
 
 fn load(rel: &str) -> motor_file::Loaded {

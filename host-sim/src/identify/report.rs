@@ -22,15 +22,24 @@ pub fn identified_motor(o: &IdentifyOutcome) -> anyhow::Result<Option<Motor>> {
 pub fn motor_toml(name: &str, m: &MotorParams, o: &IdentifyOutcome, id: &Identified) -> String {
     let r = o.truth.ratings;
     format!(
-        "# Identified by `pmsm-sim identify` (l_d_h = {:e}, l_q_h = {:e}; l_h is their mean).\n\
-         name = \"{name}\"\npole_pairs = {}\nr_ohm = {:e}\nl_h = {:e}\nflux_wb = {:e}\n\
+        "# Identified by `pmsm-sim identify` (l_d_h = {:e}, l_q_h = {:e}; {}).\n\
+         name = \"{name}\"\npole_pairs = {}\nr_ohm = {:e}\n{}flux_wb = {:e}\n\
          j_kgm2 = {:e}\nb_nms = {:e}\n{}\n[ratings]\nbus_v = {}\ncurrent_a = {}\ntorque_nm = {}\n\
          speed_rpm = {}\npower_w = {}\n",
         id.l_d_h,
         id.l_q_h,
+        if id.salient() {
+            "salient: apart by more than 10 % of their mean"
+        } else {
+            "l_h is their mean: within 10 % of it, the motor is taken as non-salient"
+        },
         m.pole_pairs,
         m.r_ohm,
-        m.l_h,
+        if id.salient() {
+            format!("l_d_h = {:e}\nl_q_h = {:e}\n", m.l_d_h(), m.l_q_h())
+        } else {
+            format!("l_h = {:e}\n", m.l_h)
+        },
         m.flux_wb,
         m.j_kgm2,
         m.b_nms,
@@ -55,7 +64,7 @@ fn err_pct(id: f32, truth: f32) -> Option<f64> {
 pub fn summary_json(name: &str, o: &IdentifyOutcome) -> serde_json::Value {
     let t = o.truth.params;
     let truth = json!({
-        "r_ohm": t.r_ohm, "l_h": t.l_h, "l_d_h": t.l_h, "l_q_h": t.l_h,
+        "r_ohm": t.r_ohm, "l_h": t.l_h, "l_d_h": t.l_d_h(), "l_q_h": t.l_q_h(),
         "flux_wb": t.flux_wb, "j_kgm2": t.j_kgm2, "b_nms": t.b_nms,
     });
     let (identified, error_pct) = match o.identified {
@@ -66,7 +75,7 @@ pub fn summary_json(name: &str, o: &IdentifyOutcome) -> serde_json::Value {
             }),
             json!({
                 "r_ohm": err_pct(id.r_ohm, t.r_ohm), "l_h": err_pct(id.l_h(), t.l_h),
-                "l_d_h": err_pct(id.l_d_h, t.l_h), "l_q_h": err_pct(id.l_q_h, t.l_h),
+                "l_d_h": err_pct(id.l_d_h, t.l_d_h()), "l_q_h": err_pct(id.l_q_h, t.l_q_h()),
                 "flux_wb": err_pct(id.flux_wb, t.flux_wb), "j_kgm2": err_pct(id.j_kgm2, t.j_kgm2),
                 "b_nms": err_pct(id.b_nms, t.b_nms),
             }),

@@ -14,13 +14,32 @@
 //! ```
 //!
 //! exact for any `L/R` against `T` (not only `L/R ≫ T`), with `R` from the resistance test.
+//! A salient rotor need not rest with its d axis on the DC current: the reluctance torque
+//! `c N (L_d − L_q) i_d i_q` moves the equilibrium off it once `(L_q − L_d) I > ψ_f` (at
+//! `cos δ = ψ_f/((L_q − L_d) I)`: 48° on the Brusa traction motor at half its rated current),
+//! so the ripple along α alone is not `L_d`'s. Each injection's ripple is therefore taken along
+//! both axes: the two columns, over `2 V_h/R`, form `X`, whose symmetric part has the
+//! eigenvalues `x_d`, `x_q` (each axis an R-L circuit of its own, the resistance being the same
+//! in every direction) whatever the rotor's angle: the saliency-based position estimate of
+//! HF injection (M. J. Corley, R. D. Lorenz, "Rotor position and velocity estimation for a
+//! salient-pole PMSM at standstill and high speeds", IEEE Trans. Ind. Appl. 34(4), 1998),
+//! here at rest. The d axis is the eigen-axis nearer α, where the DC current holds the magnet
+//! (within 45° while `(L_q − L_d) I < √2 ψ_f`); eigen-axes of a salient rotor more than 20°
+//! off α and β say it is held off its d axis, and the test is repeated with half the DC
+//! current (at most three times), which returns the rotor to `δ = 0` once
+//! `(L_q − L_d) I < ψ_f`. A rotor still swinging to its rest turns the axes under the
+//! injection and pulls the two eigenvalues together (on the Brusa, L_d +7 %, L_q −15 %): a
+//! measurement whose DC current's two halves differ (the swing's back-EMF) is repeated after
+//! a wait. Only on a salient rotor: a non-salient one's swing turns nothing that matters,
+//! its back-EMF cancels between the signs.
+//!
 //! `Δ` is the mean of `sign(v_{k−1}) (i_k − i_{k−1})` over 100 ms (slow disturbances such as
 //! the back-EMF of a rotor still swinging cancel between the signs). `V_h` starts at 2 % of
 //! the rated current's `R I` and doubles until the ripple is a tenth of the rated current (or
 //! the inverter's limit), so a motor of any `L` gets a ripple well above the sensing noise.
 
 use super::flux::FluxSpin;
-use super::{Identified, IdentifyError, Phase, Progress, Settings};
+use super::{Identified, IdentifyError, Phase, Progress, Settings, SALIENT};
 use crate::foc::{Reference, Request};
 use crate::frames::{AlphaBeta, Dq, SinCos};
 use crate::motor::MotorParams;
@@ -32,6 +51,17 @@ const SETTLE_MS: u32 = 5;
 const PRE_MEASURE_MS: u32 = 20;
 /// Averaging time \[ms].
 const MEASURE_MS: u32 = 100;
+/// A rotor held off its d axis (module doc): the DC voltage halved at most this many times,
+/// each followed by this wait for the rotor to settle \[ms] (the resistance test's settling).
+const MAX_HALVINGS: u32 = 3;
+const RESETTLE_MS: u32 = 100;
+/// The DC current's means over a measurement's halves apart by more than this share of it:
+/// the rotor still moves (the resistance test's criterion); a salient rotor's two measurements
+/// repeated at most this many times.
+const REST: f32 = 0.01;
+const MAX_REPEATS: u32 = 20;
+/// Axes more than 20° off α and β: `tan 40°`.
+const TAN_TWICE_OFF_AXIS: f32 = 0.839;
 
 /// Where the measurement is (milliseconds left).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -63,8 +93,19 @@ pub(in crate::drive) struct Inductance {
     stage: Stage,
     /// The resistance \[Ω].
     r_ohm: f32,
-    /// The d-axis result \[H], once measured.
-    l_d_h: f32,
+    /// The response to the injection along α (the first column of `X`, module doc), once
+    /// measured.
+    x_alpha: AlphaBeta,
+    /// Times the DC voltage was halved for a rotor held off its d axis (module doc).
+    halvings: u32,
+    /// The currents summed since the last tick, or over the measurement \[A]; over the
+    /// measurement's first half, and their count.
+    dc_sum: AlphaBeta,
+    dc_first_half: (AlphaBeta, u32),
+    /// A measurement's DC current moved (the rotor was not at rest), and the measurements
+    /// repeated so.
+    moved: bool,
+    repeats: u32,
 }
 
 impl Inductance {
@@ -80,7 +121,12 @@ impl Inductance {
             n: 0,
             stage: Stage::Adapt(SETTLE_MS),
             r_ohm,
-            l_d_h: 0.0,
+            x_alpha: AlphaBeta::default(),
+            halvings: 0,
+            dc_sum: AlphaBeta::default(),
+            dc_first_half: (AlphaBeta::default(), 0),
+            moved: false,
+            repeats: 0,
         }
     }
 
@@ -94,6 +140,7 @@ impl Inductance {
             self.acc.alpha + sg * (i_ab.alpha - self.i_prev.alpha),
             self.acc.beta + sg * (i_ab.beta - self.i_prev.beta),
         );
+        self.dc_sum = AlphaBeta::new(self.dc_sum.alpha + i_ab.alpha, self.dc_sum.beta + i_ab.beta);
         self.n += 1;
         self.i_prev = i_ab;
         let sg = -sg;
@@ -129,6 +176,9 @@ impl Inductance {
         let ripple = along / (self.n.max(1) as f32);
         match self.stage {
             Stage::Measure(ms) if ms > 1 => {
+                if ms == MEASURE_MS / 2 + 1 {
+                    self.dc_first_half = (self.dc_sum, self.n);
+                }
                 self.stage = Stage::Measure(ms - 1);
                 return Progress::Stay;
             }
@@ -161,31 +211,128 @@ impl Inductance {
                 return Progress::Stay;
             }
         }
-        // Measured: L from the ripple.
-        let x = self.r_ohm * ripple / (2.0 * self.v_h);
+        self.moved |= !self.at_rest();
+        // Measured: this injection's column of `X`, the ripple along α and β over `2 V_h/R`.
+        let n = self.n.max(1) as f32;
+        let x = |acc: f32| self.r_ohm * (acc / n) / (2.0 * self.v_h);
+        let column = AlphaBeta::new(x(self.acc.alpha), x(self.acc.beta));
         self.clear();
-        if !(x > 1e-6 && x < 0.99) {
-            return Progress::Fail(IdentifyError::InductanceOutOfRange);
-        }
-        let l_h = self.r_ohm * s.ts / super::ln((1.0 + x) / (1.0 - x));
-        if MotorParams::L_H.check("l_h", l_h).is_err() {
-            return Progress::Fail(IdentifyError::InductanceOutOfRange);
-        }
         if !self.on_q {
-            self.l_d_h = l_h;
+            self.x_alpha = column;
             self.on_q = true;
             self.v_h = 0.02 * self.r_ohm * s.i_test_a;
             self.stage = Stage::Adapt(SETTLE_MS);
             return Progress::Stay;
         }
-        result.l_d_h = self.l_d_h;
-        result.l_q_h = l_h;
+        let x = Axes::of(self.x_alpha, column);
+        let off_alpha = x.off_alpha() && self.halvings < MAX_HALVINGS;
+        let moved = x.salient() && self.moved && self.repeats < MAX_REPEATS;
+        if off_alpha || moved {
+            if off_alpha {
+                // The rotor rests off the DC current by the reluctance torque: half the
+                // current.
+                self.halvings += 1;
+                self.base = AlphaBeta::new(0.5 * self.base.alpha, 0.5 * self.base.beta);
+            } else {
+                self.repeats += 1;
+            }
+            // The rotor let settle, both axes again.
+            self.on_q = false;
+            self.moved = false;
+            self.v_h = 0.02 * self.r_ohm * s.i_test_a;
+            self.stage = Stage::Adapt(RESETTLE_MS);
+            return Progress::Stay;
+        }
+        let (x_d, x_q) = x.d_q();
+        let (Some(l_d_h), Some(l_q_h)) = (
+            inductance(x_d, self.r_ohm, s.ts),
+            inductance(x_q, self.r_ohm, s.ts),
+        ) else {
+            return Progress::Fail(IdentifyError::InductanceOutOfRange);
+        };
+        result.l_d_h = l_d_h;
+        result.l_q_h = l_q_h;
         Progress::Next(Phase::Flux(FluxSpin::new(s, result)))
     }
 
     /// Sums cleared.
     fn clear(&mut self) {
         self.acc = AlphaBeta::default();
+        self.dc_sum = AlphaBeta::default();
         self.n = 0;
     }
+
+    /// The DC current's means over the measurement's two halves agree within [`REST`] of it:
+    /// no back-EMF of a rotor still moving in the currents.
+    fn at_rest(&self) -> bool {
+        let (sum, n) = self.dc_first_half;
+        let (n1, n2) = (n.max(1) as f32, self.n.saturating_sub(n).max(1) as f32);
+        let first = AlphaBeta::new(sum.alpha / n1, sum.beta / n1);
+        let d_alpha = (self.dc_sum.alpha - sum.alpha) / n2 - first.alpha;
+        let d_beta = (self.dc_sum.beta - sum.beta) / n2 - first.beta;
+        let dc2 = first.alpha * first.alpha + first.beta * first.beta;
+        d_alpha * d_alpha + d_beta * d_beta <= REST * REST * dc2
+    }
+}
+
+/// `X`'s symmetric part (module doc): its diagonal and its off-diagonal element.
+struct Axes {
+    alpha: f32,
+    beta: f32,
+    cross: f32,
+}
+
+impl Axes {
+    /// From the columns of `X` measured by the injections along α (`x_alpha`) and β
+    /// (`x_beta`).
+    fn of(x_alpha: AlphaBeta, x_beta: AlphaBeta) -> Self {
+        Self {
+            alpha: x_alpha.alpha,
+            beta: x_beta.beta,
+            cross: 0.5 * (x_alpha.beta + x_beta.alpha),
+        }
+    }
+
+    /// The eigenvalues' mean and half their difference, and half the diagonal's difference.
+    fn spread(&self) -> (f32, f32, f32) {
+        let mean = 0.5 * (self.alpha + self.beta);
+        let half_diff = 0.5 * (self.alpha - self.beta);
+        let spread = crate::math::sqrt(half_diff * half_diff + self.cross * self.cross);
+        (mean, spread, half_diff)
+    }
+
+    /// A salient rotor: eigenvalues apart by more than [`SALIENT`] of their mean.
+    fn salient(&self) -> bool {
+        let (mean, spread, _) = self.spread();
+        spread > SALIENT * mean
+    }
+
+    /// A salient rotor whose axes lie more than 20° off α and β (`tan 2φ = cross/half_diff`).
+    fn off_alpha(&self) -> bool {
+        let (_, _, half_diff) = self.spread();
+        self.salient() && self.cross.abs() > TAN_TWICE_OFF_AXIS * half_diff.abs()
+    }
+
+    /// The d and q axes' `x`: of a salient rotor the eigenvalues, the d axis the eigen-axis
+    /// nearer α, where the DC current holds the magnet (the larger `x`, the smaller inductance,
+    /// when `X_αα > X_ββ`); else the diagonal, the responses along α and β (the off-diagonal
+    /// element is noise, which would only push the eigenvalues apart).
+    fn d_q(&self) -> (f32, f32) {
+        if !self.salient() {
+            return (self.alpha, self.beta);
+        }
+        let (mean, spread, half_diff) = self.spread();
+        let spread = if half_diff >= 0.0 { spread } else { -spread };
+        (mean + spread, mean - spread)
+    }
+}
+
+/// The inductance \[H] of an axis whose ripple is `x` (module doc) at `r_ohm` \[Ω] and the
+/// step `ts` \[s]; `None` outside the model's range or [`MotorParams::L_H`].
+fn inductance(x: f32, r_ohm: f32, ts: f32) -> Option<f32> {
+    if !(x > 1e-6 && x < 0.99) {
+        return None;
+    }
+    let l_h = r_ohm * ts / super::ln((1.0 + x) / (1.0 - x));
+    MotorParams::L_H.check("l_h", l_h).ok().map(|_| l_h)
 }

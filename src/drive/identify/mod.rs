@@ -123,20 +123,31 @@ pub struct Identified {
     pub b_nms: f32,
 }
 
+/// `L_d` and `L_q` apart by more than this share of their mean: a salient motor (twice the
+/// 5 % the identification answers for on each inductance); closer, the motor is taken as
+/// non-salient with their mean.
+pub(super) const SALIENT: f32 = 0.1;
+
 impl Identified {
-    /// The inductance of the drive's (non-salient) model: the mean of `l_d_h` and `l_q_h` \[H].
+    /// The inductance of a non-salient model: the mean of `l_d_h` and `l_q_h` \[H].
     pub fn l_h(&self) -> f32 {
         0.5 * (self.l_d_h + self.l_q_h)
     }
 
+    /// `L_d` and `L_q` measured apart by more than [`SALIENT`] of their mean.
+    pub fn salient(&self) -> bool {
+        (self.l_d_h - self.l_q_h).abs() > SALIENT * self.l_h()
+    }
+
     /// The motor parameters with the user's `pole_pairs`, validated, in the convention
-    /// `torque` the identification ran in.
+    /// `torque` the identification ran in: salient with `l_d_h` and `l_q_h` where
+    /// [`Identified::salient`], else with their mean.
     pub fn params(
         &self,
         pole_pairs: u32,
         torque: TorqueConvention,
     ) -> Result<MotorParams, ParamError> {
-        Ok(MotorParams::new(
+        let m = MotorParams::new(
             pole_pairs,
             self.r_ohm,
             self.l_h(),
@@ -144,7 +155,12 @@ impl Identified {
             self.j_kgm2,
             self.b_nms,
         )?
-        .with_torque(torque))
+        .with_torque(torque);
+        if self.salient() {
+            m.with_inductances(self.l_d_h, self.l_q_h)
+        } else {
+            Ok(m)
+        }
     }
 }
 

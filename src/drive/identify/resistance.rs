@@ -22,7 +22,9 @@
 //! keeps `ζ ≥ 0.5` up to τ = 33 ms (0.44 at 44 ms) and settles a τ → 0 winding in
 //! `3·1 ms/G` = 100 ms; it lands the current in the window. The secant overestimates `R` by
 //! the lag (`1 + γτ`) and the loop may overshoot: a level is averaged only when its current is
-//! still in the window after the settling time, else the ramp goes on (for at most 2 s, then
+//! still in the window after the settling time, and kept only when the average's two halves
+//! agree (a rotor still swinging puts its back-EMF in the current: it settles again), else the
+//! ramp goes on (for at most 2 s, then
 //! the level is taken where it is, and the winding check judges it). This is the
 //! ramp-to-current of ODrive's resistance measurement (`Motor::measure_phase_resistance`,
 //! an integrator `v += k_I (I_test − i) T`; ODrive fixes `k_I` at 1 V/(A·s), here it follows
@@ -42,7 +44,9 @@
 //! resistance and flux linkage uncertainty", IEEE Trans. Control Syst. Technol. 14(4), 2006).
 //!
 //! The winding check: a third level adds 0.3 × rated current on the β axis (the rotor turns
-//! by 17° electrical, and the DC test does not care), so that the 2×2 DC conductance
+//! by 17° electrical; a salient rotor held on an unstable equilibrium by the first levels,
+//! where `(L_q − L_d) I > ψ_f`, swings to its reluctance-shifted one, 60° on the Brusa
+//! traction motor), so that the 2×2 DC conductance
 //! `G = ∂i_αβ/∂v_αβ` is known. A healthy machine's `G` is `I/R` whatever its saliency (the
 //! resistance is the same in every direction); an open phase `k` leaves `G = w wᵀ/R` with
 //! `w ⊥ u_k` (no current along the phase's axis `u_k`: eigenvalues 0 and 1/R); a shorted
@@ -63,6 +67,9 @@ use crate::motor::MotorParams;
 const SETTLE_MS: u32 = 100;
 /// Averaging time of each level \[ms].
 const AVERAGE_MS: u32 = 100;
+/// The two halves of a level's average apart by more than this share of the level: the rotor
+/// still moves (a hundred times the noise of a 50 ms mean at the board's 1 % noise).
+const REST: f32 = 0.01;
 /// Levels: fractions of the rated current (α, α, then added on β).
 const LEVELS: [f32; 3] = [0.5, 1.0, 0.3];
 /// The ramp's first voltage, a fraction of the rated bus's phase voltage (module doc).
@@ -107,6 +114,8 @@ pub(in crate::drive) struct Resistance {
     sign_dir: AlphaBeta,
     /// Milliseconds this level has ramped (its settling included).
     ramp_ms: u32,
+    /// The currents summed over the average's first half, and their count \[A].
+    first_half: (AlphaBeta, u32),
     /// Each level's voltage and mean current [V], \[A].
     points: [(AlphaBeta, AlphaBeta); 3],
 }
@@ -217,7 +226,17 @@ impl Resistance {
                 self.ramp_ms += 1;
                 self.sub = Sub::Settle(ms - 1);
             }
-            Sub::Average(ms) if ms > 1 => self.sub = Sub::Average(ms - 1),
+            Sub::Average(ms) if ms > 1 => {
+                if ms == AVERAGE_MS / 2 + 1 {
+                    self.first_half = (self.sum_i, self.n);
+                }
+                self.sub = Sub::Average(ms - 1);
+            }
+            Sub::Average(_) if !self.at_rest(level_a) && self.ramp_ms <= RAMP_MAX_MS => {
+                // The rotor still moves (its EMF in the current): settle again.
+                self.clear();
+                self.sub = Sub::Settle(SETTLE_MS);
+            }
             Sub::Average(_) => {
                 if let Some(p) = self.points.get_mut(self.level) {
                     *p = (self.v_ab, mean);
@@ -232,6 +251,16 @@ impl Resistance {
             }
         }
         Progress::Stay
+    }
+
+    /// The average's two halves agree within [`REST`] of the level `level_a` \[A]: no
+    /// back-EMF of a rotor still moving in the currents (module doc).
+    fn at_rest(&self, level_a: f32) -> bool {
+        let (sum, n) = self.first_half;
+        let (n1, n2) = (n.max(1) as f32, self.n.saturating_sub(n).max(1) as f32);
+        let d_alpha = (self.sum_i.alpha - sum.alpha) / n2 - sum.alpha / n1;
+        let d_beta = (self.sum_i.beta - sum.beta) / n2 - sum.beta / n1;
+        d_alpha * d_alpha + d_beta * d_beta <= (REST * level_a) * (REST * level_a)
     }
 
     /// Sums cleared.
