@@ -5,8 +5,7 @@
 
 use pmsm_host_sim::motor_file;
 use pmsm_host_sim::observer::ObserverKind;
-use pmsm_host_sim::scenario::profile::Pwl;
-use pmsm_host_sim::scenario::{self, Scenario, Window};
+use pmsm_host_sim::scenario::Scenario;
 use pmsm_host_sim::sim::{Sim, SimConfig};
 use pmsm_sensorless::drive::DriveConfig;
 use pmsm_sensorless::fixed::pll::{PllQ, PllStateQ};
@@ -446,25 +445,8 @@ fn svpwm_limited_matches_the_f32_formula() {
 
 /// A motor held at `rpm` by the sensored controller under `load` of its rated torque.
 fn constant_speed(motor: Motor, rpm: f64, load: f64, duration_s: f64) -> Scenario {
-    Scenario {
-        name: "test-fixed-sliding".into(),
-        description: "constant speed, sensored".into(),
-        motor_name: motor.name.to_string(),
-        motor,
-        duration_s,
-        speed_cmd_rpm: Pwl::constant(rpm),
-        load_shape: Pwl::constant(1.0),
-        load_nm: load * f64::from(motor.ratings.torque_nm),
-        windows: vec![Window::new("all", 0.0, duration_s)],
-        initial_speed_rpm: rpm,
-        min_speed_rpm: rpm,
-        i_max_a: None,
-        figures: String::new(),
-        load_kind: scenario::LoadKind::Active,
-        drive: None,
-        speed_tolerance: 0.02,
-        locked_rotor: false,
-    }
+    let load_nm = load * f64::from(motor.ratings.torque_nm);
+    Scenario::constant_speed("test-fixed-sliding", motor, rpm, load_nm, duration_s)
 }
 
 /// Worst differences of one sliding-observer run after `settle_s`.

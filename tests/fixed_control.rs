@@ -5,8 +5,7 @@
 
 use pmsm_host_sim::motor_file;
 use pmsm_host_sim::observer::ObserverKind;
-use pmsm_host_sim::scenario::profile::Pwl;
-use pmsm_host_sim::scenario::{self, Scenario, Window};
+use pmsm_host_sim::scenario::Scenario;
 use pmsm_host_sim::sim::{wrap_rad, Sim, SimConfig};
 use pmsm_sensorless::drive::DriveConfig;
 use pmsm_sensorless::fixed::current::{CurrentLoopQ, CurrentLoopStateQ};
@@ -301,25 +300,8 @@ fn current_loop_matches_the_f32_loop() {
 
 /// A motor held at `rpm` by the sensored controller under `load` of its rated torque.
 fn constant_speed(motor: Motor, rpm: f64, load: f64, duration_s: f64) -> Scenario {
-    Scenario {
-        name: "test-fixed-flux".into(),
-        description: "constant speed, sensored".into(),
-        motor_name: motor.name.to_string(),
-        motor,
-        duration_s,
-        speed_cmd_rpm: Pwl::constant(rpm),
-        load_shape: Pwl::constant(1.0),
-        load_nm: load * f64::from(motor.ratings.torque_nm),
-        windows: vec![Window::new("all", 0.0, duration_s)],
-        initial_speed_rpm: rpm,
-        min_speed_rpm: rpm,
-        i_max_a: None,
-        figures: String::new(),
-        load_kind: scenario::LoadKind::Active,
-        drive: None,
-        speed_tolerance: 0.02,
-        locked_rotor: false,
-    }
+    let load_nm = load * f64::from(motor.ratings.torque_nm);
+    Scenario::constant_speed("test-fixed-flux", motor, rpm, load_nm, duration_s)
 }
 
 fn wrap_deg(x: f64) -> f64 {

@@ -2,8 +2,7 @@
 
 use pmsm_host_sim::observer::ObserverKind;
 use pmsm_host_sim::report::summary::Summary;
-use pmsm_host_sim::scenario::profile::Pwl;
-use pmsm_host_sim::scenario::{self, Scenario, Window};
+use pmsm_host_sim::scenario::{self, Scenario};
 use pmsm_host_sim::sim::{run, wrap_rad, Sim, SimConfig};
 use pmsm_host_sim::RAD_S_PER_RPM;
 use pmsm_sensorless::frames::{Abc, AlphaBeta};
@@ -12,25 +11,7 @@ use pmsm_sensorless::observer::flux::{FluxConfig, FluxObserver, FluxState};
 
 /// A motor held at `rpm` by the sensored controller, no load.
 fn constant_speed(motor: Motor, rpm: f64, duration_s: f64) -> Scenario {
-    Scenario {
-        name: "test-constant-speed".into(),
-        description: "constant speed, sensored".into(),
-        motor_name: motor.name.to_string(),
-        motor,
-        duration_s,
-        speed_cmd_rpm: Pwl::constant(rpm),
-        load_shape: Pwl::constant(0.0),
-        load_nm: 0.0,
-        windows: vec![Window::new("all", 0.0, duration_s)],
-        initial_speed_rpm: rpm,
-        min_speed_rpm: rpm,
-        i_max_a: None,
-        figures: String::new(),
-        load_kind: scenario::LoadKind::Active,
-        drive: None,
-        speed_tolerance: 0.02,
-        locked_rotor: false,
-    }
+    Scenario::constant_speed("test-constant-speed", motor, rpm, 0.0, duration_s)
 }
 
 /// One sample seen by an observer running beside a sensored run.

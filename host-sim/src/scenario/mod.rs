@@ -266,6 +266,37 @@ impl Injection {
 pub const OVERLOAD: f64 = 1.5;
 
 impl Scenario {
+    /// `motor` held at `rpm` by the sensored controller for `duration_s` \[s] under an active
+    /// load of `load_nm` \[N·m], one window over the whole run: the observers' tests against
+    /// the plant at constant speed.
+    pub fn constant_speed(
+        name: &str,
+        motor: Motor,
+        rpm: f64,
+        load_nm: f64,
+        duration_s: f64,
+    ) -> Self {
+        Scenario {
+            name: name.into(),
+            description: "constant speed, sensored".into(),
+            motor_name: motor.name.to_string(),
+            motor,
+            duration_s,
+            speed_cmd_rpm: Pwl::constant(rpm),
+            load_shape: Pwl::constant(1.0),
+            load_nm,
+            windows: vec![Window::new("all", 0.0, duration_s)],
+            initial_speed_rpm: rpm,
+            min_speed_rpm: rpm,
+            i_max_a: None,
+            figures: String::new(),
+            load_kind: LoadKind::Active,
+            drive: None,
+            speed_tolerance: 0.02,
+            locked_rotor: false,
+        }
+    }
+
     /// The bare-observer runs' current limit \[A].
     pub fn i_max_a(&self) -> f64 {
         self.i_max_a
