@@ -1,0 +1,159 @@
+//! Maximum torque per ampere (MTPA) of an interior-magnet motor (`L_q > L_d`): the d current
+//! that, with the q current, makes a torque with the least current magnitude.
+//!
+//! With the amplitude-invariant dq model the torque is (`c` the torque convention's factor,
+//! [`crate::motor::TorqueConvention::factor`])
+//!
+//! ```text
+//! τ = c N (ψ_f + (L_d − L_q) i_d) i_q
+//! ```
+//!
+//! and for a current of magnitude `I` at the angle `β` from the q axis (`i_d = −I sin β`,
+//! `i_q = I cos β`) it is largest where `∂τ/∂β = 0`:
+//!
+//! ```text
+//! i_d = ψ_f/(2 (L_q − L_d)) − √(ψ_f²/(4 (L_q − L_d)²) + i_q²)              (for a given i_q)
+//! i_d = (ψ_f − √(ψ_f² + 8 (L_q − L_d)² I²))/(4 (L_q − L_d))                  (for a given |i| = I)
+//! ```
+//!
+//! (S. Morimoto, Y. Takeda, T. Hirasa, K. Taniguchi, "Expansion of operating limits for
+//! permanent magnet motor by current vector control considering inverter capacity", IEEE
+//! Trans. Ind. Appl. 26(5), 1990, the maximum-torque-per-current condition; T. M. Jahns,
+//! G. B. Kliman, T. W. Neumann, "Interior permanent-magnet synchronous motors for
+//! adjustable-speed drives", IEEE Trans. Ind. Appl. IA-22(4), 1986.) With
+//! `k = 2 (L_q − L_d)/ψ_f` \[1/A] (`1/k` is the formula's `ψ_f/(2 (L_q − L_d))`) both are
+//! written without a cancellation (the difference of two nearly equal terms of a weakly salient
+//! motor, where `1/k` is far above the currents), as the drive computes them:
+//!
+//! ```text
+//! i_d(i_q) = −k i_q²/(1 + √(1 + k² i_q²))
+//! i_d(I)   = −k I²/(1 + √(1 + 2 k² I²))
+//! τ        = c N ψ_f (1 − k i_d/2) i_q
+//! ```
+//!
+//! **The torque current.** The speed loop commands a torque as the q current a non-salient
+//! motor of the same `ψ_f` would need, `i_τ = τ/(c N ψ_f)` (the unit every torque of the drive
+//! is in: the load observers' estimates fed forward, the speed PI's gains from `c N ψ_f`);
+//! [`Mtpa::split`] turns it into the currents: on the MTPA curve,
+//! `i_τ = i_q (1 + √(1 + k² i_q²))/2`, solved for `i_q` by one Newton step per call from the last
+//! call's `i_q` (the function is convex and increasing in `|i_q|`: from any start the step
+//! lands at or above the root, quadratically close to it near it), the d current from that
+//! `i_q`, or the field weakening's where it is more negative; then `i_q = i_τ/(1 − k i_d/2)`,
+//! so the torque is `c N ψ_f i_τ` whatever `i_d` is (the Newton step's residual moves the
+//! point along the torque's curve, off the optimum to second order, not the torque): the
+//! d current at or below the curve's, the q current rising to the curve call by call. The speed loop's gain stays `c N ψ_f` per ampere of its output, as its
+//! gains are computed for. At 1 kHz: two square roots and three divisions, on salient motors
+//! only.
+//!
+//! Not salient (`L_d = L_q`): no MTPA, `i_d = 0` (`Mtpa::new` gives `None`, the drive skips it).
+//! Inverse saliency (`L_q < L_d`): MTPA asks for a positive, magnetising d current; the drive's
+//! d command is the more negative of the MTPA's and the field weakening's (≤ 0), and a
+//! magnetising current saturates the d axis (the iron the magnet already drives), where the
+//! linear model's optimum is not the machine's: no MTPA (`None`).
+
+use crate::frames::Dq;
+use crate::math::{max, min, sqrt, sqrt_or_zero};
+use crate::motor::MotorParams;
+
+/// MTPA's coefficients (module doc), for a motor with `L_q > L_d`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Mtpa {
+    /// `k = 2 (L_q − L_d)/ψ_f` \[1/A].
+    k: f32,
+    /// `k²` \[1/A²].
+    k2: f32,
+    /// `k/2` \[1/A].
+    half_k: f32,
+    /// The MTPA d current at the current limit, `i_d(I = i_max)` \[A] (≤ 0).
+    i_d_at_max: f32,
+    /// The torque current at the current limit on the MTPA curve \[A] (≥ `i_max`).
+    i_tau_at_max: f32,
+}
+
+impl Mtpa {
+    /// MTPA for `m` within the current limit `i_max_a` \[A]: `None` for a non-salient motor
+    /// (`L_d = L_q`: `i_d = 0` is the MTPA) and for inverse saliency (`L_q < L_d`: module doc),
+    /// and for a `k` that is not a positive finite number (a NaN among the parameters).
+    pub fn new(m: &MotorParams, i_max_a: f32) -> Option<Self> {
+        if !m.is_salient() {
+            return None;
+        }
+        let k = -2.0 * m.l_d_minus_l_q_h() / m.flux_wb;
+        if !(k > 0.0 && k.is_finite()) {
+            return None;
+        }
+        let i_d_at_max =
+            -k * i_max_a * i_max_a / (1.0 + sqrt(1.0 + 2.0 * k * k * i_max_a * i_max_a));
+        let i_q_at_max = sqrt_or_zero(i_max_a * i_max_a - i_d_at_max * i_d_at_max);
+        Some(Self {
+            k,
+            k2: k * k,
+            half_k: 0.5 * k,
+            i_d_at_max,
+            i_tau_at_max: i_q_at_max * (1.0 - 0.5 * k * i_d_at_max),
+        })
+    }
+
+    /// `k = 2 (L_q − L_d)/ψ_f` \[1/A]: `1/k` is Morimoto's `ψ_f/(2 (L_q − L_d))`.
+    pub fn k(&self) -> f32 {
+        self.k
+    }
+
+    /// The MTPA d current for the q current `i_q` \[A]: `−k i_q²/(1 + √(1 + k² i_q²))` =
+    /// `ψ_f/(2 (L_q − L_d)) − √(ψ_f²/(4 (L_q − L_d)²) + i_q²)` \[A], ≤ 0; 0 for a NaN.
+    #[inline(always)]
+    pub fn i_d(&self, i_q: f32) -> f32 {
+        let s = sqrt_or_zero(1.0 + self.k2 * i_q * i_q);
+        min(-self.k * i_q * i_q / (1.0 + s), 0.0)
+    }
+
+    /// The MTPA d current for the current magnitude `i_a` \[A]: `−k I²/(1 + √(1 + 2 k² I²))` =
+    /// `(ψ_f − √(ψ_f² + 8 (L_q − L_d)² I²))/(4 (L_q − L_d))` \[A], ≤ 0; 0 for a NaN.
+    pub fn i_d_for_current(&self, i_a: f32) -> f32 {
+        let s = sqrt_or_zero(1.0 + 2.0 * self.k2 * i_a * i_a);
+        min(-self.k * i_a * i_a / (1.0 + s), 0.0)
+    }
+
+    /// The torque current of the currents `i_dq` \[A]: `i_q (1 − k i_d/2)`, the q current a
+    /// non-salient motor of the same `ψ_f` makes their torque with \[A].
+    #[inline(always)]
+    pub fn torque_current(&self, i_dq: Dq) -> f32 {
+        i_dq.q * (1.0 - self.half_k * i_dq.d)
+    }
+
+    /// The torque current on the MTPA curve at the current limit \[A].
+    pub fn torque_current_at_max(&self) -> f32 {
+        self.i_tau_at_max
+    }
+
+    /// The most torque current within the current limit `i_max_a` \[A] with the field
+    /// weakening's d current `i_d_fw` \[A] (≤ 0) and the hand-over's `i_d_handover` \[A] added:
+    /// the d current the more negative of the MTPA's at the limit and the field weakening's,
+    /// the q current what it leaves of the limit \[A].
+    #[inline(always)]
+    pub fn torque_limit(&self, i_d_fw: f32, i_d_handover: f32, i_max_a: f32) -> f32 {
+        let i_d = min(self.i_d_at_max, i_d_fw);
+        let i_d_all = i_d + i_d_handover;
+        let i_q = sqrt_or_zero(i_max_a * i_max_a - i_d_all * i_d_all);
+        i_q * (1.0 - self.half_k * i_d)
+    }
+
+    /// The currents for the torque current `i_tau` \[A] (module doc): one Newton step from
+    /// the last q current `i_q_last` \[A] toward the MTPA q current, its d current or the field
+    /// weakening's `i_d_fw` \[A] (≤ 0) where that is more negative, and the q current that makes
+    /// the torque with it, `i_τ/(1 − k i_d/2)`. The MTPA's d current is within its value at
+    /// the current limit and 0 (0 for a NaN), the field weakening's ≤ 0 and finite, so the
+    /// division is by at least 1 and finite.
+    #[inline(always)]
+    pub fn split(&self, i_tau: f32, i_q_last: f32, i_d_fw: f32) -> Dq {
+        // Newton on f(q) = q (1 + s)/2 − |i_τ|, s = √(1 + k² q²): f' = (2s − 1)(s + 1)/(2s),
+        // q⁺ = q − f/f' = (k² q³ + 2 s |i_τ|)/((2s − 1)(1 + s)).
+        let q = i_q_last.abs();
+        let s = sqrt_or_zero(1.0 + self.k2 * q * q);
+        let q_mtpa = (self.k2 * q * q * q + 2.0 * s * i_tau.abs()) / ((2.0 * s - 1.0) * (1.0 + s));
+        // The MTPA's d current no lower than at the current limit (finite for any start; 0
+        // for a NaN); `min` gives its second argument for a NaN first.
+        let i_d = min(i_d_fw, max(self.i_d(q_mtpa), self.i_d_at_max));
+        Dq::new(i_d, i_tau / (1.0 - self.half_k * i_d))
+    }
+}
