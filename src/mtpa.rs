@@ -52,7 +52,7 @@
 //! linear model's optimum is not the machine's: no MTPA (`None`).
 
 use crate::frames::Dq;
-use crate::math::{max, min, sqrt, sqrt_or_zero};
+use crate::math::{max, min, sqrt_or_zero};
 use crate::motor::MotorParams;
 
 /// MTPA's coefficients (module doc), for a motor with `L_q > L_d`.
@@ -74,6 +74,8 @@ impl Mtpa {
     /// MTPA for `m` within the current limit `i_max_a` \[A]: `None` for a non-salient motor
     /// (`L_d = L_q`: `i_d = 0` is the MTPA) and for inverse saliency (`L_q < L_d`: module doc),
     /// and for a `k` that is not a positive finite number (a NaN among the parameters).
+    // Out of line: configuration, not the control path (each inlined copy costs flash).
+    #[inline(never)]
     pub fn new(m: &MotorParams, i_max_a: f32) -> Option<Self> {
         if !m.is_salient() {
             return None;
@@ -82,8 +84,10 @@ impl Mtpa {
         if !(k > 0.0 && k.is_finite()) {
             return None;
         }
+        // (`sqrt_or_zero`, not `math::sqrt`: its fallback would link libm's square root into
+        // the firmware; the argument is at least 1.)
         let i_d_at_max =
-            -k * i_max_a * i_max_a / (1.0 + sqrt(1.0 + 2.0 * k * k * i_max_a * i_max_a));
+            -k * i_max_a * i_max_a / (1.0 + sqrt_or_zero(1.0 + 2.0 * k * k * i_max_a * i_max_a));
         let i_q_at_max = sqrt_or_zero(i_max_a * i_max_a - i_d_at_max * i_d_at_max);
         Some(Self {
             k,
@@ -130,7 +134,8 @@ impl Mtpa {
     /// weakening's d current `i_d_fw` \[A] (≤ 0) and the hand-over's `i_d_handover` \[A] added:
     /// the d current the more negative of the MTPA's at the limit and the field weakening's,
     /// the q current what it leaves of the limit \[A].
-    #[inline(always)]
+    // Out of line, as `split`: a non-salient motor's tick pays a branch, not the registers.
+    #[inline(never)]
     pub fn torque_limit(&self, i_d_fw: f32, i_d_handover: f32, i_max_a: f32) -> f32 {
         let i_d = min(self.i_d_at_max, i_d_fw);
         let i_d_all = i_d + i_d_handover;
@@ -144,7 +149,9 @@ impl Mtpa {
     /// the torque with it, `i_τ/(1 − k i_d/2)`. The MTPA's d current is within its value at
     /// the current limit and 0 (0 for a NaN), the field weakening's ≤ 0 and finite, so the
     /// division is by at least 1 and finite.
-    #[inline(always)]
+    // Out of line: a non-salient motor's tick (the drive's 1 kHz task) pays a branch, not
+    // the registers and the flash of the salient one's arithmetic.
+    #[inline(never)]
     pub fn split(&self, i_tau: f32, i_q_last: f32, i_d_fw: f32) -> Dq {
         // Newton on f(q) = q (1 + s)/2 − |i_τ|, s = √(1 + k² q²): f' = (2s − 1)(s + 1)/(2s),
         // q⁺ = q − f/f' = (k² q³ + 2 s |i_τ|)/((2s − 1)(1 + s)).
