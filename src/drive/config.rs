@@ -496,6 +496,7 @@ impl DriveConfig {
                     i_max_a: l.i_max_a,
                 },
                 mtpa,
+                braking_max_a: mtpa.map_or(l.i_max_a, |m| m.torque_current_at_max()),
                 // Five speed-loop time constants, 1/(2π f_speed) each: the speed loop takes the
                 // torque over as the d current fades.
                 handover_decay: 1.0 - slots * ts * TAU * self.speed_bandwidth_hz / 5.0,

@@ -40,6 +40,11 @@ pub(super) struct Settings {
     /// Maximum torque per ampere of a motor with `L_q > L_d` (`crate::mtpa`; `None`: not
     /// salient, or inversely, and the d current is the field weakening's alone).
     pub(super) mtpa: Option<Mtpa>,
+    /// The braking side's limit of the speed loop's output (a torque current, `crate::mtpa`)
+    /// \[A]: the current limit `i_max`, on a salient motor the MTPA's torque current there
+    /// (so that the limit a speed estimate's sign picks does not change with its noise on a
+    /// rotor at rest).
+    pub(super) braking_max_a: f32,
     /// The hand-over's d current decays by this factor per millisecond.
     pub(super) handover_decay: f32,
     /// Without a usable observer, below this |speed| and |reference| open loop takes over
@@ -465,7 +470,7 @@ impl Settings {
         // last run); the field weakening's d current gets what the braking leaves
         // ([`braking_first`]).
         let braking_max = min(
-            fw.i_max_a,
+            self.braking_max_a,
             core::mem::replace(&mut s.regen_iq_a, f32::INFINITY),
         );
         let bounds = if omega_m >= 0.0 {
