@@ -149,9 +149,9 @@ impl Mtpa {
     /// the torque with it, `i_τ/(1 − k i_d/2)`. The MTPA's d current is within its value at
     /// the current limit and 0 (0 for a NaN), the field weakening's ≤ 0 and finite, so the
     /// division is by at least 1 and finite.
-    // Out of line: a non-salient motor's tick (the drive's 1 kHz task) pays a branch, not
-    // the registers and the flash of the salient one's arithmetic.
-    #[inline(never)]
+    // (The drive calls it from a function of its own, out of line: a non-salient motor's
+    // tick pays a branch, not the registers and the flash of the salient one's arithmetic.)
+    #[inline]
     pub fn split(&self, i_tau: f32, i_q_last: f32, i_d_fw: f32) -> Dq {
         // Newton on f(q) = q (1 + s)/2 − |i_τ|, s = √(1 + k² q²): f' = (2s − 1)(s + 1)/(2s),
         // q⁺ = q − f/f' = (k² q³ + 2 s |i_τ|)/((2s − 1)(1 + s)).

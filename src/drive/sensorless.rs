@@ -208,6 +208,28 @@ fn braking_first(s: &mut Sensorless, i_max_a: f32) {
     s.i_d_ref = clamp(s.i_d_fw + s.i_d_handover, -i_d_max, i_d_max);
 }
 
+/// MTPA's currents for the speed loop's torque current `i_tau` \[A] (`crate::mtpa`) on a
+/// salient motor: the d current the more negative of the MTPA's for this torque and the field
+/// weakening's, the q current that makes the torque with it (one Newton step from the last q
+/// current, [`Mtpa::split`]), the hand-over's d current added; motoring within what the d
+/// current leaves of the limit `i_max_a` \[A] (a step not yet on the curve may ask for more),
+/// the rotor at `omega_m` \[rad/s]. Sets `s.i_d_ref`, `s.i_q_ref`, `s.i_tau`; returns the q
+/// current's limit, `√(i_max² − i_d_ref²)` \[A].
+// Out of line: a non-salient motor's tick pays one branch.
+#[inline(never)]
+fn mtpa_currents(m: &Mtpa, s: &mut Sensorless, i_tau: f32, i_max_a: f32, omega_m: f32) -> f32 {
+    let i_dq = m.split(i_tau, s.i_q_ref, s.i_d_fw);
+    s.i_d_ref = i_dq.d + s.i_d_handover;
+    let i_q_max = sqrt_or_zero(i_max_a * i_max_a - s.i_d_ref * s.i_d_ref);
+    s.i_q_ref = if omega_m >= 0.0 {
+        min(i_dq.q, i_q_max)
+    } else {
+        max(i_dq.q, -i_q_max)
+    };
+    s.i_tau = m.torque_current(Dq::new(i_dq.d, s.i_q_ref));
+    i_q_max
+}
+
 /// The state of [`Mode::Sensorless`](super::Mode::Sensorless).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Sensorless {
@@ -444,8 +466,7 @@ impl Settings {
         s.i_d_fw = fw.i_d(s.i_d_fw, applied.v_ab, applied.v_max);
         s.i_d_handover *= self.handover_decay;
         s.i_d_ref = s.i_d_fw + s.i_d_handover;
-        let i_max2 = fw.i_max_a * fw.i_max_a;
-        let mut i_q_max = sqrt_or_zero(i_max2 - s.i_d_ref * s.i_d_ref);
+        let mut i_q_max = sqrt_or_zero(fw.i_max_a * fw.i_max_a - s.i_d_ref * s.i_d_ref);
         // The speed loop's output is a torque current (`crate::mtpa`), the q current itself on
         // a non-salient motor; on a salient one its limit is the torque at the current limit
         // with the MTPA's d current there, or the field weakening's where more negative.
@@ -484,23 +505,12 @@ impl Settings {
             ff_nm,
             Some((bounds, held)),
         );
-        s.i_q_ref = match &self.mtpa {
-            None => i_tau,
-            Some(m) => {
-                // MTPA: the d current the more negative of the MTPA's for this torque and the
-                // field weakening's, the q current that makes the torque with it (one Newton
-                // step from the last q current, `Mtpa::split`); motoring within what the d
-                // current leaves of the limit (a step not yet on the curve may ask for more).
-                let i_dq = m.split(i_tau, s.i_q_ref, s.i_d_fw);
-                s.i_d_ref = i_dq.d + s.i_d_handover;
-                i_q_max = sqrt_or_zero(i_max2 - s.i_d_ref * s.i_d_ref);
-                if omega_m >= 0.0 {
-                    min(i_dq.q, i_q_max)
-                } else {
-                    max(i_dq.q, -i_q_max)
-                }
-            }
-        };
+        if let Some(m) = &self.mtpa {
+            i_q_max = mtpa_currents(m, s, i_tau, fw.i_max_a, omega_m);
+        } else {
+            s.i_q_ref = i_tau;
+            s.i_tau = i_tau;
+        }
         if s.i_q_ref.abs() > i_q_max {
             // Braking first only where it can hold the rotor within the current limit: the
             // load the speed loop's own observer estimates within it, and the current loop
@@ -508,6 +518,7 @@ impl Settings {
             // the field weakening's d current comes first, as for motoring: the current stays
             // controlled and a load beyond the limit takes the rotor to the over-speed bound.
             let i2 = i_ab.alpha * i_ab.alpha + i_ab.beta * i_ab.beta;
+            let i_max2 = fw.i_max_a * fw.i_max_a;
             let load_a = foc.current_for_torque(own);
             if i2 > i_max2 || load_a * load_a > i_max2 {
                 s.i_q_ref = clamp(s.i_q_ref, -i_q_max, i_q_max);
@@ -516,11 +527,11 @@ impl Settings {
                 // (On a salient motor the MTPA's d current goes with the field weakening's.)
                 braking_first(s, fw.i_max_a);
             }
+            s.i_tau = match &self.mtpa {
+                None => s.i_q_ref,
+                Some(m) => m.torque_current(Dq::new(s.i_d_ref - s.i_d_handover, s.i_q_ref)),
+            };
         }
-        s.i_tau = match &self.mtpa {
-            None => s.i_q_ref,
-            Some(m) => m.torque_current(Dq::new(s.i_d_ref - s.i_d_handover, s.i_q_ref)),
-        };
         if (self.stall).stalled(&mut s.stall, omega_m, s.speed_ref_rpm, s.i_tau) {
             return Next::Fault(Fault::Stall);
         }
