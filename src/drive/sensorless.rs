@@ -470,9 +470,14 @@ impl Settings {
         // The speed loop's output is a torque current (`crate::mtpa`), the q current itself on
         // a non-salient motor; on a salient one its limit is the torque at the current limit
         // with the MTPA's d current there, or the field weakening's where more negative.
+        // (The salient branches laid out of the way, `cold_path`: a non-salient motor's
+        // tick falls through them.)
         let i_tau_max = match &self.mtpa {
             None => i_q_max,
-            Some(m) => m.torque_limit(s.i_d_fw, s.i_d_handover, fw.i_max_a),
+            Some(m) => {
+                cold_path();
+                m.torque_limit(s.i_d_fw, s.i_d_handover, fw.i_max_a)
+            }
         };
         // Anti-windup at both limits: the speed PI's output and integrator within i_q_max;
         // and at the voltage limit with the field weakening at its end (all of i_max on the d
@@ -506,6 +511,7 @@ impl Settings {
             Some((bounds, held)),
         );
         if let Some(m) = &self.mtpa {
+            cold_path();
             i_q_max = mtpa_currents(m, s, i_tau, fw.i_max_a, omega_m);
         } else {
             s.i_q_ref = i_tau;
