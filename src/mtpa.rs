@@ -34,16 +34,22 @@
 //! **The torque current.** The speed loop commands a torque as the q current a non-salient
 //! motor of the same `ψ_f` would need, `i_τ = τ/(c N ψ_f)` (the unit every torque of the drive
 //! is in: the load observers' estimates fed forward, the speed PI's gains from `c N ψ_f`);
-//! [`Mtpa::split`] turns it into the currents: on the MTPA curve,
-//! `i_τ = i_q (1 + √(1 + k² i_q²))/2`, solved for `i_q` by one Newton step per call from the last
-//! call's `i_q` (the function is convex and increasing in `|i_q|`: from any start the step
-//! lands at or above the root, quadratically close to it near it), the d current from that
-//! `i_q`, or the field weakening's where it is more negative; then `i_q = i_τ/(1 − k i_d/2)`,
-//! so the torque is `c N ψ_f i_τ` whatever `i_d` is (the Newton step's residual moves the
-//! point along the torque's curve, off the optimum to second order, not the torque): the
-//! d current at or below the curve's, the q current rising to the curve call by call. The speed loop's gain stays `c N ψ_f` per ampere of its output, as its
-//! gains are computed for. At 1 kHz: two square roots and three divisions, on salient motors
-//! only.
+//! [`Mtpa::split`] turns it into the currents. The MTPA condition written as
+//! `i_q² = i_d (i_d − 2/k)` (the quadratic whose root the closed form is) and the torque
+//! `i_q (1 − k i_d/2) = i_τ` give, with `x = −i_d ≥ 0` and `u = 1 + k x/2`,
+//!
+//! ```text
+//! h(x) = x u³ − k i_τ²/2 = 0,       h'(x) = u² (u + 3 k x/2)
+//! ```
+//!
+//! increasing and convex in `x ≥ 0`: one Newton step per call from the last call's d current
+//! lands at or above the root from any start, quadratically close to it near it (no square
+//! root); the d current is that `−x`, or the field weakening's where it is more negative; then
+//! `i_q = i_τ/(1 − k i_d/2)`, so the torque is `c N ψ_f i_τ` whatever `i_d` is (the Newton
+//! step's residual moves the point along the torque's curve, off the optimum to second
+//! order, not the torque): the d current at or below the curve's, the q current rising to the
+//! curve call by call. The speed loop's gain stays `c N ψ_f` per ampere of its output, as its
+//! gains are computed for. At 1 kHz: two divisions, on salient motors only.
 //!
 //! Not salient (`L_d = L_q`): no MTPA, `i_d = 0` (`Mtpa::new` gives `None`, the drive skips it).
 //! Inverse saliency (`L_q < L_d`): MTPA asks for a positive, magnetising d current; the drive's
@@ -130,37 +136,41 @@ impl Mtpa {
         self.i_tau_at_max
     }
 
-    /// The most torque current within the current limit `i_max_a` \[A] with the field
-    /// weakening's d current `i_d_fw` \[A] (≤ 0) and the hand-over's `i_d_handover` \[A] added:
-    /// the d current the more negative of the MTPA's at the limit and the field weakening's,
-    /// the q current what it leaves of the limit \[A].
-    // Out of line, as `split`: a non-salient motor's tick pays a branch, not the registers.
-    #[inline(never)]
-    pub fn torque_limit(&self, i_d_fw: f32, i_d_handover: f32, i_max_a: f32) -> f32 {
-        let i_d = min(self.i_d_at_max, i_d_fw);
-        let i_d_all = i_d + i_d_handover;
-        let i_q = sqrt_or_zero(i_max_a * i_max_a - i_d_all * i_d_all);
-        i_q * (1.0 - self.half_k * i_d)
+    /// The most torque current within the current limit with the field weakening's d current
+    /// `i_d_fw` \[A] (≤ 0): the MTPA's at the limit ([`Mtpa::torque_current_at_max`]), or,
+    /// where the field weakening's d current is more negative than the MTPA's there, the
+    /// torque current of that d current and the q current it leaves of the limit, `i_q_max_a`
+    /// \[A] (`√(i_max² − i_d²)`, the caller's, with any other d current it adds).
+    #[inline(always)]
+    pub fn torque_limit(&self, i_d_fw: f32, i_q_max_a: f32) -> f32 {
+        if i_d_fw < self.i_d_at_max {
+            i_q_max_a * (1.0 - self.half_k * i_d_fw)
+        } else {
+            self.i_tau_at_max
+        }
     }
 
     /// The currents for the torque current `i_tau` \[A] (module doc): one Newton step from
-    /// the last q current `i_q_last` \[A] toward the MTPA q current, its d current or the field
-    /// weakening's `i_d_fw` \[A] (≤ 0) where that is more negative, and the q current that makes
-    /// the torque with it, `i_τ/(1 − k i_d/2)`. The MTPA's d current is within its value at
-    /// the current limit and 0 (0 for a NaN), the field weakening's ≤ 0 and finite, so the
-    /// division is by at least 1 and finite.
+    /// the last d current `i_d_last` \[A] toward the MTPA's d current for this torque, or the
+    /// field weakening's `i_d_fw` \[A] (≤ 0) where that is more negative, and the q current
+    /// that makes the torque with it, `i_τ/(1 − k i_d/2)`. The MTPA's d current is within its
+    /// value at the current limit and 0 (0 for a NaN), the field weakening's ≤ 0 and finite,
+    /// so the divisions are by at least 1 and finite.
     // (The drive calls it from a function of its own, out of line: a non-salient motor's
     // tick pays a branch, not the registers and the flash of the salient one's arithmetic.)
     #[inline]
-    pub fn split(&self, i_tau: f32, i_q_last: f32, i_d_fw: f32) -> Dq {
-        // Newton on f(q) = q (1 + s)/2 − |i_τ|, s = √(1 + k² q²): f' = (2s − 1)(s + 1)/(2s),
-        // q⁺ = q − f/f' = (k² q³ + 2 s |i_τ|)/((2s − 1)(1 + s)).
-        let q = i_q_last.abs();
-        let s = sqrt_or_zero(1.0 + self.k2 * q * q);
-        let q_mtpa = (self.k2 * q * q * q + 2.0 * s * i_tau.abs()) / ((2.0 * s - 1.0) * (1.0 + s));
-        // The MTPA's d current no lower than at the current limit (finite for any start; 0
-        // for a NaN); `min` gives its second argument for a NaN first.
-        let i_d = min(i_d_fw, max(self.i_d(q_mtpa), self.i_d_at_max));
+    pub fn split(&self, i_tau: f32, i_d_last: f32, i_d_fw: f32) -> Dq {
+        // Newton on h(x) = x u³ − k i_τ²/2, u = 1 + k x/2, from x = −i_d_last within 0 and
+        // the MTPA's at the current limit (the root is within them for a torque within the
+        // limit; 0 for a NaN: `max` gives its second argument for a NaN first).
+        let x = min(max(-i_d_last, 0.0), -self.i_d_at_max);
+        let u = 1.0 + self.half_k * x;
+        let u2 = u * u;
+        let h = x * u2 * u - self.half_k * i_tau * i_tau;
+        let x = x - h / (u2 * (u + 3.0 * self.half_k * x));
+        // The MTPA's d current within its value at the current limit and 0 (finite for any
+        // start, 0 for a NaN: `min` gives its second argument for a NaN first).
+        let i_d = min(i_d_fw, max(min(-x, 0.0), self.i_d_at_max));
         Dq::new(i_d, i_tau / (1.0 - self.half_k * i_d))
     }
 }

@@ -109,9 +109,9 @@ fn mtpa_is_the_most_torque_per_amp_on_the_salient_zoo_motors() {
 
 /// The drive's split of a torque current (`Mtpa::split`): the torque is exactly the one
 /// commanded at every call (`i_q (1 − k i_d/2) = i_τ`), a few calls from any start (zero, far
-/// above, the other sign) put it on the MTPA curve, the q current rising to it monotonically
-/// (Newton's step lands at or above the curve's q current, so the d current is at or below
-/// the curve's), a field weakening's more negative d current is taken as it is, and a NaN
+/// below, the wrong sign) put it on the MTPA curve, the q current rising to it monotonically
+/// (Newton's step in `−i_d` lands at or above the root, so the d current is at or below the
+/// curve's), a field weakening's more negative d current is taken as it is, and a NaN
 /// leaves the d current at 0.
 #[test]
 fn the_split_makes_the_torque_commanded_and_reaches_the_mtpa_curve() {
@@ -121,12 +121,12 @@ fn the_split_makes_the_torque_commanded_and_reaches_the_mtpa_curve() {
         let mtpa = Mtpa::new(&m.params, i_max).unwrap();
         for frac in [0.02f32, 0.3, 1.0, -0.7] {
             let i_tau = frac * mtpa.torque_current_at_max();
-            for start in [0.0, 3.0 * i_max, -0.5 * i_max] {
-                let mut q = start;
+            for start in [0.0, -3.0 * i_max, 0.5 * i_max] {
+                let mut d = start;
                 let mut last = 0.0f32;
                 let mut calls = 0;
                 for n in 0..20 {
-                    let i_dq = mtpa.split(i_tau, q, 0.0);
+                    let i_dq = mtpa.split(i_tau, d, 0.0);
                     let made = mtpa.torque_current(i_dq);
                     assert!(
                         (made - i_tau).abs() <= 1e-5 * i_tau.abs(),
@@ -144,12 +144,13 @@ fn the_split_makes_the_torque_commanded_and_reaches_the_mtpa_curve() {
                         assert!(i_dq.q.abs() >= last * (1.0 - 1e-6), "{file}: {i_dq:?}");
                     }
                     last = i_dq.q.abs();
-                    q = i_dq.q;
+                    d = i_dq.d;
                     let on_curve = (i_dq.d - mtpa.i_d(i_dq.q)).abs() <= 1e-4 * i_max;
                     if on_curve && calls == 0 {
                         calls = n + 1;
                     }
                 }
+                println!("{file}: i_τ {i_tau:.3} A from i_d {start:.1} A: on the curve after {calls} calls");
                 assert!(
                     calls > 0 && calls <= 8,
                     "{file}: i_τ {i_tau} from {start}: on the curve after {calls} calls"
@@ -158,31 +159,39 @@ fn the_split_makes_the_torque_commanded_and_reaches_the_mtpa_curve() {
         }
         // A field weakening's d current below the MTPA's is taken, the torque still exact.
         let i_tau = 0.5 * mtpa.torque_current_at_max();
-        let i_dq = mtpa.split(i_tau, 0.5 * i_max, -0.9 * i_max);
+        let i_dq = mtpa.split(i_tau, -0.1 * i_max, -0.9 * i_max);
         assert_eq!(i_dq.d, -0.9 * i_max, "{file}");
         assert!(
             (mtpa.torque_current(i_dq) - i_tau).abs() <= 1e-5 * i_tau,
             "{file}"
         );
-        // NaN in, d current 0 out (the torque's NaN is the speed loop's to answer); an
-        // infinite start, the d current no lower than at the current limit.
-        for (i_tau, q) in [(f32::NAN, 1.0), (1.0, f32::NAN)] {
-            let i_dq = mtpa.split(i_tau, q, 0.0);
-            assert_eq!(i_dq.d, 0.0, "{file}: {i_tau} from {q}: {i_dq:?}");
-        }
-        let i_dq = mtpa.split(1.0, f32::INFINITY, 0.0);
+        // A NaN torque, d current 0 (the torque's NaN is the speed loop's to answer); a NaN or
+        // infinite start, a d current within the MTPA's at the current limit and 0.
+        let i_dq = mtpa.split(f32::NAN, -1.0, 0.0);
+        assert_eq!(i_dq.d, 0.0, "{file}: {i_dq:?}");
         let at = mtpa.i_d_for_current(i_max);
-        assert!(
-            i_dq.d >= at && i_dq.d <= 0.0 && i_dq.q.is_finite(),
-            "{file}: {i_dq:?}"
-        );
+        for d in [f32::NAN, f32::NEG_INFINITY, f32::INFINITY] {
+            let i_dq = mtpa.split(1.0, d, 0.0);
+            assert!(
+                i_dq.d >= at && i_dq.d <= 0.0 && i_dq.q.is_finite(),
+                "{file}: from {d}: {i_dq:?}"
+            );
+        }
         assert_eq!(mtpa.i_d(f32::NAN), 0.0);
         assert_eq!(mtpa.i_d_for_current(f32::NAN), 0.0);
         // The limit: the torque current at the MTPA point of the current limit.
         let q_at = (i_max * i_max - at * at).sqrt();
         let t = mtpa.torque_current(Dq::new(at, q_at));
         assert!(
-            (mtpa.torque_limit(0.0, 0.0, i_max) - t).abs() < 1e-5 * t,
+            (mtpa.torque_limit(0.0, i_max) - t).abs() < 1e-5 * t,
+            "{file}"
+        );
+        // ... and with a field weakening's d current beyond the MTPA's there, its own.
+        let d_fw = 1.2 * at;
+        let q_fw = (i_max * i_max - d_fw * d_fw).sqrt();
+        let t_fw = mtpa.torque_current(Dq::new(d_fw, q_fw));
+        assert!(
+            (mtpa.torque_limit(d_fw, q_fw) - t_fw).abs() < 1e-5 * t_fw,
             "{file}"
         );
         assert!(

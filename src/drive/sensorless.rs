@@ -214,18 +214,25 @@ fn braking_first(s: &mut Sensorless, i_max_a: f32) {
 /// current, [`Mtpa::split`]), the hand-over's d current added; motoring within what the d
 /// current leaves of the limit `i_max_a` \[A] (a step not yet on the curve may ask for more),
 /// the rotor at `omega_m` \[rad/s]. Sets `s.i_d_ref`, `s.i_q_ref`, `s.i_tau`; returns the q
-/// current's limit, `√(i_max² − i_d_ref²)` \[A].
+/// current's limit, `√(i_max² − i_d_ref²)` \[A], where the q current reaches it (else
+/// infinity: the square root only where it is needed).
 // Out of line: a non-salient motor's tick pays one branch.
 #[inline(never)]
 fn mtpa_currents(m: &Mtpa, s: &mut Sensorless, i_tau: f32, i_max_a: f32, omega_m: f32) -> f32 {
-    let i_dq = m.split(i_tau, s.i_q_ref, s.i_d_fw);
+    let i_dq = m.split(i_tau, s.i_d_ref - s.i_d_handover, s.i_d_fw);
     s.i_d_ref = i_dq.d + s.i_d_handover;
-    let i_q_max = sqrt_or_zero(i_max_a * i_max_a - s.i_d_ref * s.i_d_ref);
-    s.i_q_ref = if omega_m >= 0.0 {
-        min(i_dq.q, i_q_max)
-    } else {
-        max(i_dq.q, -i_q_max)
-    };
+    let room = i_max_a * i_max_a - s.i_d_ref * s.i_d_ref;
+    let mut i_q_max = f32::INFINITY;
+    s.i_q_ref = i_dq.q;
+    // (False for a NaN q current: it is limited.)
+    if !(i_dq.q * i_dq.q <= room) {
+        i_q_max = sqrt_or_zero(room);
+        s.i_q_ref = if omega_m >= 0.0 {
+            min(i_dq.q, i_q_max)
+        } else {
+            max(i_dq.q, -i_q_max)
+        };
+    }
     s.i_tau = m.torque_current(Dq::new(i_dq.d, s.i_q_ref));
     i_q_max
 }
@@ -476,7 +483,7 @@ impl Settings {
             None => i_q_max,
             Some(m) => {
                 cold_path();
-                m.torque_limit(s.i_d_fw, s.i_d_handover, fw.i_max_a)
+                m.torque_limit(s.i_d_fw, i_q_max)
             }
         };
         // Anti-windup at both limits: the speed PI's output and integrator within i_q_max;
