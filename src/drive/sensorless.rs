@@ -225,7 +225,8 @@ fn mtpa_currents(m: &Mtpa, s: &mut Sensorless, i_tau: f32, i_max_a: f32, omega_m
     let mut i_q_max = f32::INFINITY;
     s.i_q_ref = i_dq.q;
     // (False for a NaN q current: it is limited.)
-    if !(i_dq.q * i_dq.q <= room) {
+    let within = i_dq.q * i_dq.q <= room;
+    if !within {
         i_q_max = sqrt_or_zero(room);
         s.i_q_ref = if omega_m >= 0.0 {
             min(i_dq.q, i_q_max)
