@@ -49,8 +49,7 @@
 //! step's residual moves the point along the torque's curve, off the optimum to second
 //! order, not the torque): the d current at or below the curve's, the q current rising to the
 //! curve call by call. The speed loop's gain stays `c N ψ_f` per ampere of its output, as its
-//! gains are computed for. At 1 kHz: one division (two where a limit or the field weakening
-//! sets the d current), on salient motors only.
+//! gains are computed for. At 1 kHz: two divisions, on salient motors only.
 //!
 //! Not salient (`L_d = L_q`): no MTPA, `i_d = 0` (`Mtpa::new` gives `None`, the drive skips it).
 //! Inverse saliency (`L_q < L_d`): MTPA asks for a positive, magnetising d current; the drive's
@@ -61,7 +60,6 @@
 use crate::frames::Dq;
 use crate::math::{max, min, sqrt_or_zero};
 use crate::motor::MotorParams;
-use core::hint::cold_path;
 
 /// MTPA's coefficients (module doc), for a motor with `L_q > L_d`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -169,23 +167,10 @@ impl Mtpa {
         let u = 1.0 + self.half_k * x;
         let u2 = u * u;
         let h = x * u2 * u - self.half_k * i_tau * i_tau;
-        // One division for both the step and the q current: with D = h'(x) and the new
-        // u⁺ = 1 + k x⁺/2 = (D u − k h/2)/D, both h/D and i_τ/u⁺ are products with
-        // 1/(D · D u⁺) (D ≥ 1, D u⁺ ≥ 1 at the root and above it).
-        let den = u2 * (u + 3.0 * self.half_k * x);
-        let den_u = den * u - self.half_k * h;
-        let r = 1.0 / (den * den_u);
-        let i_d_mtpa = h * den_u * r - x;
+        let x = x - h / (u2 * (u + 3.0 * self.half_k * x));
         // The MTPA's d current within its value at the current limit and 0 (finite for any
         // start, 0 for a NaN: `min` gives its second argument for a NaN first).
-        let within = max(min(i_d_mtpa, 0.0), self.i_d_at_max);
-        let i_d = min(i_d_fw, within);
-        if i_d == i_d_mtpa {
-            Dq::new(i_d, i_tau * den * den * r)
-        } else {
-            // Limited (or the field weakening's): the q current for this d current.
-            cold_path();
-            Dq::new(i_d, i_tau / (1.0 - self.half_k * i_d))
-        }
+        let i_d = min(i_d_fw, max(min(-x, 0.0), self.i_d_at_max));
+        Dq::new(i_d, i_tau / (1.0 - self.half_k * i_d))
     }
 }
