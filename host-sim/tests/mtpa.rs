@@ -16,11 +16,22 @@ use pmsm_sensorless::mtpa::Mtpa;
 use std::f64::consts::FRAC_PI_2;
 use std::path::Path;
 
-/// The salient zoo motors (`L_q > L_d`).
-const SALIENT_ZOO: [&str; 2] = [
-    "motors/zoo/salient/industrial-ipm-aalto-2.2kw.toml",
-    "motors/zoo/salient/traction-ipm-brusa-hsm1-6.17.12-salient.toml",
-];
+/// The Aalto 2.2 kW IPM, the salient zoo motor the drive runs closed loop.
+const AALTO: &str = "motors/zoo/salient/industrial-ipm-aalto-2.2kw.toml";
+
+/// Every motor file in `motors/zoo/salient/` (all `L_q > L_d`), sorted.
+fn salient_zoo() -> Vec<String> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("motors/zoo/salient");
+    let mut files: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".toml"))
+        .map(|n| format!("motors/zoo/salient/{n}"))
+        .collect();
+    files.sort();
+    assert!(files.len() >= 2, "{files:?}");
+    files
+}
 
 fn load(rel: &str) -> motor_file::Loaded {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(rel);
@@ -41,7 +52,8 @@ fn i_max(m: &pmsm_sensorless::motor::Motor) -> f32 {
 /// Both closed forms (for `i_q` and for `|i|`) agree with Morimoto's unrationalised one.
 #[test]
 fn mtpa_is_the_most_torque_per_amp_on_the_salient_zoo_motors() {
-    for file in SALIENT_ZOO {
+    for file in salient_zoo() {
+        let file = file.as_str();
         let loaded = load(file);
         let m = loaded.motor;
         let own = loaded.inductances.expect("a salient file");
@@ -115,7 +127,8 @@ fn mtpa_is_the_most_torque_per_amp_on_the_salient_zoo_motors() {
 /// leaves the d current at 0.
 #[test]
 fn the_split_makes_the_torque_commanded_and_reaches_the_mtpa_curve() {
-    for file in SALIENT_ZOO {
+    for file in salient_zoo() {
+        let file = file.as_str();
         let m = load(file).motor;
         let i_max = i_max(&m);
         let mtpa = Mtpa::new(&m.params, i_max).unwrap();
@@ -235,7 +248,7 @@ fn no_mtpa_without_saliency_or_with_inverse_saliency() {
 /// rated torque (measured), more than MTPA's −0.86 A moves.
 #[test]
 fn closed_loop_mtpa_holds_rated_torque_with_less_current() {
-    let file = SALIENT_ZOO[0];
+    let file = AALTO;
     let loaded = load(file);
     let m = loaded.motor;
     let spec = Spec::parse(
