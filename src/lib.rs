@@ -21,6 +21,7 @@ pub mod frames;
 pub mod load_observer;
 pub mod math;
 pub mod motor;
+pub mod mtpa;
 pub mod observer;
 pub mod param;
 pub mod pi;

@@ -317,6 +317,8 @@ impl Settings {
                 sense_range_a: self.identify.sense_range_a,
                 sense_lsb_a: self.identify.sense_lsb_a,
             },
+            // Not a link setting: MTPA on a salient motor, `DriveConfig::new`'s.
+            mtpa: true,
         }
     }
 

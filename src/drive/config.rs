@@ -18,6 +18,7 @@ use crate::foc::FocConfig;
 use crate::load_observer::LoadObserverConfig;
 use crate::math::INV_SQRT3;
 use crate::motor::{Motor, MotorParams, Ratings};
+use crate::mtpa::Mtpa;
 use crate::observer::flux_speed::FluxPll;
 use crate::observer::sliding::SlidingObserver;
 use crate::observer::Observer;
@@ -136,6 +137,10 @@ pub struct DriveConfig {
     pub ratings: Ratings,
     /// The board's current sensing, as the identification checks a motor against it.
     pub identify: IdentifyConfig,
+    /// Maximum torque per ampere on a motor with `L_q > L_d` ([`crate::mtpa`]; true): the
+    /// speed loop's d current the more negative of the MTPA's and the field weakening's.
+    /// False: the field weakening's alone (`i_d = 0` below it), as on a non-salient motor.
+    pub mtpa: bool,
 }
 
 impl DriveConfig {
@@ -222,6 +227,7 @@ impl DriveConfig {
                 sense_range_a: 2.0 * i_trip,
                 sense_lsb_a: 0.0,
             },
+            mtpa: true,
         }
     }
 
@@ -394,6 +400,11 @@ impl DriveConfig {
         let ts = 1.0 / rate;
         let steps = |t: f32| (t * rate) as u32;
         let slot_cycles = |t: f32| (t * rate / slots) as u32;
+        let mtpa = if self.mtpa {
+            Mtpa::new(&m, l.i_max_a)
+        } else {
+            None
+        };
         let ramp = Ramp {
             max_rpm: self.ratings.speed_rpm,
             step_rpm: s.accel_rpm_per_s * ts * slots,
@@ -484,6 +495,8 @@ impl DriveConfig {
                     gain_a_per_v: 0.2 / (m.n() * self.ratings.speed_rpm * RAD_S_PER_RPM * m.l_h),
                     i_max_a: l.i_max_a,
                 },
+                mtpa,
+                braking_max_a: mtpa.map_or(l.i_max_a, |m| m.torque_current_at_max()),
                 // Five speed-loop time constants, 1/(2π f_speed) each: the speed loop takes the
                 // torque over as the d current fades.
                 handover_decay: 1.0 - slots * ts * TAU * self.speed_bandwidth_hz / 5.0,
@@ -497,7 +510,9 @@ impl DriveConfig {
                 overspeed_checks: slot_cycles(h.loss_time_s).max(1),
                 stall: sensorless::Stall {
                     checks: slot_cycles(h.stall_time_s).max(1),
-                    i_limit_a: 0.99 * l.i_max_a,
+                    // The speed loop's output is a torque current (`crate::mtpa`): at the
+                    // limit, on a salient motor, the MTPA's at the current limit.
+                    i_limit_a: 0.99 * mtpa.map_or(l.i_max_a, |m| m.torque_current_at_max()),
                     gain_rpm: s.handback_rpm,
                 },
                 regen: regen::Settings::new(

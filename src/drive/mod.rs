@@ -332,7 +332,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             }
             ModeState::Sensorless(s) => {
                 let applied = st.last.applied(&self.foc);
-                let torque = self.foc.torque_for_current(s.i_q_ref());
+                let torque = self.foc.torque_for_current(s.torque_current());
                 let health = self.supervise(obs, i_ab, torque);
                 let d = self.driving_now(obs);
                 if health.0 == Verdict::Drive {

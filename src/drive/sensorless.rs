@@ -14,6 +14,7 @@ use crate::foc::{Foc, Reference, Request};
 use crate::frames::{AlphaBeta, Dq, SinCos};
 use crate::load_observer::{LoadObserver, LoadObserverState};
 use crate::math::{clamp, max, min, sqrt_or_zero};
+use crate::mtpa::Mtpa;
 use crate::pi::{Held, PiState};
 use crate::units::{RAD_S_PER_RPM, RPM_PER_RAD_S};
 use core::hint::cold_path;
@@ -36,6 +37,14 @@ pub(super) struct Settings {
     pub(super) load_observer: LoadObserver,
     /// Field weakening.
     pub(super) field_weakening: FieldWeakening,
+    /// Maximum torque per ampere of a motor with `L_q > L_d` (`crate::mtpa`; `None`: not
+    /// salient, or inversely, and the d current is the field weakening's alone).
+    pub(super) mtpa: Option<Mtpa>,
+    /// The braking side's limit of the speed loop's output (a torque current, `crate::mtpa`)
+    /// \[A]: the current limit `i_max`, on a salient motor the MTPA's torque current there
+    /// (so that the limit a speed estimate's sign picks does not change with its noise on a
+    /// rotor at rest).
+    pub(super) braking_max_a: f32,
     /// The hand-over's d current decays by this factor per millisecond.
     pub(super) handover_decay: f32,
     /// Without a usable observer, below this |speed| and |reference| open loop takes over
@@ -88,7 +97,8 @@ pub(super) struct Settings {
 pub(super) struct Stall {
     /// Checks of collapsed speed at the current limit before a stall.
     pub(super) checks: u32,
-    /// |i_q command| at or above this is the speed loop at its limit \[A].
+    /// |torque current command| (the speed loop's output, `crate::mtpa`; the i_q command of
+    /// a non-salient motor) at or above this is the speed loop at its limit \[A].
     pub(super) i_limit_a: f32,
     /// The speed a rotor that has not stalled gains toward the reference over `checks`
     /// \[rpm]: the hand-back speed.
@@ -105,7 +115,8 @@ pub(super) struct StallCount {
 
 impl Stall {
     /// One check: the speed `omega_m` [rad/s] of the driving observer, the slewed reference
-    /// `speed_ref_rpm`, the speed loop's command `i_q_ref_a`; true once stalled.
+    /// `speed_ref_rpm`, the speed loop's command `i_q_ref_a` (its torque current); true once
+    /// stalled.
     #[inline(always)]
     pub(super) fn stalled(
         &self,
@@ -197,6 +208,36 @@ fn braking_first(s: &mut Sensorless, i_max_a: f32) {
     s.i_d_ref = clamp(s.i_d_fw + s.i_d_handover, -i_d_max, i_d_max);
 }
 
+/// MTPA's currents for the speed loop's torque current `i_tau` \[A] (`crate::mtpa`) on a
+/// salient motor: the d current the more negative of the MTPA's for this torque and the field
+/// weakening's, the q current that makes the torque with it (one Newton step from the last q
+/// current, [`Mtpa::split`]), the hand-over's d current added; motoring within what the d
+/// current leaves of the limit `i_max_a` \[A] (a step not yet on the curve may ask for more),
+/// the rotor at `omega_m` \[rad/s]. Sets `s.i_d_ref`, `s.i_q_ref`, `s.i_tau`; returns the q
+/// current's limit, `√(i_max² − i_d_ref²)` \[A], where the q current reaches it (else
+/// infinity: the square root only where it is needed).
+// Out of line: a non-salient motor's tick pays one branch.
+#[inline(never)]
+fn mtpa_currents(m: &Mtpa, s: &mut Sensorless, i_tau: f32, i_max_a: f32, omega_m: f32) -> f32 {
+    let i_dq = m.split(i_tau, s.i_d_ref - s.i_d_handover, s.i_d_fw);
+    s.i_d_ref = i_dq.d + s.i_d_handover;
+    let room = i_max_a * i_max_a - s.i_d_ref * s.i_d_ref;
+    let mut i_q_max = f32::INFINITY;
+    s.i_q_ref = i_dq.q;
+    // (False for a NaN q current: it is limited.)
+    let within = i_dq.q * i_dq.q <= room;
+    if !within {
+        i_q_max = sqrt_or_zero(room);
+        s.i_q_ref = if omega_m >= 0.0 {
+            min(i_dq.q, i_q_max)
+        } else {
+            max(i_dq.q, -i_q_max)
+        };
+    }
+    s.i_tau = m.torque_current(Dq::new(i_dq.d, s.i_q_ref));
+    i_q_max
+}
+
 /// The state of [`Mode::Sensorless`](super::Mode::Sensorless).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Sensorless {
@@ -206,12 +247,16 @@ pub(super) struct Sensorless {
     speed_pi: PiState,
     /// The speed loop's i_q command \[A].
     i_q_ref: f32,
+    /// The torque current the commands make \[A] (`crate::mtpa`: `τ/(c N ψ_f)`, the speed
+    /// loop's output): `i_q_ref` on a non-salient motor.
+    i_tau: f32,
     /// The field-weakening i_d \[A] (≤ 0).
     i_d_fw: f32,
     /// The open loop's d current at the hand-over, decaying \[A] (see
     /// [`Settings::enter`]).
     i_d_handover: f32,
-    /// The d current command, their sum \[A].
+    /// The d current command \[A]: their sum, or the MTPA's d current (where it is more
+    /// negative than the field weakening's) and the hand-over's.
     i_d_ref: f32,
     /// sin/cos of the output angle's lead at the driving observer's speed
     /// (`Foc::output_rotation`), renewed by the 1 kHz task (the speed read-outs move at
@@ -243,6 +288,12 @@ impl Sensorless {
     /// The speed loop's i_q command \[A].
     pub(super) fn i_q_ref(&self) -> f32 {
         self.i_q_ref
+    }
+
+    /// The torque current the commands make, `τ/(c N ψ_f)` \[A] (`crate::mtpa`): the speed
+    /// loop's output; the q current on a non-salient motor.
+    pub(super) fn torque_current(&self) -> f32 {
+        self.i_tau
     }
 
     /// sin/cos of the output angle's lead at the driving observer's speed.
@@ -278,6 +329,7 @@ impl Settings {
                 integral: i_dq.q - ff_a,
             },
             i_q_ref: i_dq.q,
+            i_tau: i_dq.q,
             i_d_fw: 0.0,
             i_d_handover: i_dq.d,
             i_d_ref: i_dq.d,
@@ -411,7 +463,7 @@ impl Settings {
         // The driving observer's load estimate fed forward, else the speed loop's own. When
         // the driving observer changes, so may the feed-forward: the integrator takes the
         // step, so the command does not jump (bumpless transfer).
-        let own = self.load_observer.update(&mut s.load, omega_m, s.i_q_ref);
+        let own = self.load_observer.update(&mut s.load, omega_m, s.i_tau);
         let ff_nm = load_nm.unwrap_or(own);
         if note.is_some() {
             s.speed_pi.integral += foc.current_for_torque(s.ff_nm - ff_nm);
@@ -422,7 +474,19 @@ impl Settings {
         s.i_d_fw = fw.i_d(s.i_d_fw, applied.v_ab, applied.v_max);
         s.i_d_handover *= self.handover_decay;
         s.i_d_ref = s.i_d_fw + s.i_d_handover;
-        let i_q_max = sqrt_or_zero(fw.i_max_a * fw.i_max_a - s.i_d_ref * s.i_d_ref);
+        let mut i_q_max = sqrt_or_zero(fw.i_max_a * fw.i_max_a - s.i_d_ref * s.i_d_ref);
+        // The speed loop's output is a torque current (`crate::mtpa`), the q current itself on
+        // a non-salient motor; on a salient one its limit is the torque at the current limit
+        // with the MTPA's d current there, or the field weakening's where more negative.
+        // (The salient branches laid out of the way, `cold_path`: a non-salient motor's
+        // tick falls through them.)
+        let i_tau_max = match &self.mtpa {
+            None => i_q_max,
+            Some(m) => {
+                cold_path();
+                m.torque_limit(s.i_d_fw, i_q_max)
+            }
+        };
         // Anti-windup at both limits: the speed PI's output and integrator within i_q_max;
         // and at the voltage limit with the field weakening at its end (all of i_max on the d
         // axis: nothing frees voltage any more), the integrator held against more motoring
@@ -440,20 +504,27 @@ impl Settings {
         // last run); the field weakening's d current gets what the braking leaves
         // ([`braking_first`]).
         let braking_max = min(
-            fw.i_max_a,
+            self.braking_max_a,
             core::mem::replace(&mut s.regen_iq_a, f32::INFINITY),
         );
         let bounds = if omega_m >= 0.0 {
-            (-braking_max, i_q_max)
+            (-braking_max, i_tau_max)
         } else {
-            (-i_q_max, braking_max)
+            (-i_tau_max, braking_max)
         };
-        s.i_q_ref = foc.speed_step(
+        let i_tau = foc.speed_step(
             &mut s.speed_pi,
             (omega_m_ref, omega_m),
             ff_nm,
             Some((bounds, held)),
         );
+        if let Some(m) = &self.mtpa {
+            cold_path();
+            i_q_max = mtpa_currents(m, s, i_tau, fw.i_max_a, omega_m);
+        } else {
+            s.i_q_ref = i_tau;
+            s.i_tau = i_tau;
+        }
         if s.i_q_ref.abs() > i_q_max {
             // Braking first only where it can hold the rotor within the current limit: the
             // load the speed loop's own observer estimates within it, and the current loop
@@ -465,12 +536,17 @@ impl Settings {
             let load_a = foc.current_for_torque(own);
             if i2 > i_max2 || load_a * load_a > i_max2 {
                 s.i_q_ref = clamp(s.i_q_ref, -i_q_max, i_q_max);
-                s.speed_pi.integral = clamp(s.speed_pi.integral, -i_q_max, i_q_max);
+                s.speed_pi.integral = clamp(s.speed_pi.integral, -i_tau_max, i_tau_max);
             } else {
+                // (On a salient motor the MTPA's d current goes with the field weakening's.)
                 braking_first(s, fw.i_max_a);
             }
+            s.i_tau = match &self.mtpa {
+                None => s.i_q_ref,
+                Some(m) => m.torque_current(Dq::new(s.i_d_ref - s.i_d_handover, s.i_q_ref)),
+            };
         }
-        if (self.stall).stalled(&mut s.stall, omega_m, s.speed_ref_rpm, s.i_q_ref) {
+        if (self.stall).stalled(&mut s.stall, omega_m, s.speed_ref_rpm, s.i_tau) {
             return Next::Fault(Fault::Stall);
         }
         match note {

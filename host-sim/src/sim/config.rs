@@ -109,6 +109,8 @@ pub struct SimConfig {
     /// `crate::motor_file::Loaded::inductances`); `None`: `L_d = L_q` = the scenario motor's
     /// `l_h`, no saturation. The drive's motor keeps its one `l_h` either way.
     pub plant_inductances: Option<Inductances>,
+    /// The drive's maximum torque per ampere on a salient motor (`DriveConfig::mtpa`; true).
+    pub mtpa: bool,
 }
 
 impl SimConfig {
@@ -142,6 +144,7 @@ impl SimConfig {
             gamma: None,
             identify_first: false,
             plant_inductances: None,
+            mtpa: true,
         }
     }
 }

@@ -188,6 +188,7 @@ impl Controller {
         // The board's figures as the user configures them: the plant's own (an ideal
         // plant, dead time 0, gets no compensation).
         config.board.configure_drive(&mut cfg);
+        cfg.mtpa = config.mtpa;
         let err = |e| anyhow::anyhow!("drive configuration: {e}");
         let drive = match config.observer {
             ObserverKind::SlidingTorque => running(cfg.build_sliding_primary().map_err(err)?),
