@@ -275,10 +275,14 @@ impl Inductance {
     }
 }
 
-/// `X`'s symmetric part (module doc): its diagonal and its off-diagonal element.
+/// `X`'s symmetric part (module doc): its diagonal, the mean of its eigenvalues, half their
+/// difference (`spread`) and half the diagonal's (`half_diff`), and its off-diagonal element.
 struct Axes {
     alpha: f32,
     beta: f32,
+    mean: f32,
+    spread: f32,
+    half_diff: f32,
     cross: f32,
 }
 
@@ -286,31 +290,27 @@ impl Axes {
     /// From the columns of `X` measured by the injections along α (`x_alpha`) and β
     /// (`x_beta`).
     fn of(x_alpha: AlphaBeta, x_beta: AlphaBeta) -> Self {
+        let (alpha, beta) = (x_alpha.alpha, x_beta.beta);
+        let cross = 0.5 * (x_alpha.beta + x_beta.alpha);
+        let half_diff = 0.5 * (alpha - beta);
         Self {
-            alpha: x_alpha.alpha,
-            beta: x_beta.beta,
-            cross: 0.5 * (x_alpha.beta + x_beta.alpha),
+            alpha,
+            beta,
+            mean: 0.5 * (alpha + beta),
+            spread: crate::math::sqrt(half_diff * half_diff + cross * cross),
+            half_diff,
+            cross,
         }
-    }
-
-    /// The eigenvalues' mean and half their difference, and half the diagonal's difference.
-    fn spread(&self) -> (f32, f32, f32) {
-        let mean = 0.5 * (self.alpha + self.beta);
-        let half_diff = 0.5 * (self.alpha - self.beta);
-        let spread = crate::math::sqrt(half_diff * half_diff + self.cross * self.cross);
-        (mean, spread, half_diff)
     }
 
     /// A salient rotor: eigenvalues apart by more than [`SALIENT`] of their mean.
     fn salient(&self) -> bool {
-        let (mean, spread, _) = self.spread();
-        spread > SALIENT * mean
+        self.spread > SALIENT * self.mean
     }
 
     /// A salient rotor whose axes lie more than 20° off α and β (`tan 2φ = cross/half_diff`).
     fn off_alpha(&self) -> bool {
-        let (_, _, half_diff) = self.spread();
-        self.salient() && self.cross.abs() > TAN_TWICE_OFF_AXIS * half_diff.abs()
+        self.salient() && self.cross.abs() > TAN_TWICE_OFF_AXIS * self.half_diff.abs()
     }
 
     /// The d and q axes' `x`: of a salient rotor the eigenvalues, the d axis the eigen-axis
@@ -321,14 +321,19 @@ impl Axes {
         if !self.salient() {
             return (self.alpha, self.beta);
         }
-        let (mean, spread, half_diff) = self.spread();
-        let spread = if half_diff >= 0.0 { spread } else { -spread };
-        (mean + spread, mean - spread)
+        let spread = if self.half_diff >= 0.0 {
+            self.spread
+        } else {
+            -self.spread
+        };
+        (self.mean + spread, self.mean - spread)
     }
 }
 
 /// The inductance \[H] of an axis whose ripple is `x` (module doc) at `r_ohm` \[Ω] and the
-/// step `ts` \[s]; `None` outside the model's range or [`MotorParams::L_H`].
+/// step `ts` \[s]; `None` outside the model's range or [`MotorParams::L_H`]. Out of line: the
+/// 1 kHz work calls it twice, at the end of the test.
+#[inline(never)]
 fn inductance(x: f32, r_ohm: f32, ts: f32) -> Option<f32> {
     if !(x > 1e-6 && x < 0.99) {
         return None;
