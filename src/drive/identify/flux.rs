@@ -30,8 +30,10 @@
 //! S. Okuma, "An extended electromotive force model for sensorless control of interior
 //! permanent-magnet synchronous motors", IEEE Trans. Ind. Electron. 50(2), 2003; at constant
 //! current in the rotor frame), `i_d` the current along the EMF turned back by 90°: the
-//! saliency's share is taken off before ψ_f (on the Brusa traction motor, 30 % of rated current
-//! at its rest angle is as much flux as the magnet's). Averaged per millisecond in the
+//! saliency's share is taken off before ψ_f. (On the Brusa traction motor, L_q/L_d 3.24, 30 %
+//! of its rated current along d is nine tenths of the magnet's flux: the extended EMF is a tenth
+//! of the magnet's, the sensing noise dominates it, and ψ_f comes out 14–18 % low with the
+//! board's 1 % noise: not solved.) Averaged per millisecond in the
 //! frame (noise), then as a magnitude over 500 ms: the rotor turns on average at the frame's
 //! speed however it swings about it, so `ψ_f = mean|e| / (N ω_m)` \[Wb]. A rotor that does not
 //! turn shows no back-EMF: the same measurement first at half the spin speed, and an EMF

@@ -39,7 +39,7 @@
 //! the inverter's limit), so a motor of any `L` gets a ripple well above the sensing noise.
 
 use super::flux::FluxSpin;
-use super::{Identified, IdentifyError, Phase, Progress, Settings, SALIENT};
+use super::{halves_agree, Identified, IdentifyError, Phase, Progress, Settings, REST, SALIENT};
 use crate::foc::{Reference, Request};
 use crate::frames::{AlphaBeta, Dq, SinCos};
 use crate::motor::MotorParams;
@@ -55,10 +55,8 @@ const MEASURE_MS: u32 = 100;
 /// each followed by this wait for the rotor to settle \[ms] (the resistance test's settling).
 const MAX_HALVINGS: u32 = 3;
 const RESETTLE_MS: u32 = 100;
-/// The DC current's means over a measurement's halves apart by more than this share of it:
-/// the rotor still moves (the resistance test's criterion); a salient rotor's two measurements
-/// repeated at most this many times.
-const REST: f32 = 0.01;
+/// A salient rotor's two measurements repeated at most this many times while a DC current's
+/// halves differ by more than [`REST`] of it (module doc).
 const MAX_REPEATS: u32 = 20;
 /// Axes more than 20° off α and β: `tan 40°`.
 const TAN_TWICE_OFF_AXIS: f32 = 0.839;
@@ -266,12 +264,9 @@ impl Inductance {
     /// no back-EMF of a rotor still moving in the currents.
     fn at_rest(&self) -> bool {
         let (sum, n) = self.dc_first_half;
-        let (n1, n2) = (n.max(1) as f32, self.n.saturating_sub(n).max(1) as f32);
-        let first = AlphaBeta::new(sum.alpha / n1, sum.beta / n1);
-        let d_alpha = (self.dc_sum.alpha - sum.alpha) / n2 - first.alpha;
-        let d_beta = (self.dc_sum.beta - sum.beta) / n2 - first.beta;
-        let dc2 = first.alpha * first.alpha + first.beta * first.beta;
-        d_alpha * d_alpha + d_beta * d_beta <= REST * REST * dc2
+        let k = 1.0 / (n.max(1) as f32);
+        let dc = crate::math::sqrt_or_zero(k * k * (sum.alpha * sum.alpha + sum.beta * sum.beta));
+        halves_agree(self.dc_first_half, (self.dc_sum, self.n), REST * dc)
     }
 }
 
@@ -303,9 +298,10 @@ impl Axes {
         }
     }
 
-    /// A salient rotor: eigenvalues apart by more than [`SALIENT`] of their mean.
+    /// A salient rotor: eigenvalues apart (twice the spread) by more than [`SALIENT`] of
+    /// their mean, as [`Identified::salient`] asks of the inductances.
     fn salient(&self) -> bool {
-        self.spread > SALIENT * self.mean
+        2.0 * self.spread > SALIENT * self.mean
     }
 
     /// A salient rotor whose axes lie more than 20° off α and β (`tan 2φ = cross/half_diff`).

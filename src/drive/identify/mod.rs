@@ -128,13 +128,33 @@ pub struct Identified {
 /// non-salient with their mean.
 pub(super) const SALIENT: f32 = 0.1;
 
+/// Two halves of an average apart by more than this share of what is measured: the rotor
+/// still moves, its back-EMF in the currents (`resistance.rs`, `inductance.rs`; a hundred times
+/// the noise of a 50 ms mean at the board's 1 % noise).
+pub(super) const REST: f32 = 0.01;
+
+/// The means of a sum's two halves \[A], the first half `first` and the whole `total` (each a
+/// sum and its count), differ by no more than `tolerance` \[A] (as a vector).
+pub(super) fn halves_agree(
+    first: (AlphaBeta, u32),
+    total: (AlphaBeta, u32),
+    tolerance: f32,
+) -> bool {
+    let ((sum1, n1), (sum, n)) = (first, total);
+    let (k1, k2) = (n1.max(1) as f32, n.saturating_sub(n1).max(1) as f32);
+    let d_alpha = (sum.alpha - sum1.alpha) / k2 - sum1.alpha / k1;
+    let d_beta = (sum.beta - sum1.beta) / k2 - sum1.beta / k1;
+    d_alpha * d_alpha + d_beta * d_beta <= tolerance * tolerance
+}
+
 impl Identified {
     /// The inductance of a non-salient model: the mean of `l_d_h` and `l_q_h` \[H].
     pub fn l_h(&self) -> f32 {
         0.5 * (self.l_d_h + self.l_q_h)
     }
 
-    /// `L_d` and `L_q` measured apart by more than [`SALIENT`] of their mean.
+    /// `L_d` and `L_q` measured apart by more than 10 % of their mean (twice the 5 % the
+    /// identification answers for on each).
     pub fn salient(&self) -> bool {
         (self.l_d_h - self.l_q_h).abs() > SALIENT * self.l_h()
     }

@@ -58,7 +58,7 @@
 //! (more than the bus can drive).
 
 use super::inductance::Inductance;
-use super::{Identified, IdentifyError, Phase, Progress, Settings};
+use super::{halves_agree, Identified, IdentifyError, Phase, Progress, Settings, REST};
 use crate::foc::{Reference, Request};
 use crate::frames::{AlphaBeta, Dq, SinCos};
 use crate::motor::MotorParams;
@@ -67,9 +67,6 @@ use crate::motor::MotorParams;
 const SETTLE_MS: u32 = 100;
 /// Averaging time of each level \[ms].
 const AVERAGE_MS: u32 = 100;
-/// The two halves of a level's average apart by more than this share of the level: the rotor
-/// still moves (a hundred times the noise of a 50 ms mean at the board's 1 % noise).
-const REST: f32 = 0.01;
 /// Levels: fractions of the rated current (α, α, then added on β).
 const LEVELS: [f32; 3] = [0.5, 1.0, 0.3];
 /// The ramp's first voltage, a fraction of the rated bus's phase voltage (module doc).
@@ -256,11 +253,7 @@ impl Resistance {
     /// The average's two halves agree within [`REST`] of the level `level_a` \[A]: no
     /// back-EMF of a rotor still moving in the currents (module doc).
     fn at_rest(&self, level_a: f32) -> bool {
-        let (sum, n) = self.first_half;
-        let (n1, n2) = (n.max(1) as f32, self.n.saturating_sub(n).max(1) as f32);
-        let d_alpha = (self.sum_i.alpha - sum.alpha) / n2 - sum.alpha / n1;
-        let d_beta = (self.sum_i.beta - sum.beta) / n2 - sum.beta / n1;
-        d_alpha * d_alpha + d_beta * d_beta <= (REST * level_a) * (REST * level_a)
+        halves_agree(self.first_half, (self.sum_i, self.n), REST * level_a)
     }
 
     /// Sums cleared.
