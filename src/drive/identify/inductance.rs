@@ -263,10 +263,15 @@ impl Inductance {
     /// The DC current's means over the measurement's two halves agree within [`REST`] of it:
     /// no back-EMF of a rotor still moving in the currents.
     fn at_rest(&self) -> bool {
+        // The first half's mean DC current, squared \[A²].
         let (sum, n) = self.dc_first_half;
         let k = 1.0 / (n.max(1) as f32);
-        let dc = crate::math::sqrt_or_zero(k * k * (sum.alpha * sum.alpha + sum.beta * sum.beta));
-        halves_agree(self.dc_first_half, (self.dc_sum, self.n), REST * dc)
+        let dc_sq = k * k * (sum.alpha * sum.alpha + sum.beta * sum.beta);
+        halves_agree(
+            self.dc_first_half,
+            (self.dc_sum, self.n),
+            REST * REST * dc_sq,
+        )
     }
 }
 

@@ -253,7 +253,8 @@ impl Resistance {
     /// The average's two halves agree within [`REST`] of the level `level_a` \[A]: no
     /// back-EMF of a rotor still moving in the currents (module doc).
     fn at_rest(&self, level_a: f32) -> bool {
-        halves_agree(self.first_half, (self.sum_i, self.n), REST * level_a)
+        let tolerance = REST * level_a;
+        halves_agree(self.first_half, (self.sum_i, self.n), tolerance * tolerance)
     }
 
     /// Sums cleared.
