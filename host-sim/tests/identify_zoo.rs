@@ -198,14 +198,16 @@ fn a_drone_at_a_tenth_of_its_inertia_ends_named() {
 /// holds its rotor at (`inductance.rs`: the eigenvalues of the 2×2 ripple response, each
 /// average taken with the rotor at rest), the saliency's share taken off the back-EMF before
 /// ψ_f (`flux.rs`), and the identified motor salient. The Aalto 2.2 kW IPM (L_q/L_d 1.42) and
-/// the Caruso 2019 IPM (1.53), two seeds each, within R 3 %, L_d and L_q 5 %, ψ_f 3 %, J 10 %.
-/// (Before: L_d and L_q within 1 % of each axis, but the drive took their mean; ψ_f −2.4 % and
-/// −7.7 %, J −9 % on the Caruso.)
+/// the Caruso 2019 IPM (1.53) and the Zou 350 kW PMa-SynRM (2.67), two seeds each, within
+/// R 3 %, L_d and L_q 5 %, ψ_f 3 %, J 10 %. (Before: the Aalto's and the Caruso's L_d and L_q
+/// within 1 % of each axis, but the drive took their mean; ψ_f −2.4 % and −7.7 %, J −9 % on
+/// the Caruso; the Zou ended in `shorted_phase`.)
 #[test]
 fn salient_ipms_identify_both_axes() {
     for file in [
         "motors/zoo/salient/industrial-ipm-aalto-2.2kw.toml",
         "motors/zoo/salient/industrial-ipm-caruso-2019.toml",
+        "motors/zoo/salient/traction-pmasynrm-zou-350kw.toml",
     ] {
         let m = load(&Path::new(env!("CARGO_MANIFEST_DIR")).join(file));
         for seed in [1, 2] {
@@ -221,5 +223,33 @@ fn salient_ipms_identify_both_axes() {
                 p.saliency
             );
         }
+    }
+}
+
+/// Issue #29: the Brusa IPM (L_q/L_d 3.24), whose rotor rests 48° off the DC current at half its
+/// rated current (`(L_q − L_d) I > ψ_f`) and swings when the winding check's third level moves
+/// it, is not misnamed (it ended in `shorted_phase` on the ideal plant and on seed 2) and its
+/// axes are not swapped (L_d +54 %, L_q −53 % on seed 1): the identification completes with
+/// R within 3 % and L_d, L_q within 5 %, on the ideal plant and two seeds. Its ψ_f is not
+/// asserted: −14 to −18 % with the board's noise (`flux.rs`: the extended EMF a tenth of the
+/// magnet's at the measuring current), an open point of the issue.
+#[test]
+fn a_strongly_salient_rotor_held_off_its_axis_is_measured_not_misnamed() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("motors/zoo/salient/traction-ipm-brusa-hsm1-6.17.12-salient.toml");
+    let m = load(&path);
+    let mut ideal = IdentifyRun::board_defaults(m);
+    ideal.board = pmsm_host_sim::board::SimBoard::ideal(&m);
+    let runs = [
+        ("ideal", run(&ideal).unwrap()),
+        ("seed 1", identify(m, 1, 0.5e-6)),
+        ("seed 2", identify(m, 2, 0.5e-6)),
+    ];
+    for (label, o) in runs {
+        let id = o
+            .identified
+            .unwrap_or_else(|| panic!("{label}: ended with {:?}", o.fault));
+        assert_r_l(label, &id, &m);
+        assert!(id.salient(), "{label}: not salient");
     }
 }
