@@ -21,6 +21,8 @@ pub fn identified_motor(o: &IdentifyOutcome) -> anyhow::Result<Option<Motor>> {
 /// The motor file `--motor-file` loads: the identified parameters, the user's ratings.
 pub fn motor_toml(name: &str, m: &MotorParams, o: &IdentifyOutcome, id: &Identified) -> String {
     let r = o.truth.ratings;
+    // Salient as the parameters written are (`Identified::params` made them so).
+    let salient = m.is_salient();
     format!(
         "# Identified by `pmsm-sim identify` (l_d_h = {:e}, l_q_h = {:e}; {}).\n\
          name = \"{name}\"\npole_pairs = {}\nr_ohm = {:e}\n{}flux_wb = {:e}\n\
@@ -28,14 +30,14 @@ pub fn motor_toml(name: &str, m: &MotorParams, o: &IdentifyOutcome, id: &Identif
          speed_rpm = {}\npower_w = {}\n",
         id.l_d_h,
         id.l_q_h,
-        if id.salient() {
+        if salient {
             "salient: apart by more than 10 % of their mean"
         } else {
             "l_h is their mean: within 10 % of it, the motor is taken as non-salient"
         },
         m.pole_pairs,
         m.r_ohm,
-        if id.salient() {
+        if salient {
             format!("l_d_h = {:e}\nl_q_h = {:e}\n", m.l_d_h(), m.l_q_h())
         } else {
             format!("l_h = {:e}\n", m.l_h)
