@@ -372,6 +372,22 @@ pub fn all_finite<const N: usize>(xs: [f32; N]) -> bool {
     acc == 0.0
 }
 
+/// True when the values and their sum are finite: one FPU instruction per value fewer than
+/// [`all_finite`], for a check where a sum beyond `f32::MAX` (3.4e38) is as wrong as a
+/// non-finite value: an observer's state, whose values are no motor's long before that.
+/// A NaN or ±∞ makes the sum NaN or ±∞ (+∞ and −∞ give NaN), and `s − s` is then NaN.
+#[inline(always)]
+pub fn finite_sum<const N: usize>(xs: [f32; N]) -> bool {
+    let mut sum = 0.0;
+    for x in xs {
+        sum += x;
+    }
+    // Deliberate: not 0 for NaN or ±∞.
+    #[allow(clippy::eq_op)]
+    let zero_if_finite = sum - sum;
+    zero_if_finite == 0.0
+}
+
 /// `x` limited to `[lo, hi]`, for bounds known only at run time: unlike `f32::clamp` it has no
 /// panic path (that one asserts `lo <= hi`). With `lo > hi` the result is `lo` or `hi`; a NaN
 /// `x` stays NaN.

@@ -412,3 +412,22 @@ fn rsqrt_and_sqrt_match_f64() {
     let tiny = f32::from_bits(1); // subnormal: the library path
     assert!((math::sqrt(tiny) as f64 / (tiny as f64).sqrt() - 1.0).abs() < 1e-6);
 }
+
+#[test]
+fn finite_sum_flags_every_non_finite_value_and_an_overflowing_sum() {
+    use pmsm_sensorless::math::finite_sum;
+    let finite = [0.0, -0.0, 1.0, -1e30, 1e30, f32::MIN_POSITIVE, 1e-45];
+    assert!(finite_sum(finite));
+    assert!(finite_sum::<0>([]));
+    for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+        for k in 0..finite.len() {
+            let mut xs = finite;
+            xs[k] = bad;
+            assert!(!finite_sum(xs), "{bad} at {k}");
+        }
+    }
+    assert!(!finite_sum([f32::INFINITY, f32::NEG_INFINITY]));
+    // Finite values whose sum is beyond f32::MAX: flagged (the documented difference from
+    // `all_finite`).
+    assert!(!finite_sum([f32::MAX, f32::MAX]));
+}

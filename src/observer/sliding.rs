@@ -23,7 +23,7 @@
 //! (`½ N ω T` = 3.0° electrical at 1000 rpm and 4 kHz on the Sinano motor).
 
 use crate::frames::{AlphaBeta, SinCos};
-use crate::math::{all_finite, clamp, sin_cos_wrapped, wrap_pi};
+use crate::math::{all_finite, clamp, finite_sum, sin_cos_wrapped, wrap_pi};
 use crate::motor::MotorParams;
 use crate::observer::{Observer, Rotor};
 use crate::param::{Allowed, Checks, ParamError};
@@ -408,7 +408,7 @@ impl SlidingObserver {
         let sat = |x: f32| clamp(x * self.inv_epsilon, -1.0, 1.0);
         next.w = AlphaBeta::new(ks * sat(next.s.alpha), ks * sat(next.s.beta));
         // Non-finite gains in `propagate` show up in ω̂ or τ̂_L (w is finite and bounded).
-        let ok = all_finite([
+        let ok = finite_sum([
             next.i_hat.alpha,
             next.i_hat.beta,
             next.theta_e,

@@ -51,6 +51,11 @@ pub struct CyclesReport {
     pub tick_flux_primary_cycles_est: u64,
     /// Worst 1 kHz task in open loop.
     pub tick_open_loop_cycles_est: u64,
+    /// Worst sensorless step on a salient motor (the Sinano's with `L_q/L_d = 2`: the flux
+    /// observer's active flux, the MTPA), either primary.
+    pub step_salient_cycles_est: u64,
+    /// Worst 1 kHz task on that salient motor, either primary.
+    pub tick_salient_cycles_est: u64,
     /// Worst step of the offset calibration (PWM off, every enable from idle).
     pub step_calibrate_cycles_est: u64,
     /// Worst step of each identification measurement (no observers run): resistance,
@@ -565,6 +570,8 @@ pub fn measure(root: &Path) -> anyhow::Result<CyclesReport> {
         tick_cycles_est: worst("tick")?.1,
         tick_flux_primary_cycles_est: worst("tick_flux_primary")?.1,
         tick_open_loop_cycles_est: worst("tick_open_loop")?.1,
+        step_salient_cycles_est: worst("step_salient")?.1,
+        tick_salient_cycles_est: worst("tick_salient")?.1,
         step_calibrate_cycles_est: worst("step_calibrate")?.1,
         step_identify_resistance_cycles_est: worst("step_identify_resistance")?.1,
         step_identify_inductance_cycles_est: worst("step_identify_inductance")?.1,

@@ -87,6 +87,8 @@ mod firmware {
         bench_begin_fixed_pll, bench_end_fixed_pll, 24u32;
         bench_begin_fixed_svpwm, bench_end_fixed_svpwm, 25u32;
         bench_begin_fixed_sliding, bench_end_fixed_sliding, 26u32;
+        bench_begin_step_salient, bench_end_step_salient, 27u32;
+        bench_begin_tick_salient, bench_end_tick_salient, 28u32;
     }
 
     /// Steps measured per case.
@@ -333,6 +335,54 @@ mod firmware {
             (bench_begin_step_flux_primary, bench_end_step_flux_primary),
             (bench_begin_tick_flux_primary, bench_end_tick_flux_primary),
         );
+        // A salient motor (issue #29): the Sinano's with `L_q/L_d = 2` about its `L`, so the
+        // flux observer's active-flux terms, the FOC's two inductances and the MTPA's split of
+        // the torque current run; both primaries, each step and task into one section.
+        let salient = pmsm_sensorless::motor::Motor {
+            params: m
+                .params
+                .with_inductances(2.0 / 3.0 * m.params.l_h, 4.0 / 3.0 * m.params.l_h)
+                .ok()
+                .filter(|p| p.is_salient())
+                .unwrap_or_else(|| {
+                    defmt::error!("salient motor refused");
+                    debug::exit(debug::EXIT_FAILURE);
+                    m.params
+                }),
+            ..m
+        };
+        let cfg_salient = DriveConfig {
+            rate_hz: cfg.rate_hz,
+            power_stage: cfg.power_stage,
+            ..DriveConfig::new(&salient)
+        };
+        match (
+            cfg_salient.build_sliding_primary(),
+            cfg_salient.build_flux_primary(),
+        ) {
+            (Ok(sliding_primary), Ok(flux_primary)) => {
+                run(
+                    "salient, sliding primary",
+                    &sliding_primary,
+                    sliding_primary.running_state(i0, rotor(theta0, 0.0)),
+                    at_48v,
+                    (bench_begin_step_salient, bench_end_step_salient),
+                    (bench_begin_tick_salient, bench_end_tick_salient),
+                );
+                run(
+                    "salient, flux primary",
+                    &flux_primary,
+                    flux_primary.running_state(i0, rotor(theta0, 0.0)),
+                    at_48v,
+                    (bench_begin_step_salient, bench_end_step_salient),
+                    (bench_begin_tick_salient, bench_end_tick_salient),
+                );
+            }
+            _ => {
+                defmt::error!("salient configuration failed");
+                debug::exit(debug::EXIT_FAILURE);
+            }
+        }
         // Start-up: open loop at 60 rpm, past half the hand-over speed (the observers have
         // restarted), below the hand-over: reached from idle through the alignment (0.2 s)
         // and the ramp (60 ms), not measured. The alignment's samples are a winding's at

@@ -16,7 +16,7 @@ pub struct CyclesArgs {
 }
 
 /// The measured calls, in the table's order, with their labels.
-fn rows(r: &pmsm_host_sim::analysis::cycles::CyclesReport) -> [(&'static str, u64); 17] {
+fn rows(r: &pmsm_host_sim::analysis::cycles::CyclesReport) -> [(&'static str, u64); 19] {
     [
         (
             "step, both observers, sliding primary (worst over a turn)",
@@ -35,6 +35,11 @@ fn rows(r: &pmsm_host_sim::analysis::cycles::CyclesReport) -> [(&'static str, u6
         ),
         ("1 kHz task, flux primary", r.tick_flux_primary_cycles_est),
         ("1 kHz task, open loop", r.tick_open_loop_cycles_est),
+        (
+            "step, salient motor (L_q/L_d 2), either primary",
+            r.step_salient_cycles_est,
+        ),
+        ("1 kHz task, salient motor", r.tick_salient_cycles_est),
         (
             "step, offset calibration (PWM off)",
             r.step_calibrate_cycles_est,
