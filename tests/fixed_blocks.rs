@@ -3,6 +3,8 @@
 //! the per-unit bases of its drive configuration (`PerUnit::of_drive`), over the range of
 //! speeds and voltages that motor reaches. Bounds are stated and derived in each test.
 
+mod common;
+use common::Lcg;
 use pmsm_host_sim::motor_file;
 use pmsm_host_sim::observer::ObserverKind;
 use pmsm_host_sim::scenario::Scenario;
@@ -38,19 +40,6 @@ fn all_motors() -> Vec<(String, Motor)> {
         all.push((m.name.to_string(), m));
     }
     all
-}
-
-/// A seeded generator in [−1, 1] (deterministic).
-struct Lcg(u64);
-
-impl Lcg {
-    fn next(&mut self) -> f64 {
-        self.0 = self
-            .0
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    }
 }
 
 /// An angle in turns (any real) as a binary angle, rounded to 2⁻³² turn.
@@ -144,7 +133,7 @@ fn pll_run(cfg: &PllConfig, pu: &PerUnit, seq: &Sequence, seed: u64) -> PllDiff 
     let n = (duration / ts) as usize;
     let mut turns = 0.0f64;
     let theta_at = |turns: f64, t: f64, rng: &mut Lcg| {
-        let offset = if t >= 0.5 { *step } else { 0.0 } + noise * rng.next();
+        let offset = if t >= 0.5 { *step } else { 0.0 } + noise * rng.next_f64();
         angle_of_turns(turns + offset / TAU)
     };
     let (mut st_q, mut st_f) = (PllStateQ::default(), PllState::default());

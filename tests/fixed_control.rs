@@ -3,6 +3,8 @@
 //! motor, in the per-unit bases each motor's drive configuration gives (`PerUnit::of_drive`).
 //! Bounds are in Q15 LSB of the base, or degrees, and derived in each test.
 
+mod common;
+use common::Lcg;
 use pmsm_host_sim::motor_file;
 use pmsm_host_sim::observer::ObserverKind;
 use pmsm_host_sim::scenario::Scenario;
@@ -38,19 +40,6 @@ fn motors() -> Vec<(&'static str, Motor)> {
     ]
 }
 
-/// A seeded generator in [−1, 1] (deterministic).
-struct Lcg(u64);
-
-impl Lcg {
-    fn next(&mut self) -> f32 {
-        self.0 = self
-            .0
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        (self.0 >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
-    }
-}
-
 fn f(x: Q15) -> f32 {
     f32::from(x) / LSB
 }
@@ -61,14 +50,14 @@ fn f(x: Q15) -> f32 {
 fn gains_round_to_their_mantissa() {
     let mut g = Lcg(7);
     for _ in 0..10_000 {
-        let value = 10f32.powf(g.next() * 5.0 - 0.9).min(16_000.0);
+        let value = 10f32.powf(g.next_f32() * 5.0 - 0.9).min(16_000.0);
         let gain = Gain::new("test", value).unwrap();
         assert!(
             value < 1.0 / 131_072.0 || ((gain.value() - value) / value).abs() <= 1.0 / 16_384.0,
             "{value}: {}",
             gain.value()
         );
-        let x = (g.next() * 65_536.0) as i32;
+        let x = (g.next_f32() * 65_536.0) as i32;
         let exact = f64::from(x) * f64::from(gain.value());
         if exact.abs() < 2.0f64.powi(30) {
             assert!(
@@ -94,9 +83,9 @@ fn unit_vectors_without_division() {
         let len = if k % 2 == 0 {
             32_767.0
         } else {
-            16.0 + 32_751.0 * g.next().abs()
+            16.0 + 32_751.0 * g.next_f32().abs()
         };
-        let th = g.next() * std::f32::consts::PI;
+        let th = g.next_f32() * std::f32::consts::PI;
         let (x, y) = (
             (len * th.cos()).round() as i32,
             (len * th.sin()).round() as i32,
@@ -210,20 +199,20 @@ fn current_loop_matches_the_f32_loop() {
         let int_scale = (1u64 << (15 + q.integrator_bits())) as f32;
         for _ in 0..200_000 {
             let i = DqQ15 {
-                d: pu.current(rng.next() * i_trip),
-                q: pu.current(rng.next() * i_trip),
+                d: pu.current(rng.next_f32() * i_trip),
+                q: pu.current(rng.next_f32() * i_trip),
             };
             let r = DqQ15 {
-                d: pu.current(rng.next() * i_trip),
-                q: pu.current(rng.next() * i_trip),
+                d: pu.current(rng.next_f32() * i_trip),
+                q: pu.current(rng.next_f32() * i_trip),
             };
-            let w = pu.speed(rng.next() * 1.2 * omega_rated);
+            let w = pu.speed(rng.next_f32() * 1.2 * omega_rated);
             let v_bus = cfg.limits.bus_min_v
-                + (cfg.limits.bus_max_v - cfg.limits.bus_min_v) * rng.next().abs();
+                + (cfg.limits.bus_max_v - cfg.limits.bus_min_v) * rng.next_f32().abs();
             let v_max = pu.voltage(foc.v_max(v_bus));
             let mut st = CurrentLoopStateQ {
-                integral_d: q.integral_of(rng.next() * f(v_max)),
-                integral_q: q.integral_of(rng.next() * f(v_max)),
+                integral_d: q.integral_of(rng.next_f32() * f(v_max)),
+                integral_q: q.integral_of(rng.next_f32() * f(v_max)),
             };
             let mut st_f = CurrentLoopState {
                 integral_d: st.integral_d as f32 / int_scale * pu.v_base_v,

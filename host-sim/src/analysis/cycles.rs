@@ -24,15 +24,13 @@ use std::process::Command;
 
 pub use super::rate_cycles::{rate_cycles, RateCycles, BOARD_RATES_HZ};
 
-/// The answer of `pmsm-sim cycles`.
+/// The bench's cases of the drive's step and 1 kHz task, worst over each case's runs, on
+/// either core (cycles in its timing table). The names are the JSON keys CI checks.
 #[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct CyclesReport {
-    /// Instructions of the drive's costliest sensorless step (both observers live, sliding
-    /// observer primary, 48 V bus): the worst over an electrical turn and of the steps at the
-    /// ±π seam. The bench's currents do not follow the
-    /// voltage, so in the later steps the current loop cuts its vector to the limit.
-    pub step_instructions: u64,
-    /// Cycle estimate of that step.
+pub struct DriveCases {
+    /// Worst sensorless step over an electrical turn, both observers live, sliding observer
+    /// primary, 48 V bus. The bench's currents do not follow the voltage, so in the later
+    /// steps the current loop cuts its vector to the limit.
     pub step_cycles_est: u64,
     /// Worst step over a turn when the flux observer feeds the controller (`Primary::Flux`).
     pub step_flux_primary_cycles_est: u64,
@@ -43,6 +41,9 @@ pub struct CyclesReport {
     /// Worst sensorless step (sliding observer primary) of four runs whose angles cross ±π
     /// (the wraps of eq (22), the PLL and the angle comparisons take their other branch).
     pub step_seam_cycles_est: u64,
+    /// Worst sensorless step on a salient motor (the Sinano's with `L_q/L_d = 2`: the flux
+    /// observer's active flux, the MTPA), either primary.
+    pub step_salient_cycles_est: u64,
     /// Worst 1 kHz task (`Drive::tick`: read-outs, speed loop, supervision, mode decisions)
     /// of the sensorless runs with the sliding observer primary (the board's main loop runs it
     /// once a millisecond, outside the step's interrupt).
@@ -51,11 +52,94 @@ pub struct CyclesReport {
     pub tick_flux_primary_cycles_est: u64,
     /// Worst 1 kHz task in open loop.
     pub tick_open_loop_cycles_est: u64,
-    /// Worst sensorless step on a salient motor (the Sinano's with `L_q/L_d = 2`: the flux
-    /// observer's active flux, the MTPA), either primary.
-    pub step_salient_cycles_est: u64,
     /// Worst 1 kHz task on that salient motor, either primary.
     pub tick_salient_cycles_est: u64,
+}
+
+impl DriveCases {
+    /// The cases from the bench's sections (`worst` gives a section's worst cycles).
+    pub(super) fn from_sections(
+        worst: impl Fn(&str) -> anyhow::Result<u64>,
+    ) -> anyhow::Result<Self> {
+        Ok(Self {
+            step_cycles_est: worst("step")?,
+            step_flux_primary_cycles_est: worst("step_flux_primary")?,
+            step_open_loop_cycles_est: worst("step_open_loop")?,
+            step_saturated_cycles_est: worst("step_saturated")?,
+            step_seam_cycles_est: worst("step_seam")?,
+            step_salient_cycles_est: worst("step_salient")?,
+            tick_cycles_est: worst("tick")?,
+            tick_flux_primary_cycles_est: worst("tick_flux_primary")?,
+            tick_open_loop_cycles_est: worst("tick_open_loop")?,
+            tick_salient_cycles_est: worst("tick_salient")?,
+        })
+    }
+
+    /// The worst step and the worst task of every case.
+    pub fn worst(&self) -> (u64, u64) {
+        let steps = [
+            self.step_cycles_est,
+            self.step_flux_primary_cycles_est,
+            self.step_open_loop_cycles_est,
+            self.step_saturated_cycles_est,
+            self.step_seam_cycles_est,
+            self.step_salient_cycles_est,
+        ];
+        let ticks = [
+            self.tick_cycles_est,
+            self.tick_flux_primary_cycles_est,
+            self.tick_open_loop_cycles_est,
+            self.tick_salient_cycles_est,
+        ];
+        (
+            steps.into_iter().max().unwrap_or(0),
+            ticks.into_iter().max().unwrap_or(0),
+        )
+    }
+
+    /// The table's rows: label and cycles, in the order the report prints them.
+    pub fn rows(&self) -> [(&'static str, u64); 10] {
+        [
+            (
+                "step, both observers, sliding primary (worst over a turn)",
+                self.step_cycles_est,
+            ),
+            ("  worst of four runs across ±π", self.step_seam_cycles_est),
+            (
+                "step, flux observer primary",
+                self.step_flux_primary_cycles_est,
+            ),
+            ("step, open loop (start-up)", self.step_open_loop_cycles_est),
+            ("step, voltage at its limit", self.step_saturated_cycles_est),
+            (
+                "step, salient motor (L_q/L_d 2), either primary",
+                self.step_salient_cycles_est,
+            ),
+            (
+                "1 kHz task (Drive::tick), sliding primary",
+                self.tick_cycles_est,
+            ),
+            (
+                "1 kHz task, flux primary",
+                self.tick_flux_primary_cycles_est,
+            ),
+            ("1 kHz task, open loop", self.tick_open_loop_cycles_est),
+            ("1 kHz task, salient motor", self.tick_salient_cycles_est),
+        ]
+    }
+}
+
+/// The answer of `pmsm-sim cycles`.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct CyclesReport {
+    /// Instructions of the drive's costliest sensorless step (both observers live, sliding
+    /// observer primary, 48 V bus): the worst over an electrical turn and of the steps at the
+    /// ±π seam. The bench's currents do not follow the
+    /// voltage, so in the later steps the current loop cuts its vector to the limit.
+    pub step_instructions: u64,
+    /// The drive's step and 1 kHz task cases.
+    #[serde(flatten)]
+    pub drive: DriveCases,
     /// Worst step of the offset calibration (PWM off, every enable from idle).
     pub step_calibrate_cycles_est: u64,
     /// Worst step of each identification measurement (no observers run): resistance,
@@ -549,11 +633,12 @@ pub fn measure(root: &Path) -> anyhow::Result<CyclesReport> {
             .with_context(|| format!("section {name} not found in the trace"))?;
         Ok(v.iter().fold((0, 0), |a, &(n, c)| (a.0.max(n), a.1.max(c))))
     };
-    let seam = worst("step_seam")?;
-    let (step_n, step_c) = [worst("step")?, seam]
+    // The instructions of the costliest sensorless step, at the seam or not.
+    let step_instructions = [worst("step")?, worst("step_seam")?]
         .into_iter()
         .max_by_key(|s| s.1)
-        .unwrap_or((0, 0));
+        .map_or(0, |s| s.0);
+    let drive = DriveCases::from_sections(|name| Ok(worst(name)?.1))?;
     let (flash_bytes, ram_bytes, ramfunc_bytes) = sizes(&llvm_tool(root, "llvm-size")?, &board)?;
     let nm = llvm_tool(root, "llvm-nm")?;
     let mut f64_soft_float_symbols = soft_float_symbols(&nm, &board)?;
@@ -561,17 +646,8 @@ pub fn measure(root: &Path) -> anyhow::Result<CyclesReport> {
     f64_soft_float_symbols.sort();
     f64_soft_float_symbols.dedup();
     Ok(CyclesReport {
-        step_instructions: step_n,
-        step_cycles_est: step_c,
-        step_flux_primary_cycles_est: worst("step_flux_primary")?.1,
-        step_open_loop_cycles_est: worst("step_open_loop")?.1,
-        step_saturated_cycles_est: worst("step_saturated")?.1,
-        step_seam_cycles_est: seam.1,
-        tick_cycles_est: worst("tick")?.1,
-        tick_flux_primary_cycles_est: worst("tick_flux_primary")?.1,
-        tick_open_loop_cycles_est: worst("tick_open_loop")?.1,
-        step_salient_cycles_est: worst("step_salient")?.1,
-        tick_salient_cycles_est: worst("tick_salient")?.1,
+        step_instructions,
+        drive,
         step_calibrate_cycles_est: worst("step_calibrate")?.1,
         step_identify_resistance_cycles_est: worst("step_identify_resistance")?.1,
         step_identify_inductance_cycles_est: worst("step_identify_inductance")?.1,

@@ -11,7 +11,8 @@
 //! is the M0+'s (its 2-stage pipeline), the part the issue names. No wait states.
 
 use super::cycles::{
-    bench_sections, build_thumb, is_branch, llvm_tool, register_count, sizes, Core, Insn,
+    bench_sections, build_thumb, is_branch, llvm_tool, register_count, sizes, Core, DriveCases,
+    Insn,
 };
 use anyhow::Context;
 use serde::Serialize;
@@ -61,22 +62,10 @@ pub(super) fn cycles(insn: &Insn, taken: bool) -> u64 {
 /// The answer of `pmsm-sim cycles --core m0`.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct M0Report {
-    /// Worst step over a turn, sliding observer primary (Cortex-M0+ cycles).
-    pub step_cycles_est: u64,
-    /// Worst step, flux observer primary.
-    pub step_flux_primary_cycles_est: u64,
-    /// Worst step in open loop.
-    pub step_open_loop_cycles_est: u64,
-    /// Worst step with the voltage at its limit.
-    pub step_saturated_cycles_est: u64,
-    /// Worst step across ±π.
-    pub step_seam_cycles_est: u64,
-    /// Worst 1 kHz task, sliding primary, flux primary, open loop.
-    pub tick_cycles_est: u64,
-    /// See `tick_cycles_est`.
-    pub tick_flux_primary_cycles_est: u64,
-    /// See `tick_cycles_est`.
-    pub tick_open_loop_cycles_est: u64,
+    /// The drive's step and 1 kHz task cases in the f32 core (software floating point),
+    /// Cortex-M0+ cycles.
+    #[serde(flatten)]
+    pub drive: DriveCases,
     /// The fixed-point blocks (`pmsm_sensorless::fixed`): sin/cos, Clarke, Park and inverse
     /// Park of one step.
     pub fixed_frames_cycles_est: u64,
@@ -118,29 +107,10 @@ pub fn measure_m0(root: &Path) -> anyhow::Result<M0Report> {
         None,
     )?;
     let (image_flash_bytes, image_ram_bytes, _) = sizes(&llvm_tool(root, "llvm-size")?, &image)?;
-    let steps = [
-        worst("step")?,
-        worst("step_seam")?,
-        worst("step_flux_primary")?,
-        worst("step_open_loop")?,
-        worst("step_saturated")?,
-    ];
-    let ticks = [
-        worst("tick")?,
-        worst("tick_flux_primary")?,
-        worst("tick_open_loop")?,
-    ];
-    let step_max = steps.iter().copied().max().unwrap_or(0);
-    let tick_max = ticks.iter().copied().max().unwrap_or(0);
+    let drive = DriveCases::from_sections(worst)?;
+    let (step_max, tick_max) = drive.worst();
     Ok(M0Report {
-        step_cycles_est: steps[0],
-        step_seam_cycles_est: steps[1],
-        step_flux_primary_cycles_est: steps[2],
-        step_open_loop_cycles_est: steps[3],
-        step_saturated_cycles_est: steps[4],
-        tick_cycles_est: ticks[0],
-        tick_flux_primary_cycles_est: ticks[1],
-        tick_open_loop_cycles_est: ticks[2],
+        drive,
         fixed_frames_cycles_est: worst("fixed_frames")?,
         fixed_flux_cycles_est: worst("fixed_flux")?,
         fixed_current_cycles_est: worst("fixed_current")?,

@@ -15,31 +15,11 @@ pub struct CyclesArgs {
     core: String,
 }
 
-/// The measured calls, in the table's order, with their labels.
-fn rows(r: &pmsm_host_sim::analysis::cycles::CyclesReport) -> [(&'static str, u64); 19] {
-    [
-        (
-            "step, both observers, sliding primary (worst over a turn)",
-            r.step_cycles_est,
-        ),
-        ("  worst of four runs across ±π", r.step_seam_cycles_est),
-        (
-            "step, flux observer primary",
-            r.step_flux_primary_cycles_est,
-        ),
-        ("step, open loop (start-up)", r.step_open_loop_cycles_est),
-        ("step, voltage at its limit", r.step_saturated_cycles_est),
-        (
-            "1 kHz task (Drive::tick), sliding primary",
-            r.tick_cycles_est,
-        ),
-        ("1 kHz task, flux primary", r.tick_flux_primary_cycles_est),
-        ("1 kHz task, open loop", r.tick_open_loop_cycles_est),
-        (
-            "step, salient motor (L_q/L_d 2), either primary",
-            r.step_salient_cycles_est,
-        ),
-        ("1 kHz task, salient motor", r.tick_salient_cycles_est),
+/// The measured calls, in the table's order, with their labels: the drive's cases, then the
+/// identification's and the blocks'.
+fn rows(r: &pmsm_host_sim::analysis::cycles::CyclesReport) -> Vec<(&'static str, u64)> {
+    let mut rows = r.drive.rows().to_vec();
+    rows.extend([
         (
             "step, offset calibration (PWM off)",
             r.step_calibrate_cycles_est,
@@ -67,7 +47,8 @@ fn rows(r: &pmsm_host_sim::analysis::cycles::CyclesReport) -> [(&'static str, u6
         ("sliding torque observer update", r.sliding_cycles_est),
         ("flux observer + PLL update", r.flux_cycles_est),
         ("FOC current loop + SVPWM", r.foc_svpwm_cycles_est),
-    ]
+    ]);
+    rows
 }
 
 /// `cycles`: the table (or JSON).
@@ -156,21 +137,7 @@ fn cycles_m0(root: &std::path::Path, json: bool) -> anyhow::Result<String> {
         "Cortex-M0 (QEMU microbit, thumbv6m: the f32 core in software floating point), Cortex-M0+ cycles:"
     );
     let mut t = table(&["measured call", "cycles est"], &[1]);
-    for (what, c) in [
-        (
-            "step, sliding primary (worst over a turn)",
-            r.step_cycles_est,
-        ),
-        ("  worst of four runs across ±π", r.step_seam_cycles_est),
-        (
-            "step, flux observer primary",
-            r.step_flux_primary_cycles_est,
-        ),
-        ("step, open loop (start-up)", r.step_open_loop_cycles_est),
-        ("step, voltage at its limit", r.step_saturated_cycles_est),
-        ("1 kHz task, sliding primary", r.tick_cycles_est),
-        ("1 kHz task, flux primary", r.tick_flux_primary_cycles_est),
-        ("1 kHz task, open loop", r.tick_open_loop_cycles_est),
+    for (what, c) in r.drive.rows().into_iter().chain([
         (
             "fixed point: sin/cos, Clarke, Park, inverse Park",
             r.fixed_frames_cycles_est,
@@ -192,7 +159,7 @@ fn cycles_m0(root: &std::path::Path, json: bool) -> anyhow::Result<String> {
             "fixed point: sliding torque observer (20)-(22), (34), (35)",
             r.fixed_sliding_cycles_est,
         ),
-    ] {
+    ]) {
         t.add_row([what.to_string(), c.to_string()]);
     }
     outln!(out, "{t}");
