@@ -245,7 +245,7 @@ impl FluxSpin {
                         None
                     };
                     if let Some(win) = slot {
-                        win.add(e.magnitude(), w, v.magnitude());
+                        win.add(super::magnitude(e), w, super::magnitude(v));
                     }
                 }
                 let target = if self.e_half.is_some() {
@@ -256,12 +256,12 @@ impl FluxSpin {
                 // The rotor watched: while its EMF lags the frame's q axis by more than
                 // LAG_MAX (the rotor behind the current by that much), the frame holds its
                 // speed and lets it catch up.
-                let lagging =
-                    e.magnitude() >= 0.1 * v.magnitude() && crate::math::atan2(e.d, e.q) > LAG_MAX;
+                let lagging = super::magnitude(e) >= 0.1 * super::magnitude(v)
+                    && crate::math::atan2(e.d, e.q) > LAG_MAX;
                 if !lagging {
                     self.omega_m = (self.omega_m + s.accel_per_ms).min(target);
                 }
-                self.step_rot = SinCos::of_small(s.n_ts * self.omega_m);
+                self.step_rot = super::rotation(s.n_ts * self.omega_m);
                 self.out_rot = foc.output_rotation(self.omega_m);
                 if self.omega_m >= target {
                     self.stage = if self.e_half.is_some() {
@@ -304,7 +304,7 @@ impl FluxSpin {
             Stage::Measure(ms) => {
                 self.e_mag_sum += self.magnet_emf(s, e, i);
                 self.e_q_sum += e.q;
-                self.v_mag_sum += v.magnitude();
+                self.v_mag_sum += super::magnitude(v);
                 self.count += 1;
                 if ms > 1 {
                     self.stage = Stage::Measure(ms - 1);
@@ -336,7 +336,7 @@ impl FluxSpin {
     /// frame): `|e|` less the saliency's `ω_e (L_d − L_q) i_d` (module doc), `i_d` the
     /// current's projection on the rotor's d axis, which lags the EMF by 90°.
     fn magnet_emf(&self, s: &Settings, e: Dq, i: Dq) -> f32 {
-        let mag = e.magnitude();
+        let mag = super::magnitude(e);
         let i_d = if mag > 0.0 {
             (i.d * e.q - i.q * e.d) / mag
         } else {

@@ -188,7 +188,7 @@ impl Inductance {
             }
             Stage::Adapt(_) => {
                 self.clear();
-                let base = crate::math::sqrt(
+                let base = super::sqrt(
                     self.base.alpha * self.base.alpha + self.base.beta * self.base.beta,
                 );
                 self.stage = if ripple < RIPPLE * s.i_test_a && 2.0 * self.v_h + base <= v_max {
@@ -297,7 +297,7 @@ impl Axes {
             alpha,
             beta,
             mean: 0.5 * (alpha + beta),
-            spread: crate::math::sqrt(half_diff * half_diff + cross * cross),
+            spread: super::sqrt(half_diff * half_diff + cross * cross),
             half_diff,
             cross,
         }

@@ -293,7 +293,7 @@ impl Mechanics {
         let omega_e = s.n * omega_m;
         Self {
             frame: rotor,
-            step_rot: SinCos::of_small(omega_e * s.ts),
+            step_rot: super::rotation(omega_e * s.ts),
             out_rot: SinCos::ZERO,
             omega_i_e: omega_e,
             omega_e,
@@ -412,7 +412,7 @@ impl Mechanics {
         let pll = &s.tracking;
         self.omega_i_e -= pll.ki_t * delta;
         self.omega_e = self.omega_i_e - pll.kp * delta;
-        self.step_rot = SinCos::of_small(self.omega_e * s.ts);
+        self.step_rot = super::rotation(self.omega_e * s.ts);
         self.out_rot = foc.output_rotation(self.omega_e / s.n);
         self.frame = self.frame.renormalized();
         let dt = 1e-3;

@@ -45,7 +45,7 @@ pub(super) mod offset;
 pub(super) mod resistance;
 
 use crate::foc::Foc;
-use crate::frames::AlphaBeta;
+use crate::frames::{AlphaBeta, Dq, SinCos};
 use crate::motor::{MotorParams, Ratings, TorqueConvention};
 use crate::param::{Allowed, ParamError};
 use core::f32::consts::TAU;
@@ -147,6 +147,26 @@ pub(super) fn halves_agree(
     let d_alpha = (sum.alpha - sum1.alpha) / k2 - sum1.alpha / k1;
     let d_beta = (sum.beta - sum1.beta) / k2 - sum1.beta / k1;
     d_alpha * d_alpha + d_beta * d_beta <= tolerance_sq
+}
+
+/// `√x` out of line: the measurements' 1 kHz work is not the step, and each inlined square
+/// root ([`crate::math::sqrt`]: its check, three Newton steps and the library's fallback)
+/// costs the commissioning image about 60 B of flash.
+#[inline(never)]
+pub(super) fn sqrt(x: f32) -> f32 {
+    crate::math::sqrt(x)
+}
+
+/// `|x_dq|` ([`Dq::magnitude`]) out of line, for the same reason.
+#[inline(never)]
+pub(super) fn magnitude(x: Dq) -> f32 {
+    x.magnitude()
+}
+
+/// [`SinCos::of_small`] out of line, for the same reason (about 180 B a copy).
+#[inline(never)]
+pub(super) fn rotation(delta: f32) -> SinCos {
+    SinCos::of_small(delta)
 }
 
 impl Identified {
