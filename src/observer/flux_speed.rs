@@ -61,6 +61,10 @@ impl Observer for FluxPll {
     fn read_out(&self, st: &mut FluxPllState, part: ReadOut) {
         match part {
             ReadOut::Angle => st.flux.update_angle(),
+            ReadOut::Speed if self.pll.is_aided() => {
+                let hint = self.pll.predicted_turn(&st.pll);
+                self.pll.update_aided(&mut st.pll, st.flux.theta_e, hint);
+            }
             ReadOut::Speed => {
                 self.pll.update(&mut st.pll, st.flux.theta_e);
             }

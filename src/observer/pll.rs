@@ -30,6 +30,10 @@ pub struct Pll {
     ts: f32,
     kp: f32,
     ki_ts: f32,
+    /// `1/T` \[Hz].
+    rate: f32,
+    /// Run by [`Pll::update_aided`] (module doc, "Aided"): the integral starts at zero.
+    aided: bool,
 }
 
 /// PLL state.
@@ -41,8 +45,17 @@ pub struct PllState {
     pub integral: f32,
     /// Speed estimate ω̂ \[rad/s] of the tracked angle (electrical if the input is).
     pub omega: f32,
-    /// The phase error `θ − z1` of the last update \[rad], wrapped to (−π, π].
+    /// The phase error `θ − z1` of the last update \[rad], wrapped to (−π, π] by
+    /// [`Pll::update`], unwrapped by [`Pll::update_aided`].
     pub error: f32,
+    /// [`Pll::update_aided`]: the input angle of the last update \[rad].
+    pub theta: f32,
+    /// [`Pll::update_aided`]: the angle the input turned through over the last period \[rad].
+    pub turn: f32,
+    /// [`Pll::update_aided`]: false from a [`Pll::reset`] to the next update, which only
+    /// takes the input angle as `z1` (a reset may fall within a period: the turn from the
+    /// reset's angle is of an unknown time).
+    pub anchored: bool,
 }
 
 impl PllConfig {
@@ -70,11 +83,26 @@ impl PllConfig {
             ts,
             kp,
             ki_ts: ki * ts,
+            rate,
+            aided: false,
         })
     }
 }
 
 impl Pll {
+    /// This PLL run by [`Pll::update_aided`] (module doc, "Aided").
+    pub fn aided(self) -> Self {
+        Self {
+            aided: true,
+            ..self
+        }
+    }
+
+    /// Whether this PLL is run by [`Pll::update_aided`].
+    pub fn is_aided(&self) -> bool {
+        self.aided
+    }
+
     /// One sample of the input angle `theta` \[rad]; returns ω̂ \[rad/s]. A non-finite input
     /// leaves the state untouched.
     // Inlined: the 4 kHz step compiles to one function (see `drive`).
@@ -92,13 +120,64 @@ impl Pll {
         st.omega
     }
 
+    /// One sample of the input angle `theta` \[rad] with the speed the input turned at over
+    /// the period as feed-forward (module doc, "Aided"); returns ω̂ \[rad/s]. `turn_hint`
+    /// \[rad]: the angle turned through since the last update, as far as the caller knows it
+    /// within ±π (its own count of the turn, or `T ω̂` of the last update). A non-finite
+    /// input leaves the state untouched.
+    #[inline(always)]
+    pub fn update_aided(&self, st: &mut PllState, theta: f32, turn_hint: f32) -> f32 {
+        if !st.anchored {
+            cold_path();
+            if all_finite([theta]) {
+                let theta = wrap_pi(theta);
+                *st = PllState {
+                    z1: wrap_pi(theta + self.ts * st.omega),
+                    theta,
+                    anchored: true,
+                    ..*st
+                };
+            }
+            return st.omega;
+        }
+        // The turn over the period: the input's own difference, on the branch of the hint.
+        let turn = turn_hint + wrap_pi(theta - st.theta - turn_hint);
+        // The phase error, unwrapped: the last one carried over the period (`z1` advanced by
+        // `T ω̂`, the input by `turn`), to the branch of `θ − z1` nearest it.
+        let carried = st.error + turn - self.ts * st.omega;
+        let e = carried + wrap_pi(theta - st.z1 - carried);
+        if !all_finite([e, turn]) {
+            cold_path();
+            return st.omega;
+        }
+        // Feed-forward: the mean speed over the period, extrapolated by its last change.
+        let feed_forward = (2.0 * turn - st.turn) * self.rate;
+        st.error = e;
+        st.theta = theta;
+        st.turn = turn;
+        st.integral += self.ki_ts * e;
+        st.omega = feed_forward + self.kp * e + st.integral;
+        st.z1 = wrap_pi(st.z1 + self.ts * st.omega);
+        st.omega
+    }
+
+    /// The turn `T ω̂` \[rad] the last update predicts over the coming period.
+    #[inline(always)]
+    pub fn predicted_turn(&self, st: &PllState) -> f32 {
+        self.ts * st.omega
+    }
+
     /// Starts tracking at angle `theta` and speed `omega`.
     pub fn reset(&self, st: &mut PllState, theta: f32, omega: f32) {
         *st = PllState {
             z1: wrap_pi(theta),
-            integral: omega,
+            // Aided, the feed-forward carries the speed and the integral its error.
+            integral: if self.aided { 0.0 } else { omega },
             omega,
             error: 0.0,
+            theta: wrap_pi(theta),
+            turn: self.ts * omega,
+            anchored: false,
         };
     }
 }
