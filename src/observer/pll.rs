@@ -7,6 +7,37 @@
 //! second-order loop of natural frequency ω_n and damping ζ. The angle difference is wrapped
 //! to (−π, π], so the estimator lives on the circle. Forward Euler at the control rate; the
 //! integral state is kept as `Ki·z2` \[rad/s].
+//!
+//! **Aided** ([`Pll::update_aided`]; the drive's choice per motor, `DriveConfig::pll_aided`).
+//! Run at 1 kHz on a rotor that turns far per period and accelerates fast (a drone or a
+//! low-inertia flat motor: 150° to 1400° of electrical angle per millisecond, 10⁵ to 10⁶
+//! rad/s² electrical), the loop above fails twice: its phase error, wrapped to ±π, is
+//! ambiguous once it exceeds half a turn (the PLL slips a cycle and its speed jumps by
+//! `2π/T`), and its lag under an acceleration α, `α/ω_n²`, is radians (at ω_n = 2π·50 Hz,
+//! 7e5 rad/s² lags 7 rad). The aided loop is the same type-2 loop with the input's own
+//! turn as velocity feed-forward, as an aided tracking loop of a GNSS receiver takes the
+//! carrier's Doppler (Kaplan & Hegarty (eds.), *Understanding GPS/GNSS*, 3rd ed., Artech
+//! House 2017, the receiver's tracking loops: carrier-aided code loops): the loop then tracks
+//! only the aid's error, not the motion.
+//! - The turn `Δ_k` over the period: `θ_k − θ_{k−1}` on the branch within ±π of the
+//!   caller's hint (the turn `T ω̂_{k−1}` the last update predicted): unambiguous while the
+//!   speed estimate is within `π/T` of the rotor's (500 Hz electrical at 1 kHz).
+//! - The phase error unwrapped: `e_k = e_{k−1} + Δ_k − T ω̂_{k−1}`, taken on the branch of
+//!   `θ_k − z1_k` nearest it, so a lag beyond ±π is a lag, not a slipped cycle.
+//! - The speed: `ω̂_k = (2Δ_k − Δ_{k−1})/T + Kp e_k + Ki z2`: the feed-forward is the mean
+//!   speed over the period extrapolated by its last change to the middle of the coming
+//!   period (the turn `z1` is advanced by). The error dynamics are the plain loop's
+//!   (`e_{k+1} = (1 − Kp T) e_k − T·Ki z2 + (Δ_{k+1} − 2Δ_k + Δ_{k−1})`), driven by the
+//!   second difference of the turn (the change of acceleration, `α̇ T³`) instead of the
+//!   acceleration: no lag under a constant acceleration, `α T²` at its onset, decaying at
+//!   the loop's ω_n. The integral starts at zero (the feed-forward carries the speed).
+//! - The first update after a [`Pll::reset`] only takes the angle: a reset may fall within
+//!   a period, and the turn from its angle is of an unknown time.
+//!
+//! The cost is noise: the feed-forward differentiates the angle over one period, so the
+//! speed carries the angle's noise `σ` as `√14 σ/T` (`2θ_k − 3θ_{k−1} + θ_{k−2}`)
+//! unfiltered, where the plain loop filters it at ω_n; hence the aided loop only where the
+//! plain one cannot follow the motor.
 
 use crate::math::{all_finite, wrap_pi};
 use crate::param::{Allowed, Checks, ParamError};
