@@ -31,8 +31,9 @@
 //!   second difference of the turn (the change of acceleration, `α̇ T³`) instead of the
 //!   acceleration: no lag under a constant acceleration, `α T²` at its onset, decaying at
 //!   the loop's ω_n. The integral starts at zero (the feed-forward carries the speed).
-//! - The first update after a [`Pll::reset`] only takes the angle: a reset may fall within
-//!   a period, and the turn from its angle is of an unknown time.
+//! - The first update after a [`Pll::reset`] takes the turn it predicted (`T ω̂`) and a zero
+//!   error: a reset may fall within a period, and the turn from its angle is of an unknown
+//!   time.
 //!
 //! The cost is noise: the feed-forward differentiates the angle over one period, so the
 //! speed carries the angle's noise `σ` as `√14 σ/T` (`2θ_k − 3θ_{k−1} + θ_{k−2}`)
@@ -70,7 +71,8 @@ pub struct Pll {
 /// PLL state.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PllState {
-    /// Tracked angle z1 \[rad], in (−π, π].
+    /// Tracked angle z1 \[rad], in (−π, π] (of [`Pll::update`]; [`Pll::update_aided`] keeps
+    /// `θ − z1` as its unwrapped `error` instead).
     pub z1: f32,
     /// Integral term `Ki·z2` \[rad/s].
     pub integral: f32,
@@ -83,9 +85,9 @@ pub struct PllState {
     pub theta: f32,
     /// [`Pll::update_aided`]: the angle the input turned through over the last period \[rad].
     pub turn: f32,
-    /// [`Pll::update_aided`]: false from a [`Pll::reset`] to the next update, which only
-    /// takes the input angle as `z1` (a reset may fall within a period: the turn from the
-    /// reset's angle is of an unknown time).
+    /// [`Pll::update_aided`]: false from a [`Pll::reset`] to the next update, which takes
+    /// the turn it predicted instead of the input's (a reset may fall within a period: the
+    /// turn from the reset's angle is of an unknown time).
     pub anchored: bool,
 }
 
@@ -156,28 +158,22 @@ impl Pll {
     /// \[rad]: the angle turned through since the last update, as far as the caller knows it
     /// within ±π (its own count of the turn, or `T ω̂` of the last update). A non-finite
     /// input leaves the state untouched.
-    #[inline(always)]
+    // Out of line: one copy in flash for both observer roles (the board image has 224 B to
+    // spare), called only on the motors that need it.
+    #[inline(never)]
     pub fn update_aided(&self, st: &mut PllState, theta: f32, turn_hint: f32) -> f32 {
-        if !st.anchored {
+        let predicted = self.ts * st.omega;
+        // The turn over the period: the input's own difference, on the branch of the hint;
+        // the phase error carried over it (`z1` advanced by `T ω̂`, the input by the turn):
+        // the unwrapped `θ − z1`. The first update after a reset takes the turn predicted.
+        let (turn, e) = if st.anchored {
+            let turn = turn_hint + wrap_pi(theta - st.theta - turn_hint);
+            (turn, st.error + turn - predicted)
+        } else {
             cold_path();
-            if all_finite([theta]) {
-                let theta = wrap_pi(theta);
-                *st = PllState {
-                    z1: wrap_pi(theta + self.ts * st.omega),
-                    theta,
-                    anchored: true,
-                    ..*st
-                };
-            }
-            return st.omega;
-        }
-        // The turn over the period: the input's own difference, on the branch of the hint.
-        let turn = turn_hint + wrap_pi(theta - st.theta - turn_hint);
-        // The phase error, unwrapped: the last one carried over the period (`z1` advanced by
-        // `T ω̂`, the input by `turn`), to the branch of `θ − z1` nearest it.
-        let carried = st.error + turn - self.ts * st.omega;
-        let e = carried + wrap_pi(theta - st.z1 - carried);
-        if !all_finite([e, turn]) {
+            (predicted, 0.0)
+        };
+        if !all_finite([theta, turn, e]) {
             cold_path();
             return st.omega;
         }
@@ -186,9 +182,9 @@ impl Pll {
         st.error = e;
         st.theta = theta;
         st.turn = turn;
+        st.anchored = true;
         st.integral += self.ki_ts * e;
         st.omega = feed_forward + self.kp * e + st.integral;
-        st.z1 = wrap_pi(st.z1 + self.ts * st.omega);
         st.omega
     }
 
@@ -206,7 +202,8 @@ impl Pll {
             integral: if self.aided { 0.0 } else { omega },
             omega,
             error: 0.0,
-            theta: wrap_pi(theta),
+            // Not read before the next update (`anchored`).
+            theta: 0.0,
             turn: self.ts * omega,
             anchored: false,
         };
