@@ -61,6 +61,12 @@ impl Observer for FluxPll {
     fn read_out(&self, st: &mut FluxPllState, part: ReadOut) {
         match part {
             ReadOut::Angle => st.flux.update_angle(),
+            // The hint of the turn over the period: the one the last update predicted
+            // (`pll.rs`, "Aided").
+            ReadOut::Speed if self.pll.is_aided() => {
+                let hint = self.pll.predicted_turn(&st.pll);
+                self.pll.update_aided(&mut st.pll, st.flux.theta_e, hint);
+            }
             ReadOut::Speed => {
                 self.pll.update(&mut st.pll, st.flux.theta_e);
             }
@@ -87,7 +93,10 @@ impl Observer for FluxPll {
     /// PLL only differentiates it, so its error says the speed estimate is slipping, not that
     /// the angle is wrong. Its tracking error under an acceleration α is `α/ω_n²`: 25° for
     /// rated torque applied at once to the Sinano motor (4.3e4 rad/s² electrical), 0.2° on
-    /// the 1000 rpm/s ramp; a slipping PLL swings through ±180°.
+    /// the 1000 rpm/s ramp; a slipping PLL swings through ±180°. An aided PLL
+    /// ([`Pll::update_aided`]) has no lag under a constant acceleration, and its error is
+    /// unwrapped: it stays large while the speed estimate is off by more than the loop pulls
+    /// in.
     #[inline(always)]
     fn residual(&self, st: &FluxPllState) -> f32 {
         let pll_error = st.pll.error.abs() * (1.0 / FRAC_PI_2);
