@@ -417,3 +417,13 @@ fn rsqrt_and_sqrt_match_f64() {
     let tiny = f32::from_bits(1); // subnormal: the library path
     assert!((math::sqrt(tiny) as f64 / (tiny as f64).sqrt() - 1.0).abs() < 1e-6);
 }
+
+#[test]
+fn a_winding_half_again_its_resistance_is_127_k_warmer() {
+    use pmsm_sensorless::units::winding_rise_k;
+    // Copper: R(T) = R(T_ref)(1 + α (T − T_ref)), α = 1/254.5 K at 20 °C.
+    assert!((winding_rise_k(1.5, 1.0) - 127.25).abs() < 1e-3);
+    assert_eq!(winding_rise_k(2.5, 2.5), 0.0);
+    assert!(winding_rise_k(0.8, 1.0) < 0.0);
+    assert!(winding_rise_k(1.0, 0.0).is_nan());
+}

@@ -222,10 +222,11 @@ fn run(cli: Cli) -> Result<(), ToolError> {
             rate_hz,
             seconds,
         } => {
+            let r_ref_ohm = ops::settings(&mut c)?.motor.r_ohm;
             let records = ops::record(&mut c, rate_hz, seconds)?;
             let mut f = std::fs::File::create(&out)
                 .map_err(|e| ToolError::Other(anyhow::anyhow!("{}: {e}", out.display())))?;
-            ops::write_csv(&mut f, &records).map_err(ToolError::Io)?;
+            ops::write_csv(&mut f, &records, r_ref_ohm).map_err(ToolError::Io)?;
             println!("{} records in {}", records.len(), out.display());
         }
         Cmd::Fault { action } => {

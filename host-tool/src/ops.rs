@@ -255,16 +255,22 @@ pub fn refused_warning(r_ohm: f32) -> String {
 }
 
 /// The CSV header of [`write_csv`].
-pub const CSV_HEADER: &str = "t_s,mode,fault,speed_ref_rpm,speed_rpm,theta_e_primary,theta_e_monitor,theta_e_control,i_d,i_q,load_nm,driving,residual_primary,residual_monitor,disagreement_deg,speed_disagreement_rpm,r_ohm,flux_wb,voltage_limited";
+pub const CSV_HEADER: &str = "t_s,mode,fault,speed_ref_rpm,speed_rpm,theta_e_primary,theta_e_monitor,theta_e_control,i_d,i_q,load_nm,driving,residual_primary,residual_monitor,disagreement_deg,speed_disagreement_rpm,r_ohm,flux_wb,voltage_limited,winding_rise_k";
 
-/// Telemetry as CSV (every field; time from the first record \[s]).
-pub fn write_csv(out: &mut impl Write, records: &[Telemetry]) -> std::io::Result<()> {
+/// Telemetry as CSV (every field; time from the first record \[s]), and the winding's
+/// temperature rise \[K] from the resistance over `r_ref_ohm`, the configured one
+/// (`pmsm_sensorless::units::winding_rise_k`).
+pub fn write_csv(
+    out: &mut impl Write,
+    records: &[Telemetry],
+    r_ref_ohm: f32,
+) -> std::io::Result<()> {
     writeln!(out, "{CSV_HEADER}")?;
     let t0 = records.first().map_or(0, |r| r.t_ms);
     for r in records {
         writeln!(
             out,
-            "{},{:?},{},{},{},{},{},{},{},{},{},{:?},{},{},{},{},{},{},{}",
+            "{},{:?},{},{},{},{},{},{},{},{},{},{:?},{},{},{},{},{},{},{},{}",
             f64::from(r.t_ms.wrapping_sub(t0)) / 1000.0,
             r.mode,
             r.fault.map_or("", name_of),
@@ -284,6 +290,7 @@ pub fn write_csv(out: &mut impl Write, records: &[Telemetry]) -> std::io::Result
             r.r_ohm,
             r.flux_wb,
             r.voltage_limited,
+            pmsm_sensorless::units::winding_rise_k(r.r_ohm, r_ref_ohm),
         )?;
     }
     Ok(())

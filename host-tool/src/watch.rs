@@ -6,6 +6,7 @@ use crate::client::{Client, ToolError};
 use crate::ops;
 use pmsm_link::wire::{Mode, Reason, Telemetry};
 use pmsm_link::{Event, Request};
+use pmsm_sensorless::units::winding_rise_k;
 use ratatui::crossterm::event::{self, Event as Key, KeyCode};
 use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::style::{Color, Style};
@@ -22,9 +23,11 @@ const WINDOW_S: f64 = 10.0;
 
 /// Watches until `q`: telemetry at `rate_hz`.
 pub fn watch<T: Read + Write>(c: &mut Client<T>, rate_hz: u16) -> Result<(), ToolError> {
+    // The configured resistance: the winding's temperature rise is the tracked one's over it.
+    let r_ref_ohm = ops::settings(c)?.motor.r_ohm;
     c.request(Request::Stream(rate_hz))?;
     let mut terminal = ratatui::init();
-    let result = watch_loop(c, &mut terminal);
+    let result = watch_loop(c, &mut terminal, r_ref_ohm);
     ratatui::restore();
     c.request(Request::Stream(0))?;
     result
@@ -33,6 +36,7 @@ pub fn watch<T: Read + Write>(c: &mut Client<T>, rate_hz: u16) -> Result<(), Too
 fn watch_loop<T: Read + Write>(
     c: &mut Client<T>,
     terminal: &mut ratatui::DefaultTerminal,
+    r_ref_ohm: f32,
 ) -> Result<(), ToolError> {
     let mut records: VecDeque<Telemetry> = VecDeque::new();
     // The last alignment's resistance measurement refused (until an alignment's is taken).
@@ -59,7 +63,7 @@ fn watch_loop<T: Read + Write>(
             }
         }
         terminal
-            .draw(|f| draw(f, &records, refused))
+            .draw(|f| draw(f, &records, refused, r_ref_ohm))
             .map_err(ToolError::Io)?;
         if event::poll(Duration::from_millis(30)).map_err(ToolError::Io)? {
             if let Key::Key(k) = event::read().map_err(ToolError::Io)? {
@@ -71,9 +75,10 @@ fn watch_loop<T: Read + Write>(
     }
 }
 
-/// One screen: the status line (under it, the warning of a start whose resistance
+/// One screen: the status line (the winding's temperature rise from the resistance over
+/// `r_ref_ohm`, the configured one; under it, the warning of a start whose resistance
 /// measurement was `refused`) and three plots.
-fn draw(f: &mut Frame, records: &VecDeque<Telemetry>, refused: bool) {
+fn draw(f: &mut Frame, records: &VecDeque<Telemetry>, refused: bool, r_ref_ohm: f32) {
     let [status, speed, currents, residuals] = Layout::vertical([
         Constraint::Length(2),
         Constraint::Percentage(40),
@@ -84,7 +89,7 @@ fn draw(f: &mut Frame, records: &VecDeque<Telemetry>, refused: bool) {
     let last = records.back();
     let text = match last {
         Some(t) => format!(
-            "mode {:?}  driving {:?}  fault {}  speed {:.1} rpm (ref {:.1})  i_q {:.2} A  R {:.4} Ω  ψ {:.5} Wb   [q quits]",
+            "mode {:?}  driving {:?}  fault {}  speed {:.1} rpm (ref {:.1})  i_q {:.2} A  R {:.4} Ω (winding {:+.0} K)  ψ {:.5} Wb   [q quits]",
             t.mode,
             t.driving,
             t.fault.map_or("none", ops::name_of),
@@ -92,6 +97,7 @@ fn draw(f: &mut Frame, records: &VecDeque<Telemetry>, refused: bool) {
             t.speed_ref_rpm,
             t.i_q,
             t.r_ohm,
+            winding_rise_k(t.r_ohm, r_ref_ohm),
             t.flux_wb
         ),
         None => "waiting for telemetry ...   [q quits]".into(),
@@ -222,7 +228,7 @@ mod tests {
             .collect();
         let mut t = Terminal::new(TestBackend::new(200, 40)).unwrap();
         let screen = |t: &mut Terminal<TestBackend>, refused: bool| -> String {
-            t.draw(|f| draw(f, &records, refused)).unwrap();
+            t.draw(|f| draw(f, &records, refused, 2.0)).unwrap();
             t.backend()
                 .buffer()
                 .content()
@@ -234,6 +240,8 @@ mod tests {
         for text in [
             "mode Sensorless",
             "speed 501.0 rpm",
+            // R 2.5 Ω against the configured 2 Ω: (1.25 − 1)/α_Cu = 64 K.
+            "winding +64 K",
             "speed [rpm]",
             "currents [A]",
             "residuals",

@@ -108,6 +108,7 @@ fn a_motor_set_and_saved_is_read_back_after_a_reset() {
 fn three_speed_commands_are_held_within_two_percent() {
     let served = device(HORNG_SINANO, true);
     let mut c = link(&served);
+    let r_ref_ohm = ops::settings(&mut c).unwrap().motor.r_ohm;
     for rpm in [300.0f32, 600.0, -450.0] {
         // The transient: the ramp (rated speed in a second) and the speed loop's settling.
         ops::run(&mut c, rpm, 1.5, 20).unwrap();
@@ -130,10 +131,17 @@ fn three_speed_commands_are_held_within_two_percent() {
             "{truth}"
         );
         let mut csv = Vec::new();
-        ops::write_csv(&mut csv, &records).unwrap();
+        ops::write_csv(&mut csv, &records, r_ref_ohm).unwrap();
         let text = String::from_utf8(csv).unwrap();
         assert_eq!(text.lines().count(), records.len() + 1);
-        assert_eq!(text.lines().next().unwrap().split(',').count(), 19);
+        assert_eq!(text.lines().next().unwrap().split(',').count(), 20);
+        // The winding's temperature rise: the plant's winding is at the configured
+        // resistance's temperature, and the start measured it within a few per cent (1 % is
+        // 2.5 K), so within ±15 K.
+        for line in text.lines().skip(1) {
+            let rise: f32 = line.rsplit(',').next().unwrap().parse().unwrap();
+            assert!(rise.abs() < 15.0, "{rise} K: {line}");
+        }
     }
     ops::stop(&mut c).unwrap();
 }
