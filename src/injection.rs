@@ -36,7 +36,9 @@
 //! axis and compares the mean responses; a smaller response under `+I_p` flips `θ̂` by `π`.
 //!
 //! **Scaled from the motor** (never tuned to one):
-//! - injection voltage `V_h = min(R_h · I_τ · L_d / T, V_max/4)`: the d current's swing per
+//! - injection voltage `V_h = min(R_h · I_τ · L_d / (T |1 − 2δ|), V_max/4)`, `δ` the board's
+//!   update delay in periods (the square wave applied is `(1 − 2δ)` of the commanded, its sign
+//!   taken into the demodulation; declined where `|1 − 2δ| <` [`GAIN_MIN`]): the d current's swing per
 //!   period is `R_h = 0.3` ([`RIPPLE`]) of the rated-torque current `I_τ`, unless that takes
 //!   more than a quarter of the inverter's `V_max = V_bus/√3` ([`VOLTAGE_SHARE_MAX`]: the rest
 //!   is the current loop's, for the resistance and the back-EMF up to the hand-over);
@@ -75,13 +77,19 @@ pub const POLARITY_S: f32 = 0.008;
 pub const VOLTAGE_SHARE_MAX: f32 = 0.25;
 
 /// The smallest d swing per period the drive injects with (where [`VOLTAGE_SHARE_MAX`] cuts
-/// `V_h`), a fraction of the rated-torque current.
-pub const RIPPLE_MIN: f32 = 0.1;
+/// `V_h`), a fraction of the rated-torque current: five times the board's current noise (1 %
+/// of the rated current, `DESIGN.md`).
+pub const RIPPLE_MIN: f32 = 0.05;
+
+/// The smallest share of the square wave the update delay may leave, `|1 − 2δ|`.
+pub const GAIN_MIN: f32 = 0.25;
 
 /// Why the drive does not inject on this motor (it starts as without the injection: align
 /// and open loop).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Declined {
+    /// The drive's configuration does not ask for it (`DriveConfig::injection`).
+    NotAsked,
     /// `L_q/L_d` (the ratio given) below [`SALIENCY_MIN`]: no usable saliency.
     NotSalient {
         /// The motor's `L_q/L_d`.
@@ -94,6 +102,12 @@ pub enum Declined {
         swing_a: f32,
         /// `V_bus/√3` \[V].
         v_max: f32,
+    },
+    /// The update delay `δ` (in periods) leaves less than [`GAIN_MIN`] of the square wave:
+    /// its gain `|1 − 2δ|` given.
+    Delay {
+        /// `|1 − 2δ|`.
+        gain: f32,
     },
     /// A parameter not finite or not positive (the name given).
     Parameter(&'static str),
@@ -112,6 +126,10 @@ pub struct InjectionConfig {
     pub bus_v: f32,
     /// Control rate \[Hz] (one injection period per step).
     pub rate_hz: f32,
+    /// The board's update delay in control periods, 0..=1 (`PowerStageConfig::update_delay_s`
+    /// times the rate): the voltage over a period is `(1 − δ)` of its command and `δ` of the
+    /// one before.
+    pub delay_periods: f32,
 }
 
 /// The injection's per-step coefficients ([`InjectionConfig::build`]).
@@ -119,6 +137,8 @@ pub struct InjectionConfig {
 pub struct Injection {
     /// `V_h` \[V].
     v_h: f32,
+    /// The sign of the square wave's gain through the update delay, `sgn(1 − 2δ)`.
+    demod_sign: f32,
     /// `T` \[s].
     ts: f32,
     /// `2ζω_n T` \[1].
@@ -209,10 +229,24 @@ impl InjectionConfig {
         if !(ratio >= SALIENCY_MIN) {
             return Err(Declined::NotSalient { ratio });
         }
+        let delay = self.delay_periods;
+        if !(0.0..=1.0).contains(&delay) {
+            return Err(Declined::Parameter("delay_periods"));
+        }
+        // The square wave through the update delay: `(1 − δ) s_k + δ s_{k−1} = (1 − 2δ) s_k`.
+        let gain = 1.0 - 2.0 * delay;
+        if !(libm::fabsf(gain) >= GAIN_MIN) {
+            return Err(Declined::Delay {
+                gain: libm::fabsf(gain),
+            });
+        }
         let ts = 1.0 / rate;
         let v_max = bus * crate::math::INV_SQRT3;
-        let v_h = min(RIPPLE * i_tau * l_d / ts, VOLTAGE_SHARE_MAX * v_max);
-        let swing = v_h * ts / l_d;
+        let v_h = min(
+            RIPPLE * i_tau * l_d / (ts * libm::fabsf(gain)),
+            VOLTAGE_SHARE_MAX * v_max,
+        );
+        let swing = v_h * libm::fabsf(gain) * ts / l_d;
         if !(swing >= RIPPLE_MIN * i_tau) {
             return Err(Declined::Voltage {
                 swing_a: swing,
@@ -223,12 +257,13 @@ impl InjectionConfig {
         let lock_s = 12.0 / w_n;
         Ok(Injection {
             v_h,
+            demod_sign: if gain > 0.0 { 1.0 } else { -1.0 },
             ts,
             kp_ts: 2.0 * w_n * ts,
             ki_ts: w_n * w_n * ts,
             inv_ks: 1.0 / (1.0 - l_d / l_q),
             eta_gain: 1.0 - libm::expf(-ts * w_n / 4.0),
-            eta_nominal: v_h * ts / l_d,
+            eta_nominal: swing,
             lock_steps: libm::ceilf(lock_s * rate) as u32,
             half_steps: libm::ceilf(POLARITY_S * rate) as u32,
             bias_a: POLARITY_BIAS * i_tau,
@@ -292,7 +327,7 @@ impl Injection {
         );
         let di = d_ab.to_dq(frame);
         let i_dq = m_ab.to_dq(frame);
-        let s = st.sign;
+        let s = st.sign * self.demod_sign;
         let eta = s * di.d;
         let eps = s * di.q;
         // Yoon et al.: the error in radians near lock, normalised by the measured d response
@@ -308,7 +343,7 @@ impl Injection {
             st.i_prev2 = st.i_prev;
             st.i_prev = i_ab;
         }
-        let next = if s > 0.0 { -1.0 } else { 1.0 };
+        let next = if st.sign > 0.0 { -1.0 } else { 1.0 };
         st.sign = next;
         Tracked {
             frame,

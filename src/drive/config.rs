@@ -141,6 +141,12 @@ pub struct DriveConfig {
     /// speed loop's d current the more negative of the MTPA's and the field weakening's.
     /// False: the field weakening's alone (`i_d = 0` below it), as on a non-salient motor.
     pub mtpa: bool,
+    /// Start a rotor found at rest through high-frequency injection on a salient motor
+    /// (feature `injection`, `inject.rs`; false): tracked from zero speed, its polarity
+    /// tested, no alignment and no open loop. Declined on a motor without the saliency
+    /// ([`Drive::injection`](super::Drive::injection) says why), which starts as without it.
+    #[cfg(feature = "injection")]
+    pub injection: bool,
 }
 
 impl DriveConfig {
@@ -228,6 +234,8 @@ impl DriveConfig {
                 sense_lsb_a: 0.0,
             },
             mtpa: true,
+            #[cfg(feature = "injection")]
+            injection: false,
         }
     }
 
@@ -455,6 +463,8 @@ impl DriveConfig {
                 },
             ),
             terminal_sensing: self.power_stage.terminal_sensing,
+            #[cfg(feature = "injection")]
+            inject: self.inject_settings(&m, &foc, ramp),
             #[cfg(feature = "identify")]
             identify: identify::Settings::new(
                 &self.ratings,
@@ -537,6 +547,41 @@ impl DriveConfig {
                 max_disagreement: h.max_disagreement_deg * RAD_PER_DEG,
                 max_speed_disagreement_rpm: h.max_speed_disagreement_rpm,
             },
+        })
+    }
+}
+
+#[cfg(feature = "injection")]
+impl DriveConfig {
+    /// The injection start's settings (`inject.rs`), or why the drive declines it: not asked
+    /// for, or the motor's saliency or the bus (`crate::injection`). The current scale is the
+    /// rated-torque current, the rate the drive's, the update delay taken by the injection's
+    /// normalisation; the speed estimate's low-pass a 5 ms time constant per millisecond (the
+    /// speed loop's 20 Hz band passes it).
+    fn inject_settings(
+        &self,
+        m: &MotorParams,
+        _foc: &crate::foc::Foc,
+        ramp: Ramp,
+    ) -> Result<super::inject::Settings, super::Declined> {
+        if !self.injection {
+            return Err(super::Declined::NotAsked);
+        }
+        let injection = crate::injection::InjectionConfig {
+            l_d_h: m.l_d_h(),
+            l_q_h: m.l_q_h(),
+            current_a: self.ratings.torque_nm / m.torque_constant(),
+            bus_v: self.ratings.bus_v,
+            rate_hz: self.rate_hz,
+            delay_periods: self.delay_periods(),
+        }
+        .build()?;
+        Ok(super::inject::Settings {
+            injection,
+            inv_n: 1.0 / m.n(),
+            handover_rpm: self.start.handover_rpm,
+            ramp,
+            speed_gain: 1.0 - libm::expf(-(1.0 / crate::schedule::TICK_HZ) / 0.005),
         })
     }
 }

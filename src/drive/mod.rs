@@ -46,6 +46,8 @@ mod config_observers;
 mod config_rate;
 mod derating;
 pub mod identify;
+#[cfg(feature = "injection")]
+mod inject;
 mod io;
 mod mode;
 mod observers;
@@ -65,6 +67,8 @@ pub use crate::power_stage::DriveInput;
 pub use crate::schedule::{Schedule, SLOTS};
 pub use config::{DriveConfig, HealthConfig, Limits, PowerStageConfig, StartConfig};
 pub use identify::{Identified, IdentifyConfig, IdentifyError, IdentifyPhase};
+#[cfg(feature = "injection")]
+pub use inject::{Declined, HANDOVER_CHECKS};
 pub use io::{
     Command, DriveOutput, Fault, Mode, Reason, ResistanceRefused, Role, Telemetry, Transition,
 };
@@ -121,6 +125,10 @@ pub struct Drive<P, M> {
     catch_zero: catch_zero::Settings,
     /// The board senses the terminal voltage (`PowerStageConfig::terminal_sensing`).
     terminal_sensing: bool,
+    /// The start through high-frequency injection (`inject.rs`), or why not; last, like the
+    /// identification's settings.
+    #[cfg(feature = "injection")]
+    inject: Result<inject::Settings, Declined>,
 }
 
 /// What a mode's step decided.
@@ -201,6 +209,14 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                     reason = Some(Reason::Disabled);
                 }
             }
+            #[cfg(feature = "injection")]
+            ModeState::Inject(_) => {
+                if !cmd.enable {
+                    cold_path();
+                    st.restart(ModeState::Idle);
+                    reason = Some(Reason::Disabled);
+                }
+            }
         }
         // 3.-5. Observers, the mode's step, FOC.
         let duties = match st.mode {
@@ -242,6 +258,26 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                         (ModeState::Catch(_), Some(v)) => v,
                         _ => st.last.v_ab(),
                     };
+                    let ok = self.observe(st, i_ab, v_ab);
+                    let (duties, r) = self.control(st, input, i_ab, cmd.speed_rpm, ok);
+                    if r.is_some() {
+                        reason = r;
+                    }
+                    duties
+                }
+            }
+            // The injection's start (`inject.rs`): the same checks, observers and FOC.
+            #[cfg(feature = "injection")]
+            ModeState::Inject(_) => {
+                if st.task_stalled(&self.schedule) {
+                    reason = Some(enter_fault(st, Fault::TaskStall));
+                    None
+                } else if self.sensing.implausible(&mut st.sum_count, input.i_abc) {
+                    reason = Some(enter_fault(st, Fault::CurrentSensor));
+                    None
+                } else {
+                    let i_ab = input.i_abc.to_alpha_beta();
+                    let v_ab = st.last.v_ab();
                     let ok = self.observe(st, i_ab, v_ab);
                     let (duties, r) = self.control(st, input, i_ab, cmd.speed_rpm, ok);
                     if r.is_some() {
@@ -294,6 +330,8 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             // Without the feature `identify` the mode is never entered.
             #[cfg(not(feature = "identify"))]
             ModeState::Identify => return None,
+            #[cfg(feature = "injection")]
+            ModeState::Inject(_) => return self.inject_tick(st, cmd),
             ModeState::Catch(_)
             | ModeState::CatchZero(_)
             | ModeState::OpenLoop(_)
@@ -356,6 +394,8 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             | ModeState::Calibrate
             | ModeState::Identify
             | ModeState::Identified => Next::Stay,
+            #[cfg(feature = "injection")]
+            ModeState::Inject(_) => Next::Stay,
         };
         let reason = match next {
             Next::Stay => return None,
@@ -444,6 +484,8 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             ModeState::Catch(_) | ModeState::CatchZero(_) | ModeState::Align(_) => {
                 self.starting(st, input, i_ab, cmd_rpm, observers_ok)
             }
+            #[cfg(feature = "injection")]
+            ModeState::Inject(_) => self.starting(st, input, i_ab, cmd_rpm, observers_ok),
             // Not running: `Drive::step` does not call this in these modes.
             ModeState::Idle
             | ModeState::Fault(_)
@@ -508,7 +550,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 };
                 match self.catch.step(c, v_ab) {
                     Seen::AtRest => {
-                        st.mode = ModeState::Align(Align::default());
+                        st.mode = self.at_rest(i_ab);
                         return Outcome::Off(Some(Reason::AtRest));
                     }
                     Seen::Rotor(rotor) => self.seed_caught(&mut st.obs, i_ab, rotor),
@@ -528,7 +570,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 {
                     Probe::Run(request) => Outcome::Run(request),
                     Probe::AtRest => {
-                        st.mode = ModeState::Align(Align::default());
+                        st.mode = self.at_rest(i_ab);
                         st.watch = catch_zero::Watch::default();
                         Outcome::Off(Some(Reason::AtRest))
                     }
@@ -574,7 +616,15 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                     Outcome::Run(request)
                 }
             }
-            // `control` calls this in the three modes above only.
+            #[cfg(feature = "injection")]
+            ModeState::Inject(s) => match &self.inject {
+                Ok(settings) => {
+                    let v_bus = input.v_bus;
+                    Outcome::Run(settings.step(s, &self.foc, &mut st.current, i_ab, v_bus))
+                }
+                Err(_) => Outcome::Fault(Fault::InvalidInput),
+            },
+            // `control` calls this in the modes above only.
             _ => Outcome::Off(None),
         }
     }
@@ -636,4 +686,58 @@ fn enter_fault<PS, MS>(st: &mut DriveState<PS, MS>, fault: Fault) -> Reason {
     cold_path();
     st.mode = ModeState::Fault(fault);
     Reason::Fault(fault)
+}
+
+impl<P: Observer, M: Observer> Drive<P, M> {
+    /// The mode of a start from a rotor found at rest: the alignment, or with the feature
+    /// `injection` on a salient motor the injection's start (`inject.rs`), `i_ab` the
+    /// currents now \[A].
+    #[inline(always)]
+    fn at_rest(&self, _i_ab: AlphaBeta) -> ModeState {
+        #[cfg(feature = "injection")]
+        if let Ok(settings) = &self.inject {
+            return ModeState::Inject(settings.start(_i_ab));
+        }
+        ModeState::Align(Align::default())
+    }
+
+    /// Whether this drive starts a rotor at rest through high-frequency injection (feature
+    /// `injection`, `inject.rs`), or why not: a motor without the saliency, or a configuration
+    /// that does not ask for it ([`DriveConfig::injection`]); it then starts with the
+    /// alignment and the open loop.
+    #[cfg(feature = "injection")]
+    pub fn injection(&self) -> Result<(), Declined> {
+        self.inject.map(|_| ())
+    }
+
+    /// The injection start's 1 kHz work: its speed loop, and the hand-over to sensorless
+    /// control with the observers seeded at its rotor state.
+    #[cfg(feature = "injection")]
+    #[inline(never)]
+    fn inject_tick(&self, st: &mut StateOf<P, M>, cmd: &Command) -> Option<Transition> {
+        let from = st.mode();
+        let (ModeState::Inject(s), Ok(settings)) = (&mut st.mode, &self.inject) else {
+            return None;
+        };
+        st.last.close_millisecond(&self.schedule);
+        let mtpa = self.sensorless.mtpa.as_ref();
+        let Next::Sensorless(entry, reason) = settings.tick(s, &self.foc, mtpa, cmd.speed_rpm)
+        else {
+            return None;
+        };
+        let (theta_e, _) = s.estimate();
+        let rotor = Rotor {
+            theta_e,
+            omega_m: entry.omega_m,
+            load_nm: 0.0,
+        };
+        self.seed_observers(&mut st.obs, Seed::BOTH, st.i_ab_last, rotor);
+        st.obs.health = Health::AT_KNOWN_STATE;
+        st.mode = ModeState::Sensorless(self.sensorless.enter(&self.foc, entry));
+        Some(Transition {
+            from,
+            to: st.mode(),
+            reason,
+        })
+    }
 }

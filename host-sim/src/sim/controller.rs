@@ -55,6 +55,8 @@ pub(super) trait SimDrive {
     fn v_ab_applied(&self) -> AlphaBeta;
     /// The current sensors' offsets the drive measured [A, αβ].
     fn offset_ab(&self) -> AlphaBeta;
+    /// The injection's estimate in its start (`DriveState::injection`).
+    fn injection(&self) -> Option<(f32, f32, bool)>;
 }
 
 /// The board's sample of a period handed to the control loop, and the duties the loop
@@ -123,6 +125,9 @@ impl<P: Observer, M: Observer> SimDrive for Control<P, M, Latch> {
     fn v_ab_applied(&self) -> AlphaBeta {
         self.state().v_ab_applied()
     }
+    fn injection(&self) -> Option<(f32, f32, bool)> {
+        self.state().injection()
+    }
     fn offset_ab(&self) -> AlphaBeta {
         self.state().offset_ab()
     }
@@ -189,6 +194,7 @@ impl Controller {
         // plant, dead time 0, gets no compensation).
         config.board.configure_drive(&mut cfg);
         cfg.mtpa = config.mtpa;
+        cfg.injection = config.injection;
         let err = |e| anyhow::anyhow!("drive configuration: {e}");
         let drive = match config.observer {
             ObserverKind::SlidingTorque => running(cfg.build_sliding_primary().map_err(err)?),
@@ -311,8 +317,10 @@ impl Controller {
                 };
                 // The angle the controller runs on: the driving observer's while sensorless.
                 let sensorless = tel.mode == Mode::Sensorless;
+                // In the injection's start, its estimate.
+                let injecting = drive.injection().is_some();
                 let est = Estimate {
-                    theta_e: if sensorless {
+                    theta_e: if sensorless || injecting {
                         tel.theta_e_control
                     } else {
                         tel.theta_e_primary
