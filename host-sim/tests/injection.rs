@@ -389,3 +389,113 @@ windows = [["half", 1.2, 1.5]]
         );
     }
 }
+
+/// On the AMK and the Zou motors: started at zero command through the injection (a command of 0.1 % of rated
+/// speed for the first 50 ms, zero after it), an active load rising from 0.1 s to 100 % of
+/// rated torque at 0.4 s and held to 2.4 s: the drive holds it at zero speed for the 2 s, on
+/// the injection throughout (never handed over, no fault); the speed's mean over the last 2 s
+/// within 1 % of rated speed, and the injection's angle error over them, the current and the
+/// rotor's travel printed. Not asserted: the rotor's travel. The speed loop holds speed, not
+/// position: the load's rise moves the rotor by about `4 Δτ/(J ω_s²)` (the speed PI's error
+/// under a torque ramp, integrated; 9 rad on the AMK's bare rotor), and it creeps on while the
+/// integrator settles. A position loop at zero command is an open point.
+#[test]
+fn rated_torque_held_at_zero_speed_for_2_s() {
+    let spec = Spec::parse(
+        "inject-hold-100",
+        r#"
+description = "rated active load held at zero speed through the injection"
+duration_s = 2.4
+speed = [[0.0, 0.001], [0.05, 0.001], [0.05, 0.0]]
+load = [[0.0, 0.0], [0.1, 0.0], [0.4, 1.0]]
+load_kind = "active"
+windows = [["held", 0.4, 2.4]]
+"#,
+    )
+    .unwrap();
+    // Not the Caruso IPM: its (estimated) 6e-5 kg·m² rotor is shaken by the speed loop on the
+    // injection's noisy speed estimate and, at 70 % of the load's rise, the injection loses the
+    // angle (an overcurrent at 0.37 s): an open point.
+    for (k, file) in [MOTORS[0], MOTORS[2]].into_iter().enumerate() {
+        let theta_m0 = 2.1 + 1.7 * k as f64;
+        let cfg = drive_config(file, &spec, theta_m0, true);
+        let n = cfg.scenario.motor.params.n() as f64;
+        let rated_rpm = f64::from(cfg.scenario.motor.ratings.speed_rpm);
+        let r = run_sim(cfg).unwrap();
+        let s = Summary::of(&r);
+        let modes: Vec<_> = r
+            .transitions
+            .iter()
+            .map(|(t, tr)| format!("{t:.4} {:?}->{:?} {:?}", tr.from, tr.to, tr.reason))
+            .collect();
+        let travel = travel_m(&r.rows, n);
+        let held: Vec<(&Row, f64)> = r
+            .rows
+            .iter()
+            .zip(travel.iter().copied())
+            .filter(|(row, _)| row.t >= 0.4)
+            .collect();
+        let m = held.len() as f64;
+        let speed = held.iter().map(|(row, _)| row.speed_rpm).sum::<f64>() / m;
+        let load = held.iter().map(|(row, _)| row.load_nm).sum::<f64>() / m;
+        let errs: Vec<f64> = held.iter().map(|(row, _)| row.theta_err_deg()).collect();
+        let mean_err = errs.iter().sum::<f64>() / m;
+        let i_q = held.iter().map(|(row, _)| row.i_q).sum::<f64>() / m;
+        let i_d = held.iter().map(|(row, _)| row.i_d).sum::<f64>() / m;
+        let (x0, x1) = (held[0].1, held[held.len() - 1].1);
+        let extreme = travel
+            .iter()
+            .fold(0.0f64, |a, &x| if x.abs() > a.abs() { x } else { a });
+        println!(
+            "{file}: load {load:.2} N·m held 2 s: mean speed {speed:.3} rpm, i_d {i_d:.2} A, \
+             i_q {i_q:.2} A; angle error mean {mean_err:.2}°, RMS {:.2}° electrical; rotor travel \
+             {:.2}° at 0.4 s, {:.2}° at 2.4 s, largest {:.2}° mechanical; verdict {} {:?}; {modes:?}",
+            rms(&errs),
+            x0.to_degrees(),
+            x1.to_degrees(),
+            extreme.to_degrees(),
+            s.pass,
+            s.reasons
+        );
+        assert!(
+            r.transitions
+                .iter()
+                .all(|(_, tr)| tr.to != Mode::Sensorless && tr.to != Mode::Fault),
+            "{file}: {modes:?}"
+        );
+        assert!(speed.abs() < 0.01 * rated_rpm, "{file}: {speed} rpm");
+        assert!(mean_err.abs() < 10.0 && rms(&errs) < 20.0, "{file}");
+        assert!(s.pass, "{file}: {:?}", s.reasons);
+    }
+}
+
+/// A non-salient motor (the Sinano, `L_q = L_d`) with the injection asked for: the drive
+/// declines (`Declined::NotSalient`) and starts as without it, to the last bit: the same rows
+/// and transitions as with the injection not asked for (align, open loop, hand-over).
+#[test]
+fn a_non_salient_drive_declines_and_starts_as_today() {
+    let m = pmsm_sensorless::motor::HORNG_SINANO;
+    let mut dc = DriveConfig::new(&m);
+    dc.injection = true;
+    let drive = dc.build_flux_primary().unwrap();
+    assert_eq!(
+        drive.injection(),
+        Err(Declined::NotSalient { ratio: 1.0 }),
+        "the named reason"
+    );
+    let sc = pmsm_host_sim::scenario::by_name("sup-start-brake-100").unwrap();
+    let runs: Vec<_> = [false, true]
+        .into_iter()
+        .map(|injection| {
+            let mut cfg =
+                SimConfig::on(SimBoard::board_defaults(&m), sc.clone(), ObserverKind::Flux);
+            cfg.injection = injection;
+            run_sim(cfg).unwrap()
+        })
+        .collect();
+    let modes: Vec<_> = runs[1].transitions.iter().map(|(_, tr)| tr.to).collect();
+    println!("sinano with the injection asked for: {modes:?}");
+    assert!(modes.contains(&Mode::OpenLoop), "{modes:?}");
+    assert_eq!(runs[0].transitions, runs[1].transitions);
+    assert_eq!(runs[0].rows, runs[1].rows);
+}
