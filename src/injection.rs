@@ -88,7 +88,7 @@ pub const GAIN_MIN: f32 = 0.25;
 /// and open loop).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Declined {
-    /// The drive's configuration does not ask for it (`DriveConfig::injection`).
+    /// The drive was not asked for it (`Drive::with_injection`).
     NotAsked,
     /// `L_q/L_d` (the ratio given) below [`SALIENCY_MIN`]: no usable saliency.
     NotSalient {
@@ -312,6 +312,11 @@ impl Injection {
     /// was (the drive's input checks fault on them).
     #[inline(always)]
     pub fn step(&self, st: &mut InjectionState, i_ab: AlphaBeta) -> Tracked {
+        if st.sign == 0.0 {
+            // A fresh state (`InjectionState::default()`, θ̂ = 0): its first sample.
+            core::hint::cold_path();
+            *st = self.start(st.theta_e, i_ab);
+        }
         let (sin, cos) = sin_cos_wrapped(st.theta_e);
         let frame = SinCos { sin, cos };
         // The second difference (i_k − 2 i_{k−1} + i_{k−2})/2: the square wave's response

@@ -263,7 +263,7 @@ fn a_non_salient_motor_is_declined() {
     assert_eq!(cfg.build(), Err(Declined::NotSalient { ratio: 1.0 }));
 }
 
-// ---- The drive's start through the injection (`DriveConfig::injection`), on the board. ----
+// ---- The drive's start through the injection (`Drive::with_injection`), on the board. ----
 
 use pmsm_host_sim::board::SimBoard;
 use pmsm_host_sim::observer::ObserverKind;
@@ -475,9 +475,8 @@ windows = [["held", 0.4, 2.4]]
 #[test]
 fn a_non_salient_drive_declines_and_starts_as_today() {
     let m = pmsm_sensorless::motor::HORNG_SINANO;
-    let mut dc = DriveConfig::new(&m);
-    dc.injection = true;
-    let drive = dc.build_flux_primary().unwrap();
+    let dc = DriveConfig::new(&m);
+    let drive = dc.build_flux_primary().unwrap().with_injection(&dc);
     assert_eq!(
         drive.injection(),
         Err(Declined::NotSalient { ratio: 1.0 }),

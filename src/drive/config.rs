@@ -141,12 +141,6 @@ pub struct DriveConfig {
     /// speed loop's d current the more negative of the MTPA's and the field weakening's.
     /// False: the field weakening's alone (`i_d = 0` below it), as on a non-salient motor.
     pub mtpa: bool,
-    /// Start a rotor found at rest through high-frequency injection on a salient motor
-    /// (feature `injection`, `inject.rs`; false): tracked from zero speed, its polarity
-    /// tested, no alignment and no open loop. Declined on a motor without the saliency
-    /// ([`Drive::injection`](super::Drive::injection) says why), which starts as without it.
-    #[cfg(feature = "injection")]
-    pub injection: bool,
 }
 
 impl DriveConfig {
@@ -234,8 +228,6 @@ impl DriveConfig {
                 sense_lsb_a: 0.0,
             },
             mtpa: true,
-            #[cfg(feature = "injection")]
-            injection: false,
         }
     }
 
@@ -463,8 +455,9 @@ impl DriveConfig {
                 },
             ),
             terminal_sensing: self.power_stage.terminal_sensing,
+            // Not asked for: `Drive::with_injection`.
             #[cfg(feature = "injection")]
-            inject: self.inject_settings(&m, &foc, ramp),
+            inject: Err(super::Declined::NotAsked),
             #[cfg(feature = "identify")]
             identify: identify::Settings::new(
                 &self.ratings,
@@ -558,15 +551,13 @@ impl DriveConfig {
     /// rated-torque current, the rate the drive's, the update delay taken by the injection's
     /// normalisation; the speed estimate's low-pass a 5 ms time constant per millisecond (the
     /// speed loop's 20 Hz band passes it).
-    fn inject_settings(
+    pub(super) fn inject_settings(
         &self,
-        m: &MotorParams,
-        _foc: &crate::foc::Foc,
         ramp: Ramp,
     ) -> Result<super::inject::Settings, super::Declined> {
-        if !self.injection {
-            return Err(super::Declined::NotAsked);
-        }
+        let m = self
+            .validate()
+            .map_err(|_| super::Declined::Parameter("motor"))?;
         let injection = crate::injection::InjectionConfig {
             l_d_h: m.l_d_h(),
             l_q_h: m.l_q_h(),

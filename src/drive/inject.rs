@@ -14,9 +14,9 @@
 //! the injection's estimate.
 //!
 //! The drive declines to inject ([`Declined`]) on a motor whose saliency is too small, or
-//! when the configuration does not ask for it
-//! ([`DriveConfig::injection`](super::DriveConfig::injection)): it starts as without the
-//! feature (align, open loop), and [`Drive::injection`](super::Drive::injection) says why.
+//! when it is not asked to ([`Drive::with_injection`](super::Drive::with_injection)): it
+//! starts as without the feature (align, open loop), and
+//! [`Drive::injection`](super::Drive::injection) says why.
 
 use super::mode::{Entry, Next};
 use super::ramp::Ramp;
@@ -47,8 +47,10 @@ pub(super) struct Settings {
     pub(super) speed_gain: f32,
 }
 
-/// The state of the injection start.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// The state of the injection start (`DriveState::inject`, kept out of the mode's enum so
+/// that its size, which every mode change moves, stays the running modes'). `Default`: θ̂ = 0,
+/// the injection's first sample next.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(super) struct Inject {
     pub(super) inj: InjectionState,
     speed_pi: PiState,
@@ -62,20 +64,6 @@ pub(super) struct Inject {
 }
 
 impl Settings {
-    /// The injection from the estimate θ̂_e = 0, `i_ab` the currents now \[A].
-    // Out of line: once per start.
-    #[inline(never)]
-    pub(super) fn start(&self, i_ab: AlphaBeta) -> Inject {
-        Inject {
-            inj: self.injection.start(0.0, i_ab),
-            speed_pi: PiState::default(),
-            speed_ref_rpm: 0.0,
-            omega_m: 0.0,
-            i_ref: Dq::default(),
-            above: 0,
-        }
-    }
-
     /// One step: the injection's demodulation and tracking, the current loop on its
     /// fundamental current in its frame, the injection voltage added on its d axis.
     #[inline(always)]
@@ -131,7 +119,7 @@ impl Settings {
         };
         let fast = libm::fabsf(s.omega_m * RPM_PER_RAD_S) >= self.handover_rpm
             && libm::fabsf(s.speed_ref_rpm) >= self.handover_rpm;
-        s.above = if fast { s.above + 1 } else { 0 };
+        s.above = if fast { s.above.saturating_add(1) } else { 0 };
         if s.above >= HANDOVER_CHECKS {
             let entry = Entry {
                 omega_m: s.omega_m,

@@ -187,7 +187,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                     } else if !self.terminal_sensing {
                         ModeState::CatchZero(CatchZero::default())
                     } else {
-                        ModeState::Align(Align::default())
+                        self.at_rest()
                     };
                     st.restart(mode);
                     self.adaptation.ensure(&mut st.obs.model);
@@ -210,7 +210,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 }
             }
             #[cfg(feature = "injection")]
-            ModeState::Inject(_) => {
+            ModeState::Inject => {
                 if !cmd.enable {
                     cold_path();
                     st.restart(ModeState::Idle);
@@ -268,7 +268,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             }
             // The injection's start (`inject.rs`): the same checks, observers and FOC.
             #[cfg(feature = "injection")]
-            ModeState::Inject(_) => {
+            ModeState::Inject => {
                 if st.task_stalled(&self.schedule) {
                     reason = Some(enter_fault(st, Fault::TaskStall));
                     None
@@ -276,10 +276,10 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                     reason = Some(enter_fault(st, Fault::CurrentSensor));
                     None
                 } else {
+                    // The observers do not run (they are seeded at the hand-over, `inject.rs`).
                     let i_ab = input.i_abc.to_alpha_beta();
-                    let v_ab = st.last.v_ab();
-                    let ok = self.observe(st, i_ab, v_ab);
-                    let (duties, r) = self.control(st, input, i_ab, cmd.speed_rpm, ok);
+                    st.i_ab_last = i_ab;
+                    let (duties, r) = self.control(st, input, i_ab, cmd.speed_rpm, true);
                     if r.is_some() {
                         reason = r;
                     }
@@ -331,7 +331,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             #[cfg(not(feature = "identify"))]
             ModeState::Identify => return None,
             #[cfg(feature = "injection")]
-            ModeState::Inject(_) => return self.inject_tick(st, cmd),
+            ModeState::Inject => return self.inject_tick(st, cmd),
             ModeState::Catch(_)
             | ModeState::CatchZero(_)
             | ModeState::OpenLoop(_)
@@ -395,7 +395,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             | ModeState::Identify
             | ModeState::Identified => Next::Stay,
             #[cfg(feature = "injection")]
-            ModeState::Inject(_) => Next::Stay,
+            ModeState::Inject => Next::Stay,
         };
         let reason = match next {
             Next::Stay => return None,
@@ -485,7 +485,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 self.starting(st, input, i_ab, cmd_rpm, observers_ok)
             }
             #[cfg(feature = "injection")]
-            ModeState::Inject(_) => self.starting(st, input, i_ab, cmd_rpm, observers_ok),
+            ModeState::Inject => self.starting(st, input, i_ab, cmd_rpm, observers_ok),
             // Not running: `Drive::step` does not call this in these modes.
             ModeState::Idle
             | ModeState::Fault(_)
@@ -550,7 +550,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 };
                 match self.catch.step(c, v_ab) {
                     Seen::AtRest => {
-                        st.mode = self.at_rest(i_ab);
+                        st.mode = self.at_rest();
                         return Outcome::Off(Some(Reason::AtRest));
                     }
                     Seen::Rotor(rotor) => self.seed_caught(&mut st.obs, i_ab, rotor),
@@ -570,7 +570,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 {
                     Probe::Run(request) => Outcome::Run(request),
                     Probe::AtRest => {
-                        st.mode = self.at_rest(i_ab);
+                        st.mode = self.at_rest();
                         st.watch = catch_zero::Watch::default();
                         Outcome::Off(Some(Reason::AtRest))
                     }
@@ -617,10 +617,10 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 }
             }
             #[cfg(feature = "injection")]
-            ModeState::Inject(s) => match &self.inject {
+            ModeState::Inject => match &self.inject {
                 Ok(settings) => {
-                    let v_bus = input.v_bus;
-                    Outcome::Run(settings.step(s, &self.foc, &mut st.current, i_ab, v_bus))
+                    let (s, current) = (&mut st.inject, &mut st.current);
+                    Outcome::Run(settings.step(s, &self.foc, current, i_ab, input.v_bus))
                 }
                 Err(_) => Outcome::Fault(Fault::InvalidInput),
             },
@@ -690,21 +690,33 @@ fn enter_fault<PS, MS>(st: &mut DriveState<PS, MS>, fault: Fault) -> Reason {
 
 impl<P: Observer, M: Observer> Drive<P, M> {
     /// The mode of a start from a rotor found at rest: the alignment, or with the feature
-    /// `injection` on a salient motor the injection's start (`inject.rs`), `i_ab` the
-    /// currents now \[A].
+    /// `injection` on a salient motor the injection's start (`inject.rs`).
     #[inline(always)]
-    fn at_rest(&self, _i_ab: AlphaBeta) -> ModeState {
+    fn at_rest(&self) -> ModeState {
         #[cfg(feature = "injection")]
-        if let Ok(settings) = &self.inject {
-            return ModeState::Inject(settings.start(_i_ab));
+        if self.inject.is_ok() {
+            // `DriveState::inject` is fresh: every start restarts the state.
+            return ModeState::Inject;
         }
         ModeState::Align(Align::default())
     }
 
+    /// This drive, starting a rotor found at rest through high-frequency injection on a
+    /// salient motor (feature `injection`, `inject.rs`): tracked from zero speed, its
+    /// polarity tested, no alignment and no open loop; `cfg` the configuration it was built
+    /// from. Declined on a motor without the saliency (or a bus, rate or update delay the
+    /// injection cannot use): [`Drive::injection`] says why, and the drive starts as without
+    /// it.
+    #[cfg(feature = "injection")]
+    pub fn with_injection(mut self, cfg: &DriveConfig) -> Self {
+        self.inject = cfg.inject_settings(self.sensorless.ramp);
+        self
+    }
+
     /// Whether this drive starts a rotor at rest through high-frequency injection (feature
-    /// `injection`, `inject.rs`), or why not: a motor without the saliency, or a configuration
-    /// that does not ask for it ([`DriveConfig::injection`]); it then starts with the
-    /// alignment and the open loop.
+    /// `injection`, `inject.rs`), or why not: not asked for ([`Drive::with_injection`]), a
+    /// motor without the saliency, ...; it then starts with the alignment and the open
+    /// loop.
     #[cfg(feature = "injection")]
     pub fn injection(&self) -> Result<(), Declined> {
         self.inject.map(|_| ())
@@ -716,10 +728,11 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     #[inline(never)]
     fn inject_tick(&self, st: &mut StateOf<P, M>, cmd: &Command) -> Option<Transition> {
         let from = st.mode();
-        let (ModeState::Inject(s), Ok(settings)) = (&mut st.mode, &self.inject) else {
+        let (ModeState::Inject, Ok(settings)) = (&st.mode, &self.inject) else {
             return None;
         };
         st.last.close_millisecond(&self.schedule);
+        let s = &mut st.inject;
         let mtpa = self.sensorless.mtpa.as_ref();
         let Next::Sensorless(entry, reason) = settings.tick(s, &self.foc, mtpa, cmd.speed_rpm)
         else {

@@ -65,6 +65,9 @@ pub struct DriveState<PS, MS> {
     /// The last alignment's resistance measurement, if refused (`adaptation.rs`), for the
     /// log; kept across restarts like the model. After everything the step reads.
     pub(super) resistance_refused: Option<ResistanceRefused>,
+    /// The injection start's state (`inject.rs`), in mode `ModeState::Inject`; last.
+    #[cfg(feature = "injection")]
+    pub(super) inject: Inject,
 }
 
 impl<PS: Default, MS: Default> Default for DriveState<PS, MS> {
@@ -85,6 +88,8 @@ impl<PS: Default, MS: Default> Default for DriveState<PS, MS> {
             identify: Identify::new(),
             watch: Watch::default(),
             resistance_refused: None,
+            #[cfg(feature = "injection")]
+            inject: Inject::default(),
         }
     }
 }
@@ -129,7 +134,7 @@ impl<PS, MS> DriveState<PS, MS> {
             ModeState::Catch(_) | ModeState::CatchZero(_) => Mode::Catch,
             ModeState::Align(_) => Mode::Align,
             #[cfg(feature = "injection")]
-            ModeState::Inject(_) => Mode::Align,
+            ModeState::Inject => Mode::Align,
             ModeState::OpenLoop(_) => Mode::OpenLoop,
             ModeState::Sensorless(_) => Mode::Sensorless,
             ModeState::Fault(_) => Mode::Fault,
@@ -164,7 +169,7 @@ impl<PS, MS> DriveState<PS, MS> {
             | ModeState::Calibrate
             | ModeState::Identify => None,
             #[cfg(feature = "injection")]
-            ModeState::Inject(_) => None,
+            ModeState::Inject => None,
         }
     }
 
@@ -185,7 +190,7 @@ impl<PS, MS> DriveState<PS, MS> {
             | ModeState::Calibrate
             | ModeState::Identified => None,
             #[cfg(feature = "injection")]
-            ModeState::Inject(_) => None,
+            ModeState::Inject => None,
         }
     }
 
@@ -223,7 +228,7 @@ impl<PS, MS> DriveState<PS, MS> {
             | ModeState::Identify
             | ModeState::Identified => None,
             #[cfg(feature = "injection")]
-            ModeState::Inject(_) => None,
+            ModeState::Inject => None,
         }
     }
 
@@ -264,7 +269,8 @@ impl<PS, MS> DriveState<PS, MS> {
     #[cfg(feature = "injection")]
     pub fn injection(&self) -> Option<(f32, f32, bool)> {
         match &self.mode {
-            ModeState::Inject(i) => {
+            ModeState::Inject => {
+                let i = &self.inject;
                 let (theta, omega) = i.estimate();
                 Some((theta, omega, i.phase() == crate::injection::Phase::Track))
             }
@@ -286,7 +292,7 @@ impl<PS, MS> DriveState<PS, MS> {
             | ModeState::Identify
             | ModeState::Identified => None,
             #[cfg(feature = "injection")]
-            ModeState::Inject(_) => None,
+            ModeState::Inject => None,
         }
     }
 }
@@ -325,5 +331,5 @@ pub(super) enum ModeState {
     /// The start through high-frequency injection on a salient motor (`inject.rs`; feature
     /// `injection`), reported as [`Mode::Align`]. Last, after the variants of [`Mode`]'s order.
     #[cfg(feature = "injection")]
-    Inject(Inject),
+    Inject,
 }

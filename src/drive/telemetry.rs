@@ -48,7 +48,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             | ModeState::OpenLoop(_)
             | ModeState::Sensorless(_) => {}
             #[cfg(feature = "injection")]
-            ModeState::Inject(_) => {}
+            ModeState::Inject => {}
         }
         // The observers run in these modes (the motor model set at the enable). The angles of
         // this very sample (the 1 kHz task reads them out once a millisecond), the residuals
@@ -87,8 +87,8 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             ModeState::Sensorless(s) => (theta_d, omega_d, s.speed_ref_rpm()),
             // The injection's estimate (`inject.rs`).
             #[cfg(feature = "injection")]
-            ModeState::Inject(s) => {
-                let (theta, omega_e) = s.estimate();
+            ModeState::Inject => {
+                let (theta, omega_e) = st.inject.estimate();
                 (theta, omega_e / self.adaptation.pole_pairs, 0.0)
             }
         };

@@ -56,6 +56,11 @@ pub struct CyclesReport {
     pub step_salient_cycles_est: u64,
     /// Worst 1 kHz task on that salient motor, either primary.
     pub tick_salient_cycles_est: u64,
+    /// Worst step of the start through high-frequency injection on that salient motor (feature
+    /// `injection`, flux primary; the bench is built with it, the board images are not).
+    pub step_inject_cycles_est: u64,
+    /// Worst 1 kHz task of that start.
+    pub tick_inject_cycles_est: u64,
     /// Worst step of the offset calibration (PWM off, every enable from idle).
     pub step_calibrate_cycles_est: u64,
     /// Worst step of each identification measurement (no observers run): resistance,
@@ -572,6 +577,8 @@ pub fn measure(root: &Path) -> anyhow::Result<CyclesReport> {
         tick_open_loop_cycles_est: worst("tick_open_loop")?.1,
         step_salient_cycles_est: worst("step_salient")?.1,
         tick_salient_cycles_est: worst("tick_salient")?.1,
+        step_inject_cycles_est: worst("step_inject")?.1,
+        tick_inject_cycles_est: worst("tick_inject")?.1,
         step_calibrate_cycles_est: worst("step_calibrate")?.1,
         step_identify_resistance_cycles_est: worst("step_identify_resistance")?.1,
         step_identify_inductance_cycles_est: worst("step_identify_inductance")?.1,

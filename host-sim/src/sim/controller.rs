@@ -194,11 +194,24 @@ impl Controller {
         // plant, dead time 0, gets no compensation).
         config.board.configure_drive(&mut cfg);
         cfg.mtpa = config.mtpa;
-        cfg.injection = config.injection;
         let err = |e| anyhow::anyhow!("drive configuration: {e}");
         let drive = match config.observer {
-            ObserverKind::SlidingTorque => running(cfg.build_sliding_primary().map_err(err)?),
-            ObserverKind::Flux => running(cfg.build_flux_primary().map_err(err)?),
+            ObserverKind::SlidingTorque => {
+                let d = cfg.build_sliding_primary().map_err(err)?;
+                running(if config.injection {
+                    d.with_injection(&cfg)
+                } else {
+                    d
+                })
+            }
+            ObserverKind::Flux => {
+                let d = cfg.build_flux_primary().map_err(err)?;
+                running(if config.injection {
+                    d.with_injection(&cfg)
+                } else {
+                    d
+                })
+            }
             other => anyhow::bail!(
                 "drive scenarios run with --observer sliding-torque or flux, not '{}'",
                 other.name()

@@ -521,7 +521,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             | ModeState::Fault(_)
             | ModeState::Identified => (None, None),
             #[cfg(feature = "injection")]
-            ModeState::Inject(_) => (None, None),
+            ModeState::Inject => (None, None),
         }
     }
 

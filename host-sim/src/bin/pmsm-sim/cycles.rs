@@ -16,7 +16,7 @@ pub struct CyclesArgs {
 }
 
 /// The measured calls, in the table's order, with their labels.
-fn rows(r: &pmsm_host_sim::analysis::cycles::CyclesReport) -> [(&'static str, u64); 19] {
+fn rows(r: &pmsm_host_sim::analysis::cycles::CyclesReport) -> [(&'static str, u64); 21] {
     [
         (
             "step, both observers, sliding primary (worst over a turn)",
@@ -40,6 +40,11 @@ fn rows(r: &pmsm_host_sim::analysis::cycles::CyclesReport) -> [(&'static str, u6
             r.step_salient_cycles_est,
         ),
         ("1 kHz task, salient motor", r.tick_salient_cycles_est),
+        (
+            "step, start by injection (salient motor)",
+            r.step_inject_cycles_est,
+        ),
+        ("1 kHz task, start by injection", r.tick_inject_cycles_est),
         (
             "step, offset calibration (PWM off)",
             r.step_calibrate_cycles_est,
