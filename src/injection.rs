@@ -226,7 +226,8 @@ impl InjectionConfig {
         let bus = p("bus_v", self.bus_v)?;
         let rate = p("rate_hz", self.rate_hz)?;
         let ratio = l_q / l_d;
-        if !(ratio >= SALIENCY_MIN) {
+        // (The parameters are finite and positive here: no NaN compares.)
+        if ratio < SALIENCY_MIN {
             return Err(Declined::NotSalient { ratio });
         }
         let delay = self.delay_periods;
@@ -235,7 +236,7 @@ impl InjectionConfig {
         }
         // The square wave through the update delay: `(1 − δ) s_k + δ s_{k−1} = (1 − 2δ) s_k`.
         let gain = 1.0 - 2.0 * delay;
-        if !(libm::fabsf(gain) >= GAIN_MIN) {
+        if libm::fabsf(gain) < GAIN_MIN {
             return Err(Declined::Delay {
                 gain: libm::fabsf(gain),
             });
@@ -247,7 +248,7 @@ impl InjectionConfig {
             VOLTAGE_SHARE_MAX * v_max,
         );
         let swing = v_h * libm::fabsf(gain) * ts / l_d;
-        if !(swing >= RIPPLE_MIN * i_tau) {
+        if swing < RIPPLE_MIN * i_tau {
             return Err(Declined::Voltage {
                 swing_a: swing,
                 v_max,
