@@ -18,6 +18,8 @@ pub mod drive;
 pub mod fixed;
 pub mod foc;
 pub mod frames;
+#[cfg(feature = "injection")]
+pub mod injection;
 pub mod load_observer;
 pub mod math;
 pub mod motor;

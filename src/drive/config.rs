@@ -469,6 +469,9 @@ impl DriveConfig {
                 },
             ),
             terminal_sensing: self.power_stage.terminal_sensing,
+            // Not asked for: `Drive::with_injection`.
+            #[cfg(feature = "injection")]
+            inject: Err(super::Declined::NotAsked),
             #[cfg(feature = "identify")]
             identify: identify::Settings::new(
                 &self.ratings,
@@ -551,6 +554,39 @@ impl DriveConfig {
                 max_disagreement: h.max_disagreement_deg * RAD_PER_DEG,
                 max_speed_disagreement_rpm: h.max_speed_disagreement_rpm,
             },
+        })
+    }
+}
+
+#[cfg(feature = "injection")]
+impl DriveConfig {
+    /// The injection start's settings (`inject.rs`), or why the drive declines it: not asked
+    /// for, or the motor's saliency or the bus (`crate::injection`). The current scale is the
+    /// rated-torque current, the rate the drive's, the update delay taken by the injection's
+    /// normalisation; the speed estimate's low-pass a 5 ms time constant per millisecond (the
+    /// speed loop's 20 Hz band passes it).
+    pub(super) fn inject_settings(
+        &self,
+        ramp: Ramp,
+    ) -> Result<super::inject::Settings, super::Declined> {
+        let m = self
+            .validate()
+            .map_err(|_| super::Declined::Parameter("motor"))?;
+        let injection = crate::injection::InjectionConfig {
+            l_d_h: m.l_d_h(),
+            l_q_h: m.l_q_h(),
+            current_a: self.ratings.torque_nm / m.torque_constant(),
+            bus_v: self.ratings.bus_v,
+            rate_hz: self.rate_hz,
+            delay_periods: self.delay_periods(),
+        }
+        .build()?;
+        Ok(super::inject::Settings {
+            injection,
+            inv_n: 1.0 / m.n(),
+            handover_rpm: self.start.handover_rpm,
+            ramp,
+            speed_gain: 1.0 - libm::expf(-(1.0 / crate::schedule::TICK_HZ) / 0.005),
         })
     }
 }

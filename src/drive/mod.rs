@@ -46,6 +46,8 @@ mod config_observers;
 mod config_rate;
 mod derating;
 pub mod identify;
+#[cfg(feature = "injection")]
+mod inject;
 mod io;
 mod mode;
 mod observers;
@@ -65,6 +67,8 @@ pub use crate::power_stage::DriveInput;
 pub use crate::schedule::{Schedule, SLOTS};
 pub use config::{DriveConfig, HealthConfig, Limits, PowerStageConfig, StartConfig};
 pub use identify::{Identified, IdentifyConfig, IdentifyError, IdentifyPhase};
+#[cfg(feature = "injection")]
+pub use inject::{Declined, HANDOVER_CHECKS};
 pub use io::{
     Command, DriveOutput, Fault, Mode, Reason, ResistanceRefused, Role, Telemetry, Transition,
 };
@@ -121,6 +125,10 @@ pub struct Drive<P, M> {
     catch_zero: catch_zero::Settings,
     /// The board senses the terminal voltage (`PowerStageConfig::terminal_sensing`).
     terminal_sensing: bool,
+    /// The start through high-frequency injection (`inject.rs`), or why not; last, like the
+    /// identification's settings.
+    #[cfg(feature = "injection")]
+    inject: Result<inject::Settings, Declined>,
 }
 
 /// What a mode's step decided.
@@ -179,7 +187,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                     } else if !self.terminal_sensing {
                         ModeState::CatchZero(CatchZero::default())
                     } else {
-                        ModeState::Align(Align::default())
+                        self.at_rest()
                     };
                     st.restart(mode);
                     self.adaptation.ensure(&mut st.obs.model);
@@ -195,6 +203,14 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             | ModeState::Calibrate
             | ModeState::Identify
             | ModeState::Identified => {
+                if !cmd.enable {
+                    cold_path();
+                    st.restart(ModeState::Idle);
+                    reason = Some(Reason::Disabled);
+                }
+            }
+            #[cfg(feature = "injection")]
+            ModeState::Inject => {
                 if !cmd.enable {
                     cold_path();
                     st.restart(ModeState::Idle);
@@ -250,6 +266,26 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                     duties
                 }
             }
+            // The injection's start (`inject.rs`): the same checks, observers and FOC.
+            #[cfg(feature = "injection")]
+            ModeState::Inject => {
+                if st.task_stalled(&self.schedule) {
+                    reason = Some(enter_fault(st, Fault::TaskStall));
+                    None
+                } else if self.sensing.implausible(&mut st.sum_count, input.i_abc) {
+                    reason = Some(enter_fault(st, Fault::CurrentSensor));
+                    None
+                } else {
+                    // The observers do not run (they are seeded at the hand-over, `inject.rs`).
+                    let i_ab = input.i_abc.to_alpha_beta();
+                    st.i_ab_last = i_ab;
+                    let (duties, r) = self.control(st, input, i_ab, cmd.speed_rpm, true);
+                    if r.is_some() {
+                        reason = r;
+                    }
+                    duties
+                }
+            }
         };
         st.slot = self.schedule.next_slot(st.slot);
         let to = st.mode();
@@ -294,6 +330,8 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             // Without the feature `identify` the mode is never entered.
             #[cfg(not(feature = "identify"))]
             ModeState::Identify => return None,
+            #[cfg(feature = "injection")]
+            ModeState::Inject => return self.inject_tick(st, cmd),
             ModeState::Catch(_)
             | ModeState::CatchZero(_)
             | ModeState::OpenLoop(_)
@@ -361,6 +399,8 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             | ModeState::Calibrate
             | ModeState::Identify
             | ModeState::Identified => Next::Stay,
+            #[cfg(feature = "injection")]
+            ModeState::Inject => Next::Stay,
         };
         let reason = match next {
             Next::Stay => return None,
@@ -449,6 +489,8 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             ModeState::Catch(_) | ModeState::CatchZero(_) | ModeState::Align(_) => {
                 self.starting(st, input, i_ab, cmd_rpm, observers_ok)
             }
+            #[cfg(feature = "injection")]
+            ModeState::Inject => self.starting(st, input, i_ab, cmd_rpm, observers_ok),
             // Not running: `Drive::step` does not call this in these modes.
             ModeState::Idle
             | ModeState::Fault(_)
@@ -513,7 +555,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 };
                 match self.catch.step(c, v_ab) {
                     Seen::AtRest => {
-                        st.mode = ModeState::Align(Align::default());
+                        st.mode = self.at_rest();
                         return Outcome::Off(Some(Reason::AtRest));
                     }
                     Seen::Rotor(rotor) => self.seed_caught(&mut st.obs, i_ab, rotor),
@@ -533,7 +575,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 {
                     Probe::Run(request) => Outcome::Run(request),
                     Probe::AtRest => {
-                        st.mode = ModeState::Align(Align::default());
+                        st.mode = self.at_rest();
                         st.watch = catch_zero::Watch::default();
                         Outcome::Off(Some(Reason::AtRest))
                     }
@@ -579,7 +621,15 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                     Outcome::Run(request)
                 }
             }
-            // `control` calls this in the three modes above only.
+            #[cfg(feature = "injection")]
+            ModeState::Inject => match &self.inject {
+                Ok(settings) => {
+                    let (s, current) = (&mut st.inject, &mut st.current);
+                    Outcome::Run(settings.step(s, &self.foc, current, i_ab, input.v_bus))
+                }
+                Err(_) => Outcome::Fault(Fault::InvalidInput),
+            },
+            // `control` calls this in the modes above only.
             _ => Outcome::Off(None),
         }
     }
@@ -641,4 +691,71 @@ fn enter_fault<PS, MS>(st: &mut DriveState<PS, MS>, fault: Fault) -> Reason {
     cold_path();
     st.mode = ModeState::Fault(fault);
     Reason::Fault(fault)
+}
+
+impl<P: Observer, M: Observer> Drive<P, M> {
+    /// The mode of a start from a rotor found at rest: the alignment, or with the feature
+    /// `injection` on a salient motor the injection's start (`inject.rs`).
+    #[inline(always)]
+    fn at_rest(&self) -> ModeState {
+        #[cfg(feature = "injection")]
+        if self.inject.is_ok() {
+            // `DriveState::inject` is fresh: every start restarts the state.
+            return ModeState::Inject;
+        }
+        ModeState::Align(Align::default())
+    }
+
+    /// This drive, starting a rotor found at rest through high-frequency injection on a
+    /// salient motor (feature `injection`, `inject.rs`): tracked from zero speed, its
+    /// polarity tested, no alignment and no open loop; `cfg` the configuration it was built
+    /// from. Declined on a motor without the saliency (or a bus, rate or update delay the
+    /// injection cannot use): [`Drive::injection`] says why, and the drive starts as without
+    /// it.
+    #[cfg(feature = "injection")]
+    pub fn with_injection(mut self, cfg: &DriveConfig) -> Self {
+        self.inject = cfg.inject_settings(self.sensorless.ramp);
+        self
+    }
+
+    /// Whether this drive starts a rotor at rest through high-frequency injection (feature
+    /// `injection`, `inject.rs`), or why not: not asked for ([`Drive::with_injection`]), a
+    /// motor without the saliency, ...; it then starts with the alignment and the open
+    /// loop.
+    #[cfg(feature = "injection")]
+    pub fn injection(&self) -> Result<(), Declined> {
+        self.inject.map(|_| ())
+    }
+
+    /// The injection start's 1 kHz work: its speed loop, and the hand-over to sensorless
+    /// control with the observers seeded at its rotor state.
+    #[cfg(feature = "injection")]
+    #[inline(never)]
+    fn inject_tick(&self, st: &mut StateOf<P, M>, cmd: &Command) -> Option<Transition> {
+        let from = st.mode();
+        let (ModeState::Inject, Ok(settings)) = (&st.mode, &self.inject) else {
+            return None;
+        };
+        st.last.close_millisecond(&self.schedule);
+        let s = &mut st.inject;
+        let mtpa = self.sensorless.mtpa.as_ref();
+        let Next::Sensorless(entry, reason) = settings.tick(s, &self.foc, mtpa, cmd.speed_rpm)
+        else {
+            return None;
+        };
+        let (theta_e, _) = s.estimate();
+        let rotor = Rotor {
+            theta_e,
+            omega_m: entry.omega_m,
+            load_nm: 0.0,
+        };
+        self.seed_observers(&mut st.obs, Seed::BOTH, st.i_ab_last, rotor);
+        st.obs.health = Health::AT_KNOWN_STATE;
+        st.mode = ModeState::Sensorless(self.sensorless.enter(&self.foc, entry));
+        Some(Transition {
+            from,
+            to: st.mode(),
+            reason,
+        })
+    }
 }

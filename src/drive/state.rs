@@ -10,6 +10,8 @@ use super::identify::offset::Offsets;
 #[cfg(feature = "identify")]
 use super::identify::Identify;
 use super::identify::{Identified, IdentifyPhase};
+#[cfg(feature = "injection")]
+use super::inject::Inject;
 use super::io::{Fault, Mode, ResistanceRefused, Role};
 use super::observers::ObserverStates;
 use super::open_loop::OpenLoop;
@@ -63,6 +65,9 @@ pub struct DriveState<PS, MS> {
     /// The last alignment's resistance measurement, if refused (`adaptation.rs`), for the
     /// log; kept across restarts like the model. After everything the step reads.
     pub(super) resistance_refused: Option<ResistanceRefused>,
+    /// The injection start's state (`inject.rs`), in mode `ModeState::Inject`; last.
+    #[cfg(feature = "injection")]
+    pub(super) inject: Inject,
 }
 
 impl<PS: Default, MS: Default> Default for DriveState<PS, MS> {
@@ -83,6 +88,8 @@ impl<PS: Default, MS: Default> Default for DriveState<PS, MS> {
             identify: Identify::new(),
             watch: Watch::default(),
             resistance_refused: None,
+            #[cfg(feature = "injection")]
+            inject: Inject::default(),
         }
     }
 }
@@ -126,6 +133,8 @@ impl<PS, MS> DriveState<PS, MS> {
             ModeState::Idle => Mode::Idle,
             ModeState::Catch(_) | ModeState::CatchZero(_) => Mode::Catch,
             ModeState::Align(_) => Mode::Align,
+            #[cfg(feature = "injection")]
+            ModeState::Inject => Mode::Align,
             ModeState::OpenLoop(_) => Mode::OpenLoop,
             ModeState::Sensorless(_) => Mode::Sensorless,
             ModeState::Fault(_) => Mode::Fault,
@@ -159,6 +168,8 @@ impl<PS, MS> DriveState<PS, MS> {
             | ModeState::Fault(_)
             | ModeState::Calibrate
             | ModeState::Identify => None,
+            #[cfg(feature = "injection")]
+            ModeState::Inject => None,
         }
     }
 
@@ -178,6 +189,8 @@ impl<PS, MS> DriveState<PS, MS> {
             | ModeState::Fault(_)
             | ModeState::Calibrate
             | ModeState::Identified => None,
+            #[cfg(feature = "injection")]
+            ModeState::Inject => None,
         }
     }
 
@@ -214,6 +227,8 @@ impl<PS, MS> DriveState<PS, MS> {
             | ModeState::Calibrate
             | ModeState::Identify
             | ModeState::Identified => None,
+            #[cfg(feature = "injection")]
+            ModeState::Inject => None,
         }
     }
 
@@ -249,6 +264,20 @@ impl<PS, MS> DriveState<PS, MS> {
         self.obs.health.driving
     }
 
+    /// The injection's estimate in its start (feature `injection`, `inject.rs`): θ̂_e \[rad,
+    /// electrical] and ω̂_e \[rad/s, electrical], and whether its polarity test is done.
+    #[cfg(feature = "injection")]
+    pub fn injection(&self) -> Option<(f32, f32, bool)> {
+        match &self.mode {
+            ModeState::Inject => {
+                let i = &self.inject;
+                let (theta, omega) = i.estimate();
+                Some((theta, omega, i.phase() == crate::injection::Phase::Track))
+            }
+            _ => None,
+        }
+    }
+
     /// sin/cos of the open-loop angle θ_ol, in open loop.
     pub fn open_loop_frame(&self) -> Option<SinCos> {
         match &self.mode {
@@ -262,6 +291,8 @@ impl<PS, MS> DriveState<PS, MS> {
             | ModeState::Calibrate
             | ModeState::Identify
             | ModeState::Identified => None,
+            #[cfg(feature = "injection")]
+            ModeState::Inject => None,
         }
     }
 }
@@ -297,4 +328,8 @@ pub(super) enum ModeState {
     /// order of [`Mode`] and [`DriveState::mode`] stays a table look-up (6 cycles more in
     /// every step on the emulated Cortex-M4F otherwise).
     CatchZero(CatchZero),
+    /// The start through high-frequency injection on a salient motor (`inject.rs`; feature
+    /// `injection`), reported as [`Mode::Align`]. Last, after the variants of [`Mode`]'s order.
+    #[cfg(feature = "injection")]
+    Inject,
 }

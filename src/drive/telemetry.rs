@@ -47,6 +47,8 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             | ModeState::Align(_)
             | ModeState::OpenLoop(_)
             | ModeState::Sensorless(_) => {}
+            #[cfg(feature = "injection")]
+            ModeState::Inject => {}
         }
         // The observers run in these modes (the motor model set at the enable). The angles of
         // this very sample (the 1 kHz task reads them out once a millisecond), the residuals
@@ -83,6 +85,12 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 (atan2(f.sin, f.cos), speed * RAD_S_PER_RPM, speed)
             }
             ModeState::Sensorless(s) => (theta_d, omega_d, s.speed_ref_rpm()),
+            // The injection's estimate (`inject.rs`).
+            #[cfg(feature = "injection")]
+            ModeState::Inject => {
+                let (theta, omega_e) = st.inject.estimate();
+                (theta, omega_e / self.adaptation.pole_pairs, 0.0)
+            }
         };
         let i_dq = st.i_ab_last.to_dq(SinCos::of(theta));
         Telemetry {

@@ -140,6 +140,11 @@ pub struct CyclesReport {
     /// The drive's step and 1 kHz task cases.
     #[serde(flatten)]
     pub drive: DriveCases,
+    /// Worst step of the start through high-frequency injection on that salient motor (feature
+    /// `injection`, flux primary; the bench is built with it, the board images are not).
+    pub step_inject_cycles_est: u64,
+    /// Worst 1 kHz task of that start.
+    pub tick_inject_cycles_est: u64,
     /// Worst step of the offset calibration (PWM off, every enable from idle).
     pub step_calibrate_cycles_est: u64,
     /// Worst step of each identification measurement (no observers run): resistance,
@@ -648,6 +653,8 @@ pub fn measure(root: &Path) -> anyhow::Result<CyclesReport> {
     Ok(CyclesReport {
         step_instructions,
         drive,
+        step_inject_cycles_est: worst("step_inject")?.1,
+        tick_inject_cycles_est: worst("tick_inject")?.1,
         step_calibrate_cycles_est: worst("step_calibrate")?.1,
         step_identify_resistance_cycles_est: worst("step_identify_resistance")?.1,
         step_identify_inductance_cycles_est: worst("step_identify_inductance")?.1,

@@ -111,6 +111,9 @@ pub struct SimConfig {
     pub plant_inductances: Option<Inductances>,
     /// The drive's maximum torque per ampere on a salient motor (`DriveConfig::mtpa`; true).
     pub mtpa: bool,
+    /// The drive starts a rotor at rest through high-frequency injection on a salient motor
+    /// (`DriveConfig::injection`; false).
+    pub injection: bool,
 }
 
 impl SimConfig {
@@ -145,6 +148,7 @@ impl SimConfig {
             identify_first: false,
             plant_inductances: None,
             mtpa: true,
+            injection: false,
         }
     }
 }

@@ -55,6 +55,8 @@ pub(super) trait SimDrive {
     fn v_ab_applied(&self) -> AlphaBeta;
     /// The current sensors' offsets the drive measured [A, αβ].
     fn offset_ab(&self) -> AlphaBeta;
+    /// The injection's estimate in its start (`DriveState::injection`).
+    fn injection(&self) -> Option<(f32, f32, bool)>;
 }
 
 /// The board's sample of a period handed to the control loop, and the duties the loop
@@ -122,6 +124,9 @@ impl<P: Observer, M: Observer> SimDrive for Control<P, M, Latch> {
     }
     fn v_ab_applied(&self) -> AlphaBeta {
         self.state().v_ab_applied()
+    }
+    fn injection(&self) -> Option<(f32, f32, bool)> {
+        self.state().injection()
     }
     fn offset_ab(&self) -> AlphaBeta {
         self.state().offset_ab()
@@ -191,8 +196,22 @@ impl Controller {
         cfg.mtpa = config.mtpa;
         let err = |e| anyhow::anyhow!("drive configuration: {e}");
         let drive = match config.observer {
-            ObserverKind::SlidingTorque => running(cfg.build_sliding_primary().map_err(err)?),
-            ObserverKind::Flux => running(cfg.build_flux_primary().map_err(err)?),
+            ObserverKind::SlidingTorque => {
+                let d = cfg.build_sliding_primary().map_err(err)?;
+                running(if config.injection {
+                    d.with_injection(&cfg)
+                } else {
+                    d
+                })
+            }
+            ObserverKind::Flux => {
+                let d = cfg.build_flux_primary().map_err(err)?;
+                running(if config.injection {
+                    d.with_injection(&cfg)
+                } else {
+                    d
+                })
+            }
             other => anyhow::bail!(
                 "drive scenarios run with --observer sliding-torque or flux, not '{}'",
                 other.name()
@@ -311,8 +330,10 @@ impl Controller {
                 };
                 // The angle the controller runs on: the driving observer's while sensorless.
                 let sensorless = tel.mode == Mode::Sensorless;
+                // In the injection's start, its estimate.
+                let injecting = drive.injection().is_some();
                 let est = Estimate {
-                    theta_e: if sensorless {
+                    theta_e: if sensorless || injecting {
                         tel.theta_e_control
                     } else {
                         tel.theta_e_primary

@@ -540,6 +540,8 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             | ModeState::Sensorless(_)
             | ModeState::Fault(_)
             | ModeState::Identified => (None, None),
+            #[cfg(feature = "injection")]
+            ModeState::Inject => (None, None),
         }
     }
 

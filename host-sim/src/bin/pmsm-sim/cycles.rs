@@ -21,6 +21,11 @@ fn rows(r: &pmsm_host_sim::analysis::cycles::CyclesReport) -> Vec<(&'static str,
     let mut rows = r.drive.rows().to_vec();
     rows.extend([
         (
+            "step, start by injection (salient motor)",
+            r.step_inject_cycles_est,
+        ),
+        ("1 kHz task, start by injection", r.tick_inject_cycles_est),
+        (
             "step, offset calibration (PWM off)",
             r.step_calibrate_cycles_est,
         ),
