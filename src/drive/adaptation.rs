@@ -23,8 +23,7 @@
 //!   error matters least, the split of Piippo, Hinkkanen & Luomi again: `R` where the
 //!   back-EMF is at most 3.3 times `R|i|` (exactly where ψ_f is not taken), at a current of
 //!   at least a fifth of the rated one, not in field weakening (`i` within 14° of the q
-//!   axis), not at the voltage limit, and while the two observers agree on the angle within
-//!   the supervision's bound. There an error δ of `ψ_f ω_e` moves `R` by at most
+//!   axis) and not at the voltage limit. There an error δ of `ψ_f ω_e` moves `R` by at most
 //!   3.3 δ, an angle error θ̃ by at most 0.8 θ̃ (second order with `i_d = 0`), and what the
 //!   voltage sensing misses along the current (the dead time's residual) is taken into `R` at
 //!   the current it is measured at, which is what the observers need: they see `v − R i`.
@@ -87,7 +86,7 @@
 
 use super::io::ResistanceRefused;
 use crate::frames::{AlphaBeta, SinCos};
-use crate::math::{sqrt_or_zero, wrap_pi};
+use crate::math::sqrt_or_zero;
 
 /// The adaptation's settings (from the configured motor).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -118,11 +117,8 @@ pub(super) struct Settings {
     /// R is measured at currents of at least `√r_min_current_a2` \[A] ...
     pub(super) r_min_current_a2: f32,
     /// ... where the back-EMF `|ω_e| ψ_f` is at most `√r_max_emf2_per_a2 |i|` \[V]: a multiple
-    /// of `R₀ |i|` ...
+    /// of `R₀ |i|`.
     pub(super) r_max_emf2_per_a2: f32,
-    /// ... and the two observers' angles at most this far apart [rad, electrical] (the
-    /// supervision's `max_disagreement`).
-    pub(super) r_max_disagreement: f32,
 }
 
 /// The adapted model and the observers' input transform; `Default` is unset (the drive
@@ -260,11 +256,7 @@ impl Settings {
     /// One 1 kHz check of R while running (module doc), with the samples of
     /// [`Settings::track_flux`], the driving observer's `frame` (sin/cos of θ̂_e) and speed
     /// `omega_m` [rad/s, mechanical]; not while the voltage is at its limit (the current not
-    /// where the loop puts it), nor while the observers' angles (`disagreement`, the
-    /// primary's less the monitor's \[rad]) differ by more than the supervision tolerates: a
-    /// rotor they do not hold gives no steady power to measure (on Ortega's test motor held at
-    /// 3 % of its speed under a hanging load, swinging by 20°, R walked 8 % off without this
-    /// and the speed window failed). The power the motor takes, `v·i = R |i|² + e·i` (the
+    /// where the loop puts it). The power the motor takes, `v·i = R |i|² + e·i` (the
     /// inductance's `jω_e L i` is at right angles to `i`, and `L di/dt · i` is `L d|i|²/dt / 2`,
     /// zero at a steady current), with `e·i = ω_e ψ_f i_q`: `R = (v·i − ω_e ψ_f i_q)/|i|²`.
     /// Measured where the resistance takes a large share of the power, at low speed and
@@ -281,7 +273,7 @@ impl Settings {
         m: &mut Model,
         (i_ab, v_ab): (AlphaBeta, AlphaBeta),
         (frame, omega_m): (SinCos, f32),
-        (voltage_limited, disagreement): (bool, f32),
+        voltage_limited: bool,
     ) {
         let omega_e = self.pole_pairs * omega_m;
         let i2 = i_ab.alpha * i_ab.alpha + i_ab.beta * i_ab.beta;
@@ -292,9 +284,7 @@ impl Settings {
         let in_range = !voltage_limited && i2 >= self.r_min_current_a2 && {
             let emf = omega_e * m.flux_wb;
             let i_d = i_ab.alpha * frame.cos + i_ab.beta * frame.sin;
-            emf * emf <= self.r_max_emf2_per_a2 * i2
-                && 16.0 * i_d * i_d <= i2
-                && wrap_pi(disagreement).abs() <= self.r_max_disagreement
+            emf * emf <= self.r_max_emf2_per_a2 * i2 && 16.0 * i_d * i_d <= i2
         };
         if !self.steady(&mut m.r_steady_checks, in_range) {
             return;

@@ -446,8 +446,6 @@ impl DriveConfig {
                 r_gain: slots * ts / R_ADAPT_TIME_S,
                 r_min_current_a2: square(R_ADAPT_MIN_CURRENT * self.ratings.current_a),
                 r_max_emf2_per_a2: square(m.r_ohm / FLUX_ADAPT_MAX_R_SHARE),
-                // The supervision's own bound on the observers' agreement.
-                r_max_disagreement: h.max_disagreement_deg * RAD_PER_DEG,
             },
             catch: catch::Settings {
                 v_min: m.emf_constant() * s.handback_rpm * RAD_S_PER_RPM,

@@ -380,9 +380,12 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                     let sample = (i_ab, applied.v_ab);
                     (self.adaptation).track_flux(&mut obs.model, sample, d.omega_m, s.i_q_ref());
                     let rotor = (d.frame, d.omega_m);
-                    let disagreement = obs.sample.theta_primary - obs.sample.theta_monitor;
-                    let quiet = (applied.limited, disagreement);
-                    (self.adaptation).track_resistance(&mut obs.model, sample, rotor, quiet);
+                    (self.adaptation).track_resistance(
+                        &mut obs.model,
+                        sample,
+                        rotor,
+                        applied.limited,
+                    );
                 }
                 let [r_primary, r_monitor] = obs.health.residuals();
                 let residual = match obs.health.driving {
