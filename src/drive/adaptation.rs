@@ -114,11 +114,10 @@ pub(super) struct Settings {
     pub(super) flux_max_r_share: f32,
     /// R's low-pass gain per 1 kHz check, `T/τ`.
     pub(super) r_gain: f32,
-    /// R is measured at currents of at least `√r_min_current_a2` \[A] ...
-    pub(super) r_min_current_a2: f32,
-    /// ... where the back-EMF `|ω_e| ψ_f` is at most `√r_max_emf2_per_a2 |i|` \[V]: a multiple
-    /// of `R₀ |i|`.
-    pub(super) r_max_emf2_per_a2: f32,
+    /// R is measured at currents of at least this \[A] ...
+    pub(super) r_min_current_a: f32,
+    /// ... where the back-EMF `|ω_e| ψ_f` is at most this multiple of `R₀ |i|`.
+    pub(super) r_max_emf_ratio: f32,
 }
 
 /// The adapted model and the observers' input transform; `Default` is unset (the drive
@@ -260,8 +259,8 @@ impl Settings {
     /// inductance's `jω_e L i` is at right angles to `i`, and `L di/dt · i` is `L d|i|²/dt / 2`,
     /// zero at a steady current), with `e·i = ω_e ψ_f i_q`: `R = (v·i − ω_e ψ_f i_q)/|i|²`.
     /// Measured where the resistance takes a large share of the power, at low speed and
-    /// under load: a current of at least `√`[`Settings::r_min_current_a2`] and the back-EMF
-    /// `|ω_e| ψ_f` at most a multiple of `R₀ |i|` ([`Settings::r_max_emf2_per_a2`]), so an error δ of
+    /// under load: a current of at least [`Settings::r_min_current_a`] and the back-EMF
+    /// `|ω_e| ψ_f` at most [`Settings::r_max_emf_ratio`] times `R₀ |i|`, so an error δ of
     /// `ψ_f ω_e` moves R by at most that ratio times δ, and an angle error θ̃ (which moves
     /// `i_q` by up to `|i| sin θ̃`) by at most the ratio times `sin θ̃`. Outside it, and for a value beyond the range,
     /// the model stays. What the voltage sensing misses along the current (the dead time's
@@ -277,20 +276,21 @@ impl Settings {
     ) {
         let omega_e = self.pole_pairs * omega_m;
         let i2 = i_ab.alpha * i_ab.alpha + i_ab.beta * i_ab.beta;
+        let i_d = i_ab.alpha * frame.cos + i_ab.beta * frame.sin;
+        let i_q = i_ab.beta * frame.cos - i_ab.alpha * frame.sin;
+        let emf = omega_e * m.flux_wb;
+        let emf_power = emf * i_q;
         // |e| = |ω_e| ψ_f at most the ratio times R₀|i|, and `i` within 14° of the estimated
         // q axis (|i_d| ≤ |i|/4: no field weakening); squares compared, no root. An angle error
         // θ̃ then moves `e·i` by `|e||i| (sin 14° θ̃ + θ̃²/2)` at most: R by 0.8 θ̃ R₀ (7 % at 5°).
-        // The cheapest test first: most ticks fail it.
-        let in_range = !voltage_limited && i2 >= self.r_min_current_a2 && {
-            let emf = omega_e * m.flux_wb;
-            let i_d = i_ab.alpha * frame.cos + i_ab.beta * frame.sin;
-            emf * emf <= self.r_max_emf2_per_a2 * i2 && 16.0 * i_d * i_d <= i2
-        };
+        let r_drop_max = self.r_max_emf_ratio * self.r0_ohm;
+        let in_range = !voltage_limited
+            && i2 >= self.r_min_current_a * self.r_min_current_a
+            && emf * emf <= r_drop_max * r_drop_max * i2
+            && 16.0 * i_d * i_d <= i2;
         if !self.steady(&mut m.r_steady_checks, in_range) {
             return;
         }
-        let i_q = i_ab.beta * frame.cos - i_ab.alpha * frame.sin;
-        let emf_power = omega_e * m.flux_wb * i_q;
         let v = self.at_sample(v_ab, omega_e);
         let measured = (v.alpha * i_ab.alpha + v.beta * i_ab.beta - emf_power) / i2;
         let (lo, hi) = self.r_range;

@@ -413,7 +413,6 @@ impl DriveConfig {
         } else {
             None
         };
-        let square = |x: f32| x * x;
         let ramp = Ramp {
             max_rpm: self.ratings.speed_rpm,
             step_rpm: s.accel_rpm_per_s * ts * slots,
@@ -444,8 +443,8 @@ impl DriveConfig {
                     * RAD_S_PER_RPM,
                 flux_max_r_share: FLUX_ADAPT_MAX_R_SHARE,
                 r_gain: slots * ts / R_ADAPT_TIME_S,
-                r_min_current_a2: square(R_ADAPT_MIN_CURRENT * self.ratings.current_a),
-                r_max_emf2_per_a2: square(m.r_ohm / FLUX_ADAPT_MAX_R_SHARE),
+                r_min_current_a: R_ADAPT_MIN_CURRENT * self.ratings.current_a,
+                r_max_emf_ratio: 1.0 / FLUX_ADAPT_MAX_R_SHARE,
             },
             catch: catch::Settings {
                 v_min: m.emf_constant() * s.handback_rpm * RAD_S_PER_RPM,
