@@ -15,20 +15,9 @@
 //!   loaded: an `R` error moves it by that part) and low-pass filtered: the flux adapts at
 //!   high speed, the resistance at standstill, the split of Piippo, Hinkkanen & Luomi,
 //!   "Adaptation of motor parameters in sensorless PMSM drives", IEEE Trans. Ind. Appl.
-//!   45(1), 2009.
-//! - **R while running, at low speed under load** (`sensorless.rs`, 1 kHz): the power the
-//!   motor takes, `v·i = R|i|² + e·i`, the inductance's part at right angles to the current
-//!   (`R = (v·i − ω_e ψ_f i_q)/|i|²`, [`Settings::track_resistance`]). One equation with two
-//!   unknowns, `R` and `ψ_f`, as for ψ_f's measurement; each is taken where the other's
-//!   error matters least, the split of Piippo, Hinkkanen & Luomi again: `R` where the
-//!   back-EMF is at most 3.3 times `R|i|` (exactly where ψ_f is not taken), at a current of
-//!   at least a fifth of the rated one, not in field weakening (`i` within 14° of the q
-//!   axis) and not at the voltage limit. There an error δ of `ψ_f ω_e` moves `R` by at most
-//!   3.3 δ, an angle error θ̃ by at most 0.8 θ̃ (second order with `i_d = 0`), and what the
-//!   voltage sensing misses along the current (the dead time's residual) is taken into `R` at
-//!   the current it is measured at, which is what the observers need: they see `v − R i`.
-//!   A warming winding (copper +0.393 %/K) is followed with a 0.1 s time constant; a stop from
-//!   speed under load passes through the range. Bounded as the start's measurement is.
+//!   45(1), 2009. While running with `i_d = 0`, `R` and `ψ_f` cannot both be told from the
+//!   voltage (one equation, two unknowns, and the angle error takes up the rest): `R` is not
+//!   tracked between starts.
 //!
 //! Both stay within bounds around the configured values ([`Settings`]): a measurement beyond
 //! them is refused, so no disturbance walks the model away.
@@ -85,7 +74,7 @@
 //! motor's; a torque in their units is `s²` times the motor's ([`Model::torque_from_observer`]).
 
 use super::io::ResistanceRefused;
-use crate::frames::{AlphaBeta, SinCos};
+use crate::frames::AlphaBeta;
 use crate::math::sqrt_or_zero;
 
 /// The adaptation's settings (from the configured motor).
@@ -112,12 +101,6 @@ pub(super) struct Settings {
     /// ... where `R₀ |i_q|` (R's first-order part of `|e|`) is at most this fraction of the
     /// back-EMF `ψ₀ ω_e`.
     pub(super) flux_max_r_share: f32,
-    /// R's low-pass gain per 1 kHz check, `T/τ`.
-    pub(super) r_gain: f32,
-    /// R is measured at currents of at least this \[A] ...
-    pub(super) r_min_current_a: f32,
-    /// ... where the back-EMF `|ω_e| ψ_f` is at most this multiple of `R₀ |i|`.
-    pub(super) r_max_emf_ratio: f32,
 }
 
 /// The adapted model and the observers' input transform; `Default` is unset (the drive
@@ -134,8 +117,6 @@ pub(super) struct Model {
     scaled_dr_ohm: f32,
     /// Consecutive 1 kHz checks inside ψ_f's operating range.
     steady_checks: u16,
-    /// Consecutive 1 kHz checks inside R's operating range.
-    r_steady_checks: u16,
 }
 
 impl Model {
@@ -233,10 +214,24 @@ impl Settings {
         let r_share = self.r0_ohm * i_q_ref_a.abs();
         let in_range =
             w >= self.flux_min_omega_e && r_share <= self.flux_max_r_share * self.flux0_wb * w;
-        if !self.steady(&mut m.steady_checks, in_range) {
+        m.steady_checks = if in_range {
+            m.steady_checks.saturating_add(1)
+        } else {
+            0
+        };
+        if m.steady_checks < self.steady_checks {
             return;
         }
-        let v = self.at_sample(v_ab, omega_e);
+        // The voltage of the period's middle, turned on by half a period to the sample's
+        // angle: (c, s) ≈ (1 − x²/2, x), x = ω_e T/2 (≤ 0.2 rad below the drive's speed
+        // limits; error below 1e-4). Not `SinCos::of_small`: its higher terms and its
+        // fallback cost 100 bytes of the firmware's last 170.
+        let x = omega_e * self.half_ts;
+        let (c, s) = (1.0 - 0.5 * x * x, x);
+        let v = AlphaBeta::new(
+            c * v_ab.alpha - s * v_ab.beta,
+            s * v_ab.alpha + c * v_ab.beta,
+        );
         // e = v − R i − jω_e L i.
         let wl = omega_e * self.l_h;
         let e = AlphaBeta::new(
@@ -250,80 +245,5 @@ impl Settings {
             let flux = m.flux_wb + self.flux_gain * (measured - m.flux_wb);
             self.set(m, m.r_ohm, flux);
         }
-    }
-
-    /// One 1 kHz check of R while running (module doc), with the samples of
-    /// [`Settings::track_flux`], the driving observer's `frame` (sin/cos of θ̂_e) and speed
-    /// `omega_m` [rad/s, mechanical]; not while the voltage is at its limit (the current not
-    /// where the loop puts it). The power the motor takes, `v·i = R |i|² + e·i` (the
-    /// inductance's `jω_e L i` is at right angles to `i`, and `L di/dt · i` is `L d|i|²/dt / 2`,
-    /// zero at a steady current), with `e·i = ω_e ψ_f i_q`: `R = (v·i − ω_e ψ_f i_q)/|i|²`.
-    /// Measured where the resistance takes a large share of the power, at low speed and
-    /// under load: a current of at least [`Settings::r_min_current_a`] and the back-EMF
-    /// `|ω_e| ψ_f` at most [`Settings::r_max_emf_ratio`] times `R₀ |i|`, so an error δ of
-    /// `ψ_f ω_e` moves R by at most that ratio times δ, and an angle error θ̃ (which moves
-    /// `i_q` by up to `|i| sin θ̃`) by at most the ratio times `sin θ̃`. Outside it, and for a value beyond the range,
-    /// the model stays. What the voltage sensing misses along the current (the dead time's
-    /// residual after its compensation) is taken into R at the current it is measured at, as
-    /// the observers, which see `v − R i`, need it.
-    #[inline(always)]
-    pub(super) fn track_resistance(
-        &self,
-        m: &mut Model,
-        (i_ab, v_ab): (AlphaBeta, AlphaBeta),
-        (frame, omega_m): (SinCos, f32),
-        voltage_limited: bool,
-    ) {
-        let omega_e = self.pole_pairs * omega_m;
-        let i2 = i_ab.alpha * i_ab.alpha + i_ab.beta * i_ab.beta;
-        let i_d = i_ab.alpha * frame.cos + i_ab.beta * frame.sin;
-        let i_q = i_ab.beta * frame.cos - i_ab.alpha * frame.sin;
-        let emf = omega_e * m.flux_wb;
-        let emf_power = emf * i_q;
-        // |e| = |ω_e| ψ_f at most the ratio times R₀|i|, and `i` within 14° of the estimated
-        // q axis (|i_d| ≤ |i|/4: no field weakening); squares compared, no root. An angle error
-        // θ̃ then moves `e·i` by `|e||i| (sin 14° θ̃ + θ̃²/2)` at most: R by 0.8 θ̃ R₀ (7 % at 5°).
-        let r_drop_max = self.r_max_emf_ratio * self.r0_ohm;
-        let in_range = !voltage_limited
-            && i2 >= self.r_min_current_a * self.r_min_current_a
-            && emf * emf <= r_drop_max * r_drop_max * i2
-            && 16.0 * i_d * i_d <= i2;
-        if !self.steady(&mut m.r_steady_checks, in_range) {
-            return;
-        }
-        let v = self.at_sample(v_ab, omega_e);
-        let measured = (v.alpha * i_ab.alpha + v.beta * i_ab.beta - emf_power) / i2;
-        let (lo, hi) = self.r_range;
-        if measured >= lo && measured <= hi {
-            let r = m.r_ohm + self.r_gain * (measured - m.r_ohm);
-            self.set(m, r, m.flux_wb);
-        }
-    }
-
-    /// Counts the consecutive checks `in_range` in `checks`; true once the operating point has
-    /// stayed in range for [`Settings::steady_checks`] (never picked sample by sample: a
-    /// ripple that moved samples in and out of range would bias the mean of those taken).
-    #[inline(always)]
-    fn steady(&self, checks: &mut u16, in_range: bool) -> bool {
-        *checks = if in_range {
-            checks.saturating_add(1)
-        } else {
-            0
-        };
-        *checks >= self.steady_checks
-    }
-
-    /// The voltage of the period's middle `v_ab` \[V], turned on by half a period to the
-    /// sample's angle at `omega_e` \[rad/s]: (c, s) ≈ (1 − x²/2, x), x = ω_e T/2 (≤ 0.2 rad below
-    /// the drive's speed limits; error below 1e-4). Not `SinCos::of_small`: its higher terms
-    /// and its fallback cost 100 bytes of the firmware.
-    #[inline(always)]
-    fn at_sample(&self, v_ab: AlphaBeta, omega_e: f32) -> AlphaBeta {
-        let x = omega_e * self.half_ts;
-        let (c, s) = (1.0 - 0.5 * x * x, x);
-        AlphaBeta::new(
-            c * v_ab.alpha - s * v_ab.beta,
-            s * v_ab.alpha + c * v_ab.beta,
-        )
     }
 }

@@ -43,14 +43,6 @@ const FLUX_ADAPT_MIN_SPEED: f32 = 0.1;
 /// ... where `R |i_q|` is at most this share of the back-EMF: R just measured (within 1.2 % in
 /// the robustness matrix) moves ψ_f by 0.4 % at most; a winding warmed 30 % since, by 9 %.
 const FLUX_ADAPT_MAX_R_SHARE: f32 = 0.3;
-/// R is tracked while running where ψ_f is not (`adaptation.rs`): the back-EMF at most
-/// `1/FLUX_ADAPT_MAX_R_SHARE` (3.3) times `R₀|i|`, so a 1 % error of `ψ_f ω_e` moves R by
-/// 3.3 % at most; at a current of at least this fraction of the rated current, where the
-/// board's 1 % current noise and the dead time's residual are small against `R|i|` ...
-const R_ADAPT_MIN_CURRENT: f32 = 0.2;
-/// ... low-pass filtered with this time constant \[s]: a winding warms over seconds to
-/// minutes, and a stop from rated speed passes through R's range in a few hundred ms.
-const R_ADAPT_TIME_S: f32 = 0.1;
 
 /// The time constant of the measured bus's low-pass filter for the over-speed bound \[s]: half
 /// the over-speed's persistence (`loss_time_s`, 20 ms), long against the PWM's and the
@@ -442,9 +434,6 @@ impl DriveConfig {
                     * self.ratings.speed_rpm
                     * RAD_S_PER_RPM,
                 flux_max_r_share: FLUX_ADAPT_MAX_R_SHARE,
-                r_gain: slots * ts / R_ADAPT_TIME_S,
-                r_min_current_a: R_ADAPT_MIN_CURRENT * self.ratings.current_a,
-                r_max_emf_ratio: 1.0 / FLUX_ADAPT_MAX_R_SHARE,
             },
             catch: catch::Settings {
                 v_min: m.emf_constant() * s.handback_rpm * RAD_S_PER_RPM,
