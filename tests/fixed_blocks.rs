@@ -4,8 +4,7 @@
 //! speeds and voltages that motor reaches. Bounds are stated and derived in each test.
 
 mod common;
-use common::Lcg;
-use pmsm_host_sim::motor_file;
+use common::{all_motors, Lcg};
 use pmsm_host_sim::observer::ObserverKind;
 use pmsm_host_sim::scenario::Scenario;
 use pmsm_host_sim::sim::{Sim, SimConfig};
@@ -22,25 +21,6 @@ use pmsm_sensorless::observer::sliding::SlidingState;
 use pmsm_sensorless::observer::{Observer, Rotor};
 use pmsm_sensorless::svpwm::svpwm;
 use std::f64::consts::{PI, TAU};
-
-/// Every zoo motor and the presets, by name.
-fn all_motors() -> Vec<(String, Motor)> {
-    let dir = format!("{}/host-sim/motors/zoo", env!("CARGO_MANIFEST_DIR"));
-    let mut all: Vec<(String, Motor)> = std::fs::read_dir(&dir)
-        .unwrap()
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
-        .filter_map(|p| {
-            let m = motor_file::load(&p).ok()?.1;
-            Some((p.file_stem()?.to_string_lossy().into_owned(), m))
-        })
-        .collect();
-    all.sort_by(|a, b| a.0.cmp(&b.0));
-    for m in pmsm_sensorless::motor::PRESETS {
-        all.push((m.name.to_string(), m));
-    }
-    all
-}
 
 /// An angle in turns (any real) as a binary angle, rounded to 2⁻³² turn.
 fn angle_of_turns(turns: f64) -> Angle {

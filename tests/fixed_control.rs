@@ -113,20 +113,7 @@ fn unit_vectors_without_division() {
 /// builds on its drive's configuration (printed); the three motors of these tests must.
 #[test]
 fn bases_and_formats_of_the_zoo() {
-    let dir = format!("{}/host-sim/motors/zoo", env!("CARGO_MANIFEST_DIR"));
-    let mut all: Vec<(String, Motor)> = std::fs::read_dir(&dir)
-        .unwrap()
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
-        .filter_map(|p| {
-            let m = motor_file::load(&p).ok()?.1;
-            Some((p.file_stem()?.to_string_lossy().into_owned(), m))
-        })
-        .collect();
-    all.sort_by(|a, b| a.0.cmp(&b.0));
-    for m in pmsm_sensorless::motor::PRESETS {
-        all.push((m.name.to_string(), m));
-    }
+    let all = common::all_motors();
     for (name, motor) in &all {
         let cfg = DriveConfig::new(motor);
         let pu = PerUnit::of_drive(&cfg).unwrap();

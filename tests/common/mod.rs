@@ -1,5 +1,28 @@
 //! What the core's integration tests share.
 
+use pmsm_host_sim::motor_file;
+use pmsm_sensorless::motor::Motor;
+
+/// Every zoo motor (`host-sim/motors/zoo/*.toml`, by file name) and the presets, by name.
+#[allow(dead_code)] // not every test uses it
+pub fn all_motors() -> Vec<(String, Motor)> {
+    let dir = format!("{}/host-sim/motors/zoo", env!("CARGO_MANIFEST_DIR"));
+    let mut all: Vec<(String, Motor)> = std::fs::read_dir(&dir)
+        .unwrap()
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+        .filter_map(|p| {
+            let m = motor_file::load(&p).ok()?.1;
+            Some((p.file_stem()?.to_string_lossy().into_owned(), m))
+        })
+        .collect();
+    all.sort_by(|a, b| a.0.cmp(&b.0));
+    for m in pmsm_sensorless::motor::PRESETS {
+        all.push((m.name.to_string(), m));
+    }
+    all
+}
+
 /// A seeded generator in [−1, 1] (deterministic): a 64-bit LCG (Knuth's MMIX constants) read
 /// at 53 bits as an f64 or at 24 bits as an f32.
 pub struct Lcg(pub u64);
