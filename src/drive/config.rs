@@ -573,6 +573,9 @@ impl DriveConfig {
             handover_rpm: self.start.handover_rpm,
             ramp,
             speed_gain: 1.0 - libm::expf(-(1.0 / crate::schedule::TICK_HZ) / 0.005),
+            hold_gain: super::inject::HOLD_GAIN_PER_SPEED_BANDWIDTH * TAU * self.speed_bandwidth_hz
+                / m.n(),
+            hold_max_omega_m: 0.5 * self.start.handover_rpm * RAD_S_PER_RPM,
         })
     }
 }

@@ -8,10 +8,19 @@
 //! [`HANDOVER_CHECKS`] checks the observers are seeded at the injection's rotor state and
 //! sensorless control takes over (`Reason::HandOver`).
 //!
-//! A zero command at zero speed holds the rotor (torque at standstill is what the injection
-//! is for); the drive stops with the enable. Reported as [`Mode::Align`](super::Mode::Align)
-//! (the start at standstill), [`DriveState::injection`](super::DriveState::injection) gives
-//! the injection's estimate.
+//! A zero command at zero speed holds the rotor where it is (torque at standstill is what the
+//! injection is for): a position loop on the injection's angle, the rotor's travel since the
+//! hold began times `K_θ`, is the speed loop's reference (the P–PI cascade of servo drives,
+//! e.g. Ellis, *Control System Design Guide*, 4th ed., ch. 17). With the speed PI of
+//! [`FocConfig::gains`](crate::foc::FocConfig::gains) (`k_p = J ω_s/K_t`, zero at `ω_s/4`),
+//! the loop's characteristic polynomial over `ω_s` is `x³ + x² + (k + ¼) x + k/4` for
+//! `K_θ = k ω_s`. `k = 0.1`, the outer loop a decade below the inner as cascades are set
+//! ([`HOLD_GAIN_PER_SPEED_BANDWIDTH`]): roots `(−0.45 ± 0.24j) ω_s` and `−0.095 ω_s`, damping
+//! 0.88. (`k = ¼`, damping 0.69 on paper, shook the Zou traction motor ±10° mechanical on its
+//! injection's noisy speed, whose 5 ms low-pass the polynomial leaves out.) A load torque
+//! ramping at `ρ` N·m/s moves the rotor by `ρ/J · 4/(k ω_s³)` while it ramps (the final
+//! value of the loop's response) and back once it is constant: the cascade is of type 2 in
+//! the load. The drive stops with the enable.
 //!
 //! The drive declines to inject ([`Declined`]) on a motor whose saliency is too small, or
 //! when it is not asked to ([`Drive::with_injection`](super::Drive::with_injection)): it
@@ -24,6 +33,7 @@ use super::Reason;
 use crate::foc::{CurrentLoopState, Foc, Reference, Request};
 use crate::frames::{AlphaBeta, Dq};
 use crate::injection::{Injection, InjectionState, Phase};
+use crate::math::wrap_pi;
 use crate::mtpa::Mtpa;
 use crate::pi::PiState;
 use crate::units::{RAD_S_PER_RPM, RPM_PER_RAD_S};
@@ -32,6 +42,9 @@ pub use crate::injection::Declined;
 
 /// Checks (1 kHz) above the hand-over speed before sensorless control takes over.
 pub const HANDOVER_CHECKS: u32 = 5;
+
+/// The position hold's gain `K_θ` \[1/s] per speed-loop bandwidth `ω_s` \[rad/s] (module doc).
+pub const HOLD_GAIN_PER_SPEED_BANDWIDTH: f32 = 0.1;
 
 /// The injection start's settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -45,6 +58,12 @@ pub(super) struct Settings {
     pub(super) ramp: Ramp,
     /// The speed estimate's low-pass gain per millisecond.
     pub(super) speed_gain: f32,
+    /// The position hold's `K_θ/N` \[1/s]: mechanical speed reference per electrical radian
+    /// of travel.
+    pub(super) hold_gain: f32,
+    /// The position hold's largest speed reference \[rad/s, mechanical]: half the hand-over
+    /// speed, so the hold never asks for the hand-over.
+    pub(super) hold_max_omega_m: f32,
 }
 
 /// The state of the injection start (`DriveState::inject`, kept out of the mode's enum so
@@ -61,6 +80,9 @@ pub(super) struct Inject {
     i_ref: Dq,
     /// Checks above the hand-over speed.
     above: u32,
+    /// The rotor's travel since the position hold began \[rad, electrical], and the angle it
+    /// was last taken from; `None` while a speed is asked for.
+    hold: Option<(f32, f32)>,
 }
 
 impl Settings {
@@ -111,7 +133,17 @@ impl Settings {
         s.omega_m += self.speed_gain * (omega_m - s.omega_m);
         let target = self.ramp.command(cmd_rpm);
         s.speed_ref_rpm = self.ramp.slew(s.speed_ref_rpm, target);
-        let reference = s.speed_ref_rpm * RAD_S_PER_RPM;
+        // The position hold (module doc): at a zero command once the reference is there.
+        let theta_e = s.inj.theta_e;
+        s.hold = (target == 0.0 && s.speed_ref_rpm == 0.0).then(|| match s.hold {
+            Some((travel_e, last_e)) => (travel_e + wrap_pi(theta_e - last_e), theta_e),
+            None => (0.0, theta_e),
+        });
+        let hold_omega_m = s.hold.map_or(0.0, |(travel_e, _)| {
+            let max = self.hold_max_omega_m;
+            (-self.hold_gain * travel_e).clamp(-max, max)
+        });
+        let reference = s.speed_ref_rpm * RAD_S_PER_RPM + hold_omega_m;
         let i_tau = foc.speed_step(&mut s.speed_pi, (reference, s.omega_m), 0.0, None);
         s.i_ref = match mtpa {
             Some(m) => m.split(i_tau, s.i_ref.d, 0.0),
