@@ -24,7 +24,7 @@ use crate::observer::sliding::SlidingObserver;
 use crate::observer::Observer;
 use crate::param::{Allowed, Checks, ParamError};
 use crate::rate::{control_rate, CpuBudget};
-use crate::units::{RAD_PER_DEG, RAD_S_PER_RPM};
+use crate::units::{RAD_PER_DEG, RAD_S_PER_RPM, RPM_PER_RAD_S};
 use core::f32::consts::TAU;
 
 /// The adapted resistance stays within R₀/3..3 R₀ (`adaptation.rs`): a copper winding from
@@ -486,6 +486,8 @@ impl DriveConfig {
                 )
                 .max(1),
                 pullout_checks: slot_cycles(h.lock_time_s).max(1),
+                // 2π/(N T_check) rad/s in rpm: RPM_PER_RAD_S 2π rate/(N slots).
+                turn_rpm_checks: RPM_PER_RAD_S * TAU * rate / (m.n() * slots),
                 reverse_checks: slot_cycles(h.failover_time_s).max(1),
                 handback_rpm: s.handback_rpm,
                 ramp,

@@ -41,6 +41,10 @@ pub(super) struct Settings {
     pub(super) timeout_checks: u32,
     /// Checks of a rotor pulled out of the ramp, or following it, before the hand-over.
     pub(super) pullout_checks: u32,
+    /// The sum of |ω_ol| \[rpm] over consecutive checks that turns θ_ol by an electrical
+    /// turn, `2π/(N T_check)` in rpm: a rotor within a quarter turn of θ_ol while it turned
+    /// this far follows the ramp.
+    pub(super) turn_rpm_checks: f32,
     /// Checks of a rotor turning against the ramp before the closed loop takes it: the
     /// supervision's failover time (a change the health check trusts that fast).
     pub(super) reverse_checks: u32,
@@ -68,6 +72,9 @@ pub(super) struct OpenLoop {
     pulled_out: u32,
     /// Consecutive checks with the rotor following the ramp.
     following: u32,
+    /// The sum of |ω_ol| \[rpm] over the consecutive checks with the rotor within a quarter
+    /// turn of θ_ol (θ_ol's turn since, in units of `N T_check` rad).
+    within_rpm_checks: f32,
     /// The user's command at the last check \[rpm] (`None` before the first).
     last_cmd_rpm: Option<f32>,
     /// Consecutive checks with the rotor turning against the ramp.
@@ -84,6 +91,7 @@ impl OpenLoop {
         checks: 0,
         pulled_out: 0,
         following: 0,
+        within_rpm_checks: 0.0,
         last_cmd_rpm: None,
         reversed: 0,
     };
@@ -177,7 +185,19 @@ impl Settings {
             // I/f current's frame, which it does even at a standstill.
             let reached = ol.speed_rpm.abs() >= self.handover_rpm.min(cmd_rpm.abs());
             ol.following = consecutive(ol.following, !off && ol.speed_rpm != 0.0);
-            let seen_following = ol.following >= self.pullout_checks;
+            // Or within a quarter turn of θ_ol (cos(θ_ol − θ̂) > 0) while θ_ol turned a whole
+            // turn: a blocked rotor is outside that quarter turn on either side of θ_ol for
+            // half of any turn. The angle, not the speed: the observer's speed at a few % of
+            // rated is noisy, and a rotor hunting about the I/f frame (undamped, ±70 % of
+            // ω_ol on a heavy rotor) is still in it.
+            let cos_load_angle = ol.frame.cos * d.frame.cos + ol.frame.sin * d.frame.sin;
+            ol.within_rpm_checks = if cos_load_angle > 0.0 {
+                ol.within_rpm_checks + ol.speed_rpm.abs()
+            } else {
+                0.0
+            };
+            let seen_following =
+                ol.following >= self.pullout_checks || ol.within_rpm_checks >= self.turn_rpm_checks;
             // Turning against the ramp (or the command, at the ramp's start) above the
             // hand-back speed: the closed loop takes it now, braking it first.
             let direction = if ol.speed_rpm != 0.0 {
