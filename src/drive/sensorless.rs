@@ -45,7 +45,9 @@ pub(super) struct Settings {
     /// (so that the limit a speed estimate's sign picks does not change with its noise on a
     /// rotor at rest).
     pub(super) braking_max_a: f32,
-    /// The hand-over's d current decays by this factor per millisecond.
+    /// The hand-over's d current decays by this factor per millisecond, once the speed
+    /// reference is at or above the hand-over speed (`through_zero_rpm`); below it the d
+    /// current is held (see [`Settings::enter`]).
     pub(super) handover_decay: f32,
     /// Without a usable observer, below this |speed| and |reference| open loop takes over
     /// again \[rpm].
@@ -314,6 +316,19 @@ impl Settings {
     /// the torque over as the d current fades (the smooth I/f transition of Fatu, Teodorescu,
     /// Boldea, Andreescu & Blaabjerg, "I-F starting method with smooth transition to EMF based
     /// motion-sensorless vector control of PM synchronous motor/generator", IEEE PESC 2008).
+    ///
+    /// The d current fades only once the speed reference is at the hand-over speed: below it
+    /// (a command under the hand-over speed) it is held. An unloaded rotor there needs almost
+    /// no current, and phase currents near zero leave the inverter's dead-time voltage
+    /// `t_d f_pwm V_bus` unknown in sign (its compensation follows the current's sign: Choi &
+    /// Sul, "Inverter output voltage synthesis using novel dead time compensation", IEEE
+    /// Trans. Power Electron. 11(2), 1996), while the back-EMF the voltage-model observers
+    /// integrate, `N ψ_f ω`, is of the same size at a few % of rated (Nanotec DF45: 0.24 V
+    /// against 0.29 V at 3 %; the T-motor drone motor: 0.17 V against 0.23 V): with the
+    /// current gone the flux observer's angle drifted a quarter turn in 0.1 s, with the I/f
+    /// current's d part held it stays within a few degrees. The held current is the open
+    /// loop's (the start's `open_loop_current_a`, whose copper loss the I/f start already
+    /// carries), on the d axis, so it makes no torque on a non-salient motor.
     // Out of line, like the other mode changes: rare, kept off the every-step path.
     #[inline(never)]
     pub(super) fn enter(&self, foc: &Foc, e: Entry) -> Sensorless {
@@ -472,7 +487,10 @@ impl Settings {
         // The field-weakening i_d, and i_q within what it leaves of the current limit.
         let fw = &self.field_weakening;
         s.i_d_fw = fw.i_d(s.i_d_fw, applied.v_ab, applied.v_max);
-        s.i_d_handover *= self.handover_decay;
+        // Held below the hand-over speed (`enter`).
+        if s.speed_ref_rpm.abs() >= self.through_zero_rpm {
+            s.i_d_handover *= self.handover_decay;
+        }
         s.i_d_ref = s.i_d_fw + s.i_d_handover;
         let mut i_q_max = sqrt_or_zero(fw.i_max_a * fw.i_max_a - s.i_d_ref * s.i_d_ref);
         // The speed loop's output is a torque current (`crate::mtpa`), the q current itself on
