@@ -505,6 +505,9 @@ impl DriveConfig {
                 // Five speed-loop time constants, 1/(2π f_speed) each: the speed loop takes the
                 // torque over as the d current fades.
                 handover_decay: 1.0 - slots * ts * TAU * self.speed_bandwidth_hz / 5.0,
+                // As the catch's (`catch_zero::Settings::i_hold_a`): twice the dead-time
+                // compensation's band.
+                low_speed_d_a: 2.0 * self.power_stage.dead_time_band_a,
                 handback_rpm: s.handback_rpm,
                 through_zero_rpm: s.handover_rpm,
                 stop_rpm: s.stop_rpm,

@@ -45,10 +45,14 @@ pub(super) struct Settings {
     /// (so that the limit a speed estimate's sign picks does not change with its noise on a
     /// rotor at rest).
     pub(super) braking_max_a: f32,
-    /// The hand-over's d current decays by this factor per millisecond, once the speed
-    /// reference is at or above the hand-over speed (`through_zero_rpm`); below it the d
-    /// current is held (see [`Settings::enter`]).
+    /// The hand-over's d current decays by this factor per millisecond (under a command below
+    /// the hand-over speed, `through_zero_rpm`, down to `low_speed_d_a`).
     pub(super) handover_decay: f32,
+    /// The d current held under a command below the hand-over speed (see [`Settings::enter`])
+    /// \[A]: twice the dead-time compensation's band (`PowerStageConfig::dead_time_band_a`), as
+    /// the catch holds (`catch_zero::Settings::i_hold_a`), so that every phase current but
+    /// near its zero crossings has a sign the compensation knows.
+    pub(super) low_speed_d_a: f32,
     /// Without a usable observer, below this |speed| and |reference| open loop takes over
     /// again \[rpm].
     pub(super) handback_rpm: f32,
@@ -317,18 +321,20 @@ impl Settings {
     /// Boldea, Andreescu & Blaabjerg, "I-F starting method with smooth transition to EMF based
     /// motion-sensorless vector control of PM synchronous motor/generator", IEEE PESC 2008).
     ///
-    /// The d current fades only once the speed reference is at the hand-over speed: below it
-    /// (a command under the hand-over speed) it is held. An unloaded rotor there needs almost
-    /// no current, and phase currents near zero leave the inverter's dead-time voltage
+    /// Under a command below the hand-over speed (one the open loop handed over at, not a
+    /// reference on its way up from a rotor handed over slow) the d current fades only down
+    /// to `low_speed_d_a`, and is held there. An unloaded rotor there needs almost no
+    /// current, and phase currents near zero leave the inverter's dead-time voltage
     /// `t_d f_pwm V_bus` unknown in sign (its compensation follows the current's sign: Choi &
     /// Sul, "Inverter output voltage synthesis using novel dead time compensation", IEEE
     /// Trans. Power Electron. 11(2), 1996), while the back-EMF the voltage-model observers
     /// integrate, `N ψ_f ω`, is of the same size at a few % of rated (Nanotec DF45: 0.24 V
-    /// against 0.29 V at 3 %; the T-motor drone motor: 0.17 V against 0.23 V): with the
-    /// current gone the flux observer's angle drifted a quarter turn in 0.1 s, with the I/f
-    /// current's d part held it stays within a few degrees. The held current is the open
-    /// loop's (the start's `open_loop_current_a`, whose copper loss the I/f start already
-    /// carries), on the d axis, so it makes no torque on a non-salient motor.
+    /// against 0.29 V at 3 %; the T-motor drone motor: 0.17 V against 0.23 V). With the
+    /// current gone the flux observer's angle drifted a quarter turn in 0.1 s (on the ideal
+    /// inverter it does not); with twice the compensation's band held on the d axis it stays
+    /// within a few degrees. Not more: a d current makes a torque `∝ i_d sin(θ − θ̂)` about the
+    /// observer's angle, a spring that shook the Delta servo's rotor by ±70 rpm at 90 rpm with
+    /// the whole I/f current held.
     // Out of line, like the other mode changes: rare, kept off the every-step path.
     #[inline(never)]
     pub(super) fn enter(&self, foc: &Foc, e: Entry) -> Sensorless {
@@ -488,9 +494,12 @@ impl Settings {
         let fw = &self.field_weakening;
         s.i_d_fw = fw.i_d(s.i_d_fw, applied.v_ab, applied.v_max);
         // Held below the hand-over speed (`enter`).
-        if s.speed_ref_rpm.abs() >= self.through_zero_rpm {
-            s.i_d_handover *= self.handover_decay;
-        }
+        let decayed = s.i_d_handover * self.handover_decay;
+        s.i_d_handover = if cmd_rpm.abs() < self.through_zero_rpm {
+            max(decayed, self.low_speed_d_a)
+        } else {
+            decayed
+        };
         s.i_d_ref = s.i_d_fw + s.i_d_handover;
         let mut i_q_max = sqrt_or_zero(fw.i_max_a * fw.i_max_a - s.i_d_ref * s.i_d_ref);
         // The speed loop's output is a torque current (`crate::mtpa`), the q current itself on
