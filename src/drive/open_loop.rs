@@ -6,11 +6,14 @@
 //! Supervised by the observers (the flux observer, seeded at the aligned rotor, sees the rotor
 //! from the first turn; `supervision.rs`): closed loop on the first usable observer once the
 //! ramp has reached the hand-over speed (or the command, if lower) with the rotor seen
-//! following it, at once when that observer sees the rotor pulled out of the ramp above the
-//! hand-back speed (its speed off ω_ol by half: the load is more than the I/f current carries,
-//! and the speed loop has up to `i_max_a`); a stall when no hand-over came within the time
-//! limit, at any speed (a blocked rotor at a small command); stopped when the ramp is at zero
-//! with a zero command.
+//! following it (the observer's speed within half of ω_ol for the lock time, or its angle
+//! within a quarter turn of θ_ol while θ_ol turns a whole turn: at a few % of rated the
+//! speed estimate is noisy and a heavy rotor hunts about the I/f frame, while a blocked rotor
+//! is outside that quarter turn for half of every turn), at once when that observer sees
+//! the rotor pulled out of the ramp above the hand-back speed (its speed off ω_ol by half:
+//! the load is more than the I/f current carries, and the speed loop has up to `i_max_a`);
+//! a stall when no hand-over came within the time limit, at any speed (a blocked rotor at a
+//! small command); stopped when the ramp is at zero with a zero command.
 //!
 //! Never handed over in reverse: a usable observer that sees the rotor turn against the
 //! ramp's direction above the hand-back speed (an active load beyond the I/f current drags

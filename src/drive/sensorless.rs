@@ -178,12 +178,13 @@ impl FieldWeakening {
         let target = self.margin * v_max;
         let v2 = v_ab.alpha * v_ab.alpha + v_ab.beta * v_ab.beta;
         let excess_v = (v2 - target * target) / (2.0 * target);
-        let i_d = clamp(i_d - self.gain_a_per_v * excess_v, -self.i_max_a, 0.0);
-        // A bus at zero (the division's NaN) ends the field weakening.
-        if i_d.is_nan() {
-            0.0
+        let i_d = i_d - self.gain_a_per_v * excess_v;
+        // Within [−i_max, 0]; a bus at zero (the division's NaN, which fails `< 0`) ends the
+        // field weakening. (One compare for the upper bound and the NaN.)
+        if i_d < 0.0 {
+            max(i_d, -self.i_max_a)
         } else {
-            i_d
+            0.0
         }
     }
 }
@@ -471,13 +472,27 @@ impl Settings {
         } else {
             0.0
         };
-        let recovering = speed_rpm.abs() < (1.0 - RECOVERING) * s.overspeed_peak_rpm;
-        if s.overspeed >= self.overspeed_checks && !recovering {
-            return Next::Fault(Fault::Overspeed);
+        if s.overspeed >= self.overspeed_checks {
+            // (Judged only then: the running drive's tick skips it.)
+            cold_path();
+            let recovering = speed_rpm.abs() < (1.0 - RECOVERING) * s.overspeed_peak_rpm;
+            if !recovering {
+                return Next::Fault(Fault::Overspeed);
+            }
         }
         if cmd_rpm == 0.0 && s.speed_ref_rpm == 0.0 && speed_rpm.abs() < self.stop_rpm {
             return Next::Stopped;
         }
+        // The hand-over's d current: fading, held under a command below the hand-over speed
+        // (`enter`).
+        let decayed = s.i_d_handover * self.handover_decay;
+        s.i_d_handover = if cmd_rpm.abs() < self.through_zero_rpm {
+            // (Laid out of the way: the running drive's tick falls through.)
+            cold_path();
+            max(decayed, self.low_speed_d_a)
+        } else {
+            decayed
+        };
         s.out_rot = foc.output_rotation(omega_m);
         s.speed_ref_rpm = self.ramp.slew(s.speed_ref_rpm, cmd_rpm);
         let omega_m_ref = s.speed_ref_rpm * RAD_S_PER_RPM;
@@ -493,13 +508,6 @@ impl Settings {
         // The field-weakening i_d, and i_q within what it leaves of the current limit.
         let fw = &self.field_weakening;
         s.i_d_fw = fw.i_d(s.i_d_fw, applied.v_ab, applied.v_max);
-        // Held below the hand-over speed (`enter`).
-        let decayed = s.i_d_handover * self.handover_decay;
-        s.i_d_handover = if cmd_rpm.abs() < self.through_zero_rpm {
-            max(decayed, self.low_speed_d_a)
-        } else {
-            decayed
-        };
         s.i_d_ref = s.i_d_fw + s.i_d_handover;
         let mut i_q_max = sqrt_or_zero(fw.i_max_a * fw.i_max_a - s.i_d_ref * s.i_d_ref);
         // The speed loop's output is a torque current (`crate::mtpa`), the q current itself on
