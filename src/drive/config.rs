@@ -24,7 +24,7 @@ use crate::observer::sliding::SlidingObserver;
 use crate::observer::Observer;
 use crate::param::{Allowed, Checks, ParamError};
 use crate::rate::{control_rate, CpuBudget};
-use crate::units::{RAD_PER_DEG, RAD_S_PER_RPM};
+use crate::units::{RAD_PER_DEG, RAD_S_PER_RPM, RPM_PER_RAD_S};
 use core::f32::consts::TAU;
 
 /// The adapted resistance stays within R₀/3..3 R₀ (`adaptation.rs`): a copper winding from
@@ -486,6 +486,8 @@ impl DriveConfig {
                 )
                 .max(1),
                 pullout_checks: slot_cycles(h.lock_time_s).max(1),
+                // 2π/(N T_check) rad/s in rpm: RPM_PER_RAD_S 2π rate/(N slots).
+                turn_rpm_checks: RPM_PER_RAD_S * TAU * rate / (m.n() * slots),
                 reverse_checks: slot_cycles(h.failover_time_s).max(1),
                 handback_rpm: s.handback_rpm,
                 ramp,
@@ -503,6 +505,9 @@ impl DriveConfig {
                 // Five speed-loop time constants, 1/(2π f_speed) each: the speed loop takes the
                 // torque over as the d current fades.
                 handover_decay: 1.0 - slots * ts * TAU * self.speed_bandwidth_hz / 5.0,
+                // As the catch's (`catch_zero::Settings::i_hold_a`): twice the dead-time
+                // compensation's band.
+                low_speed_d_a: 2.0 * self.power_stage.dead_time_band_a,
                 handback_rpm: s.handback_rpm,
                 through_zero_rpm: s.handover_rpm,
                 stop_rpm: s.stop_rpm,

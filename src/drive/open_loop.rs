@@ -6,11 +6,14 @@
 //! Supervised by the observers (the flux observer, seeded at the aligned rotor, sees the rotor
 //! from the first turn; `supervision.rs`): closed loop on the first usable observer once the
 //! ramp has reached the hand-over speed (or the command, if lower) with the rotor seen
-//! following it, at once when that observer sees the rotor pulled out of the ramp above the
-//! hand-back speed (its speed off ω_ol by half: the load is more than the I/f current carries,
-//! and the speed loop has up to `i_max_a`); a stall when no hand-over came within the time
-//! limit, at any speed (a blocked rotor at a small command); stopped when the ramp is at zero
-//! with a zero command.
+//! following it (the observer's speed within half of ω_ol for the lock time, or its angle
+//! within a quarter turn of θ_ol while θ_ol turns a whole turn: at a few % of rated the
+//! speed estimate is noisy and a heavy rotor hunts about the I/f frame, while a blocked rotor
+//! is outside that quarter turn for half of every turn), at once when that observer sees
+//! the rotor pulled out of the ramp above the hand-back speed (its speed off ω_ol by half:
+//! the load is more than the I/f current carries, and the speed loop has up to `i_max_a`);
+//! a stall when no hand-over came within the time limit, at any speed (a blocked rotor at a
+//! small command); stopped when the ramp is at zero with a zero command.
 //!
 //! Never handed over in reverse: a usable observer that sees the rotor turn against the
 //! ramp's direction above the hand-back speed (an active load beyond the I/f current drags
@@ -41,6 +44,10 @@ pub(super) struct Settings {
     pub(super) timeout_checks: u32,
     /// Checks of a rotor pulled out of the ramp, or following it, before the hand-over.
     pub(super) pullout_checks: u32,
+    /// The sum of |ω_ol| \[rpm] over consecutive checks that turns θ_ol by an electrical
+    /// turn, `2π/(N T_check)` in rpm: a rotor within a quarter turn of θ_ol while it turned
+    /// this far follows the ramp.
+    pub(super) turn_rpm_checks: f32,
     /// Checks of a rotor turning against the ramp before the closed loop takes it: the
     /// supervision's failover time (a change the health check trusts that fast).
     pub(super) reverse_checks: u32,
@@ -68,6 +75,9 @@ pub(super) struct OpenLoop {
     pulled_out: u32,
     /// Consecutive checks with the rotor following the ramp.
     following: u32,
+    /// The sum of |ω_ol| \[rpm] over the consecutive checks with the rotor within a quarter
+    /// turn of θ_ol (θ_ol's turn since, in units of `N T_check` rad).
+    within_rpm_checks: f32,
     /// The user's command at the last check \[rpm] (`None` before the first).
     last_cmd_rpm: Option<f32>,
     /// Consecutive checks with the rotor turning against the ramp.
@@ -84,6 +94,7 @@ impl OpenLoop {
         checks: 0,
         pulled_out: 0,
         following: 0,
+        within_rpm_checks: 0.0,
         last_cmd_rpm: None,
         reversed: 0,
     };
@@ -177,7 +188,19 @@ impl Settings {
             // I/f current's frame, which it does even at a standstill.
             let reached = ol.speed_rpm.abs() >= self.handover_rpm.min(cmd_rpm.abs());
             ol.following = consecutive(ol.following, !off && ol.speed_rpm != 0.0);
-            let seen_following = ol.following >= self.pullout_checks;
+            // Or within a quarter turn of θ_ol (cos(θ_ol − θ̂) > 0) while θ_ol turned a whole
+            // turn: a blocked rotor is outside that quarter turn on either side of θ_ol for
+            // half of any turn. The angle, not the speed: the observer's speed at a few % of
+            // rated is noisy, and a rotor hunting about the I/f frame (undamped, ±70 % of
+            // ω_ol on a heavy rotor) is still in it.
+            let cos_load_angle = ol.frame.cos * d.frame.cos + ol.frame.sin * d.frame.sin;
+            ol.within_rpm_checks = if cos_load_angle > 0.0 {
+                ol.within_rpm_checks + ol.speed_rpm.abs()
+            } else {
+                0.0
+            };
+            let seen_following =
+                ol.following >= self.pullout_checks || ol.within_rpm_checks >= self.turn_rpm_checks;
             // Turning against the ramp (or the command, at the ramp's start) above the
             // hand-back speed: the closed loop takes it now, braking it first.
             let direction = if ol.speed_rpm != 0.0 {

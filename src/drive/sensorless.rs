@@ -45,8 +45,14 @@ pub(super) struct Settings {
     /// (so that the limit a speed estimate's sign picks does not change with its noise on a
     /// rotor at rest).
     pub(super) braking_max_a: f32,
-    /// The hand-over's d current decays by this factor per millisecond.
+    /// The hand-over's d current decays by this factor per millisecond (under a command below
+    /// the hand-over speed, `through_zero_rpm`, down to `low_speed_d_a`).
     pub(super) handover_decay: f32,
+    /// The d current held under a command below the hand-over speed (see [`Settings::enter`])
+    /// \[A]: twice the dead-time compensation's band (`PowerStageConfig::dead_time_band_a`), as
+    /// the catch holds (`catch_zero::Settings::i_hold_a`), so that every phase current but
+    /// near its zero crossings has a sign the compensation knows.
+    pub(super) low_speed_d_a: f32,
     /// Without a usable observer, below this |speed| and |reference| open loop takes over
     /// again \[rpm].
     pub(super) handback_rpm: f32,
@@ -172,12 +178,13 @@ impl FieldWeakening {
         let target = self.margin * v_max;
         let v2 = v_ab.alpha * v_ab.alpha + v_ab.beta * v_ab.beta;
         let excess_v = (v2 - target * target) / (2.0 * target);
-        let i_d = clamp(i_d - self.gain_a_per_v * excess_v, -self.i_max_a, 0.0);
-        // A bus at zero (the division's NaN) ends the field weakening.
-        if i_d.is_nan() {
-            0.0
+        let i_d = i_d - self.gain_a_per_v * excess_v;
+        // Within [−i_max, 0]; a bus at zero (the division's NaN, which fails `< 0`) ends the
+        // field weakening. (One compare for the upper bound and the NaN.)
+        if i_d < 0.0 {
+            max(i_d, -self.i_max_a)
         } else {
-            i_d
+            0.0
         }
     }
 }
@@ -314,6 +321,21 @@ impl Settings {
     /// the torque over as the d current fades (the smooth I/f transition of Fatu, Teodorescu,
     /// Boldea, Andreescu & Blaabjerg, "I-F starting method with smooth transition to EMF based
     /// motion-sensorless vector control of PM synchronous motor/generator", IEEE PESC 2008).
+    ///
+    /// Under a command below the hand-over speed (one the open loop handed over at, not a
+    /// reference on its way up from a rotor handed over slow) the d current fades only down
+    /// to `low_speed_d_a`, and is held there. An unloaded rotor there needs almost no
+    /// current, and phase currents near zero leave the inverter's dead-time voltage
+    /// `t_d f_pwm V_bus` unknown in sign (its compensation follows the current's sign: Choi &
+    /// Sul, "Inverter output voltage synthesis using novel dead time compensation", IEEE
+    /// Trans. Power Electron. 11(2), 1996), while the back-EMF the voltage-model observers
+    /// integrate, `N ψ_f ω`, is of the same size at a few % of rated (Nanotec DF45: 0.24 V
+    /// against 0.29 V at 3 %; the T-motor drone motor: 0.17 V against 0.23 V). With the
+    /// current gone the flux observer's angle drifted a quarter turn in 0.1 s (on the ideal
+    /// inverter it does not); with twice the compensation's band held on the d axis it stays
+    /// within a few degrees. Not more: a d current makes a torque `∝ i_d sin(θ − θ̂)` about the
+    /// observer's angle, a spring that shook the Delta servo's rotor by ±70 rpm at 90 rpm with
+    /// the whole I/f current held.
     // Out of line, like the other mode changes: rare, kept off the every-step path.
     #[inline(never)]
     pub(super) fn enter(&self, foc: &Foc, e: Entry) -> Sensorless {
@@ -450,13 +472,27 @@ impl Settings {
         } else {
             0.0
         };
-        let recovering = speed_rpm.abs() < (1.0 - RECOVERING) * s.overspeed_peak_rpm;
-        if s.overspeed >= self.overspeed_checks && !recovering {
-            return Next::Fault(Fault::Overspeed);
+        if s.overspeed >= self.overspeed_checks {
+            // (Judged only then: the running drive's tick skips it.)
+            cold_path();
+            let recovering = speed_rpm.abs() < (1.0 - RECOVERING) * s.overspeed_peak_rpm;
+            if !recovering {
+                return Next::Fault(Fault::Overspeed);
+            }
         }
         if cmd_rpm == 0.0 && s.speed_ref_rpm == 0.0 && speed_rpm.abs() < self.stop_rpm {
             return Next::Stopped;
         }
+        // The hand-over's d current: fading, held under a command below the hand-over speed
+        // (`enter`).
+        let decayed = s.i_d_handover * self.handover_decay;
+        s.i_d_handover = if cmd_rpm.abs() < self.through_zero_rpm {
+            // (Laid out of the way: the running drive's tick falls through.)
+            cold_path();
+            max(decayed, self.low_speed_d_a)
+        } else {
+            decayed
+        };
         s.out_rot = foc.output_rotation(omega_m);
         s.speed_ref_rpm = self.ramp.slew(s.speed_ref_rpm, cmd_rpm);
         let omega_m_ref = s.speed_ref_rpm * RAD_S_PER_RPM;
@@ -472,7 +508,6 @@ impl Settings {
         // The field-weakening i_d, and i_q within what it leaves of the current limit.
         let fw = &self.field_weakening;
         s.i_d_fw = fw.i_d(s.i_d_fw, applied.v_ab, applied.v_max);
-        s.i_d_handover *= self.handover_decay;
         s.i_d_ref = s.i_d_fw + s.i_d_handover;
         let mut i_q_max = sqrt_or_zero(fw.i_max_a * fw.i_max_a - s.i_d_ref * s.i_d_ref);
         // The speed loop's output is a torque current (`crate::mtpa`), the q current itself on
