@@ -40,8 +40,9 @@ const FLUX_ADAPT_TIME_S: f32 = 0.25;
 /// 15 % off must be corrected while the rotor is still slow, or both observers' residuals
 /// reach their limit there, measured on Ortega's test motor) ...
 const FLUX_ADAPT_MIN_SPEED: f32 = 0.1;
-/// ... where `R |i_q|` is at most this share of the back-EMF: R just measured (within 1.2 % in
-/// the robustness matrix) moves ψ_f by 0.4 % at most; a winding warmed 30 % since, by 9 %.
+/// ... where `R |i_q|` and `ω_e L_q |i_q|` are each at most this share of the back-EMF: R just
+/// measured (within 1.2 % in the robustness matrix) moves ψ_f by 0.4 % at most; a winding
+/// warmed 30 % since, by 9 % (`adaptation.rs` for the inductive part).
 const FLUX_ADAPT_MAX_R_SHARE: f32 = 0.3;
 
 /// The time constant of the measured bus's low-pass filter for the over-speed bound \[s]: half
@@ -434,6 +435,7 @@ impl DriveConfig {
                     * self.ratings.speed_rpm
                     * RAD_S_PER_RPM,
                 flux_max_r_share: FLUX_ADAPT_MAX_R_SHARE,
+                flux_max_i_q_a: FLUX_ADAPT_MAX_R_SHARE * m.flux_wb / m.l_q_h(),
             },
             catch: catch::Settings {
                 v_min: m.emf_constant() * s.handback_rpm * RAD_S_PER_RPM,
