@@ -15,6 +15,13 @@
 //! a stall when no hand-over came within the time limit, at any speed (a blocked rotor at a
 //! small command); stopped when the ramp is at zero with a zero command.
 //!
+//! The stop: sensorless control hands a rotor stopping on a zero command back below the
+//! hand-over speed (`sensorless.rs`: there a model error, a winding warmer than the start
+//! measured, is no longer small against the back-EMF), and the I/f ramp carries it to zero, the
+//! start backwards. With a zero command a rotor seen following the ramp is not handed over
+//! again; one pulled out of it (a load beyond the I/f current) or turning against it is, with
+//! its speed reference at zero: the speed loop brakes it to the stop.
+//!
 //! Never handed over in reverse: a usable observer that sees the rotor turn against the
 //! ramp's direction above the hand-back speed (an active load beyond the I/f current drags
 //! it backwards) for `reverse_checks` takes over in closed loop at once
@@ -213,15 +220,24 @@ impl Settings {
             ol.reversed = consecutive(ol.reversed, backwards);
             let reason = if ol.reversed >= self.reverse_checks {
                 Some(Reason::AgainstCommand)
-            } else if (reached && seen_following) || ol.pulled_out >= self.pullout_checks {
+            } else if (reached && seen_following && cmd_rpm != 0.0)
+                || ol.pulled_out >= self.pullout_checks
+            {
                 Some(Reason::HandOver)
             } else {
                 None
             };
             if let Some(reason) = reason {
                 // Never carried on in reverse: against the command, the reference from zero.
+                // A zero command's (a stop the open loop could not carry): the reference at
+                // zero, the speed loop brakes the rotor to the stop.
+                let ref_omega_m = if cmd_rpm == 0.0 {
+                    0.0
+                } else {
+                    Entry::reference(d.omega_m, cmd_rpm)
+                };
                 let entry = Entry {
-                    ref_omega_m: Entry::reference(d.omega_m, cmd_rpm),
+                    ref_omega_m,
                     ..self.handover(ol, d)
                 };
                 return Next::Sensorless(entry, reason);
