@@ -363,7 +363,7 @@ impl FluxSpin {
         self.swings |= at_speed && lag.abs() > SWING;
         let damping = if at_speed && self.swings {
             let most = 0.5 * self.omega_m;
-            (LAG_DAMPING / s.n * lag).clamp(-most, most)
+            crate::math::clamp(LAG_DAMPING / s.n * lag, -most, most)
         } else {
             0.0
         };
