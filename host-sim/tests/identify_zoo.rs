@@ -201,16 +201,13 @@ fn a_drone_at_a_tenth_of_its_inertia_ends_named() {
 /// the Caruso 2019 IPM (1.53) and the Zou 350 kW PMa-SynRM (2.67), two seeds each, within
 /// R 3 %, L_d and L_q 5 %, ψ_f 3 %, J 10 %. (Before: the Aalto's and the Caruso's L_d and L_q
 /// within 1 % of each axis, but the drive took their mean; ψ_f −2.4 % and −7.7 %, J −9 % on
-/// the Caruso; the Zou ended in `shorted_phase`.) And the AMK DD5 wheel motor (2.0), whose
-/// light rotor swung on the flux's I/f spin and slipped (`spin_not_followed`) before the spin
-/// was damped (`flux.rs`).
+/// the Caruso; the Zou ended in `shorted_phase`.)
 #[test]
 fn salient_ipms_identify_both_axes() {
     for file in [
         "motors/zoo/salient/industrial-ipm-aalto-2.2kw.toml",
         "motors/zoo/salient/industrial-ipm-caruso-2019.toml",
         "motors/zoo/salient/traction-pmasynrm-zou-350kw.toml",
-        "motors/zoo/salient/fs-ipm-amk-dd5-14-10-pow.toml",
     ] {
         let m = load(&Path::new(env!("CARGO_MANIFEST_DIR")).join(file));
         for seed in [1, 2] {

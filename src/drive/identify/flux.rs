@@ -61,23 +61,6 @@
 //! of closed-loop I/f starting, e.g. M. Fatu, R. Teodorescu, I. Boldea, G.-D. Andreescu,
 //! F. Blaabjerg, "I-F starting method with smooth transition to EMF based motion-sensorless
 //! vector control of PM synchronous motor/generator", IEEE PESC 2008.
-//!
-//! The spin is damped. A rotor pulled by a current of fixed magnitude along a turning frame
-//! is a pendulum: its lag `δ` behind the frame swings at `ω_n = √(c N² ψ_f I/J)` with no
-//! damping but friction's (the AMK DD5's 2.7e-4 kg·m² rotor swung ±12 % of the spin speed
-//! for a second and slipped when the current was lowered at the second speed). Once the
-//! ramp has reached its speed and the rotor swings (its lag beyond `SWING`, half the ramp's
-//! `LAG_MAX`; a rotor that does not swing is spun as before, to the bit), the frame's speed
-//! is the ramp's less `LAG_DAMPING · δ/N` (δ the EMF's angle in the frame, each millisecond,
-//! where the EMF is a tenth of the voltage or more; at most half the ramp's speed, so the
-//! frame never turns back): `δ'' = −c δ' − (K/J') δ`, a swing that decays at `c/2` (31/s: a
-//! 32 ms time constant, six in the 200 ms settling) whatever `ω_n`, without `ψ_f` or `J`,
-//! which are what the spin is there to measure; a decade below the 1 kHz tick that measures
-//! `δ`. The stabilisation of open-loop (V/f)
-//! PMSM drives by a frequency correction from the load angle's oscillation, as in
-//! P. D. C. Perera, F. Blaabjerg, J. K. Pedersen, P. Thøgersen, "A sensorless, stable V/f
-//! control method for permanent-magnet synchronous motor drives", IEEE TIA 39(3), 2003 (there
-//! from the power's). The speeds the flux and the mechanics take are the frame's.
 
 use super::inverter::dead_time_applied;
 use super::mechanics::Mechanics;
@@ -97,12 +80,6 @@ const SHIFT_MS: u32 = 50;
 const MEASURE_MS: u32 = 500;
 /// The largest lag of the rotor behind the frame the ramp accelerates on \[rad].
 const LAG_MAX: f32 = 0.6;
-/// The frame's speed correction per radian of the rotor's lag, `c` \[1/s, electrical] (module
-/// doc): 2π·10 Hz.
-const LAG_DAMPING: f32 = core::f32::consts::TAU * 10.0;
-/// A lag beyond this at the spin's speed is a swing, which is damped from then on: half the
-/// ramp's `LAG_MAX` \[rad].
-const SWING: f32 = 0.5 * LAG_MAX;
 
 /// The start's watch: the first window's lowest frame speed, a fraction of the half spin
 /// speed (module doc).
@@ -148,14 +125,8 @@ pub(in crate::drive) struct FluxSpin {
     step_rot: SinCos,
     /// The output angle's lead over the frame.
     out_rot: SinCos,
-    /// The ramp's speed [rad/s, mechanical].
+    /// The frame's speed [rad/s, mechanical].
     omega_m: f32,
-    /// The frame's: the ramp's less the lag's correction (module doc) [rad/s, mechanical].
-    omega_frame_m: f32,
-    /// Σ of the frame's speed over the measurement's milliseconds [rad/s].
-    omega_frame_sum: f32,
-    /// The rotor swung at the spin's speed (module doc): the swing damped from then on.
-    swings: bool,
     /// The current's magnitude \[A].
     i_ref: f32,
     i_prev: AlphaBeta,
@@ -192,9 +163,6 @@ impl FluxSpin {
             step_rot: SinCos::ZERO,
             out_rot: SinCos::ZERO,
             omega_m: 0.0,
-            omega_frame_m: 0.0,
-            omega_frame_sum: 0.0,
-            swings: false,
             i_ref: s.i_test_a,
             i_prev: AlphaBeta::default(),
             e_sum: Dq::default(),
@@ -239,7 +207,7 @@ impl FluxSpin {
         Request {
             frame: self.frame,
             frame_out: self.frame.rotated(self.out_rot),
-            omega_m: self.omega_frame_m,
+            omega_m: self.omega_m,
             reference: Reference::Current(Dq::new(self.i_ref, 0.0)),
         }
     }
@@ -263,18 +231,12 @@ impl FluxSpin {
         self.e_last = e;
         self.frame = self.frame.renormalized();
         let hold = HOLD * s.i_test_a;
-        // The rotor's lag behind the frame (the EMF's angle in it) where the EMF is measurable.
-        let lag = if super::magnitude(e) >= 0.1 * super::magnitude(v) {
-            crate::math::atan2(e.d, e.q)
-        } else {
-            0.0
-        };
         match self.stage {
             Stage::Ramp => {
                 if self.e_half.is_none() {
                     // The start watched (the EMF of the frame speed of the last millisecond).
                     let w1 = WATCH_FROM * 0.5 * s.omega_low_m;
-                    let w = self.omega_frame_m;
+                    let w = self.omega_m;
                     let slot = if w >= w1 && w < 1.5 * w1 {
                         self.watch.get_mut(0)
                     } else if w >= 2.0 * w1 && w < 3.0 * w1 {
@@ -294,9 +256,13 @@ impl FluxSpin {
                 // The rotor watched: while its EMF lags the frame's q axis by more than
                 // LAG_MAX (the rotor behind the current by that much), the frame holds its
                 // speed and lets it catch up.
-                if lag <= LAG_MAX {
+                let lagging = super::magnitude(e) >= 0.1 * super::magnitude(v)
+                    && crate::math::atan2(e.d, e.q) > LAG_MAX;
+                if !lagging {
                     self.omega_m = (self.omega_m + s.accel_per_ms).min(target);
                 }
+                self.step_rot = super::rotation(s.n_ts * self.omega_m);
+                self.out_rot = foc.output_rotation(self.omega_m);
                 if self.omega_m >= target {
                     self.stage = if self.e_half.is_some() {
                         Stage::Lower(SHIFT_MS)
@@ -337,7 +303,6 @@ impl FluxSpin {
             }
             Stage::Measure(ms) => {
                 self.e_mag_sum += self.magnet_emf(s, e, i);
-                self.omega_frame_sum += self.omega_frame_m;
                 self.e_q_sum += e.q;
                 self.v_mag_sum += super::magnitude(v);
                 self.count += 1;
@@ -347,7 +312,6 @@ impl FluxSpin {
                     // Half speed measured: on to the spin speed.
                     self.e_half = Some(self.e_mag_sum / self.count as f32);
                     self.e_mag_sum = 0.0;
-                    self.omega_frame_sum = 0.0;
                     self.e_q_sum = 0.0;
                     self.v_mag_sum = 0.0;
                     self.count = 0;
@@ -357,19 +321,6 @@ impl FluxSpin {
                 }
             }
         }
-        // The frame's speed for the next millisecond: the ramp's, a swing damped once the ramp
-        // is at its speed (module doc).
-        let at_speed = self.stage != Stage::Ramp;
-        self.swings |= at_speed && lag.abs() > SWING;
-        let damping = if at_speed && self.swings {
-            let most = 0.5 * self.omega_m;
-            crate::math::clamp(LAG_DAMPING / s.n * lag, -most, most)
-        } else {
-            0.0
-        };
-        self.omega_frame_m = self.omega_m - damping;
-        self.step_rot = super::rotation(s.n_ts * self.omega_frame_m);
-        self.out_rot = foc.output_rotation(self.omega_frame_m);
         Progress::Stay
     }
 
@@ -391,7 +342,7 @@ impl FluxSpin {
         } else {
             0.0
         };
-        mag - s.n * self.omega_frame_m * self.l_d_minus_q_h * i_d
+        mag - s.n * self.omega_m * self.l_d_minus_q_h * i_d
     }
 
     /// ψ_f from the mean back-EMF; the torque steps start in the frame of the rotor.
@@ -407,7 +358,7 @@ impl FluxSpin {
                 IdentifyError::BlockedRotor
             });
         }
-        let flux_wb = e_mean / (s.n * self.omega_frame_sum);
+        let flux_wb = e_mean / (self.count as f32 * s.n * self.omega_m);
         if MotorParams::FLUX_WB.check("flux_wb", flux_wb).is_err() {
             return Progress::Fail(IdentifyError::FluxOutOfRange);
         }
@@ -428,7 +379,7 @@ impl FluxSpin {
             s,
             result,
             rotor,
-            self.omega_frame_m,
+            self.omega_m,
             self.i_prev,
         )))
     }
