@@ -322,8 +322,9 @@ impl Settings {
     /// Boldea, Andreescu & Blaabjerg, "I-F starting method with smooth transition to EMF based
     /// motion-sensorless vector control of PM synchronous motor/generator", IEEE PESC 2008).
     ///
-    /// Under a command below the hand-over speed (one the open loop handed over at, not a
-    /// reference on its way up from a rotor handed over slow) the d current fades only down
+    /// Under a command and a speed reference below the hand-over speed (one the open loop
+    /// handed over at, not a reference on its way up from a rotor handed over slow nor a stop's
+    /// on its way down from speed) the d current fades only down
     /// to `low_speed_d_a`, and is held there. An unloaded rotor there needs almost no
     /// current, and phase currents near zero leave the inverter's dead-time voltage
     /// `t_d f_pwm V_bus` unknown in sign (its compensation follows the current's sign: Choi &
@@ -506,7 +507,11 @@ impl Settings {
         // The hand-over's d current: fading, held under a command below the hand-over speed
         // (`enter`).
         let decayed = s.i_d_handover * self.handover_decay;
-        s.i_d_handover = if cmd_rpm.abs() < self.through_zero_rpm {
+        // (Not on the way down from a higher speed, a stop's: the speed reference too below the
+        // hand-over speed, else the held d current stands in the braking's way: the stop into a
+        // supply that cannot sink, `host-sim/tests/dc_link.rs`.)
+        let low = self.through_zero_rpm;
+        s.i_d_handover = if cmd_rpm.abs() < low && s.speed_ref_rpm.abs() < low {
             // (Laid out of the way: the running drive's tick falls through.)
             cold_path();
             max(decayed, self.low_speed_d_a)
