@@ -1,7 +1,7 @@
 //! Scenario files, the verdict of `run` (exit 3 on a failed run) and `sweep`.
 
 mod common;
-use common::sim;
+use common::{run_json, sim};
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -19,19 +19,6 @@ fn write(dir: &Path, name: &str, text: &str) -> String {
     let p = dir.join(name);
     std::fs::write(&p, text).unwrap();
     p.to_string_lossy().into_owned()
-}
-
-/// The JSON summary of a run, and its exit code.
-fn run_json(args: &[&str]) -> (serde_json::Value, Option<i32>) {
-    let out = sim(&[args, &["--json"]].concat());
-    let v = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| {
-        panic!(
-            "{e}: stdout {:?} stderr {:?}",
-            String::from_utf8_lossy(&out.stdout),
-            String::from_utf8_lossy(&out.stderr)
-        )
-    });
-    (v, out.status.code())
 }
 
 fn assert_error(out: &Output, needle: &str) {

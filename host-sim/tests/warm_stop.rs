@@ -7,14 +7,14 @@
 //! hand-over speed (`src/drive/sensorless.rs`), which ramps it to zero whatever R.
 
 mod common;
-use common::sim;
+use common::run_json;
 
 /// `run --json` of warm-winding-150 on `motor` (a zoo file, identified first) with `observer`.
 fn warm_run(motor: &str, observer: &str) -> (serde_json::Value, Option<i32>) {
     let dir = env!("CARGO_MANIFEST_DIR");
     let scenario = format!("{dir}/scenarios/warm-winding-150.toml");
     let motor = format!("{dir}/motors/zoo/{motor}.toml");
-    let out = sim(&[
+    run_json(&[
         "run",
         "--scenario-file",
         &scenario,
@@ -25,16 +25,7 @@ fn warm_run(motor: &str, observer: &str) -> (serde_json::Value, Option<i32>) {
         observer,
         "--seed",
         "1",
-        "--json",
-    ]);
-    let v = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| {
-        panic!(
-            "{e}: stdout {:?} stderr {:?}",
-            String::from_utf8_lossy(&out.stdout),
-            String::from_utf8_lossy(&out.stderr)
-        )
-    });
-    (v, out.status.code())
+    ])
 }
 
 #[test]

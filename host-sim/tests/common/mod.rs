@@ -9,3 +9,17 @@ pub fn sim(args: &[&str]) -> Output {
         .output()
         .expect("pmsm-sim runs")
 }
+
+/// The JSON summary of `pmsm-sim ARGS --json`, and its exit code.
+#[allow(dead_code)] // not every test uses it
+pub fn run_json(args: &[&str]) -> (serde_json::Value, Option<i32>) {
+    let out = sim(&[args, &["--json"]].concat());
+    let v = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| {
+        panic!(
+            "{e}: stdout {:?} stderr {:?}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        )
+    });
+    (v, out.status.code())
+}
