@@ -33,7 +33,7 @@ use super::Reason;
 use crate::foc::{CurrentLoopState, Foc, Reference, Request};
 use crate::frames::{AlphaBeta, Dq};
 use crate::injection::{Injection, InjectionState, Phase};
-use crate::math::wrap_pi;
+use crate::math::{clamp, wrap_pi};
 use crate::mtpa::Mtpa;
 use crate::pi::PiState;
 use crate::units::{RAD_S_PER_RPM, RPM_PER_RAD_S};
@@ -141,7 +141,7 @@ impl Settings {
         });
         let hold_omega_m = s.hold.map_or(0.0, |(travel_e, _)| {
             let max = self.hold_max_omega_m;
-            crate::math::clamp(-self.hold_gain * travel_e, -max, max)
+            clamp(-self.hold_gain * travel_e, -max, max)
         });
         let reference = s.speed_ref_rpm * RAD_S_PER_RPM + hold_omega_m;
         let i_tau = foc.speed_step(&mut s.speed_pi, (reference, s.omega_m), 0.0, None);

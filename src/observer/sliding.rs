@@ -23,9 +23,11 @@
 //! is there in the steady state). `ψ_a` is taken each period at the estimate's own `î_d`:
 //! without it the back-EMF's length `N ω ψ_a` is read as speed over `ψ_f`, and MTPA's
 //! negative `i_d` on an IPM biases `ω̂` high by `(L_d − L_q) i_d/ψ_f` (measured: the Aalto
-//! IPM's speed 7 % low at 1000 rpm, `host-sim/matrices/zoo-salient.toml`). The gains and
-//! their bounds are the paper's with `L = L_q`, `ψ_a` taken as constant over the observer's
-//! time constants; the mechanical equation (35) keeps `K = ψ_f` (the reluctance torque is a
+//! IPM's speed 7 % low at 1000 rpm, `host-sim/matrices/zoo-salient.toml`). The gains are the
+//! paper's with `L = L_q`, `ψ_a` taken as constant over the observer's time constants; the
+//! `K_s` window the drive chooses `K_s` in (`crate::bounds`, `drive/config_observers.rs`) is
+//! still computed with the mean `L` (an open point: with `L_q` it narrows E2's bound on a
+//! salient motor); the mechanical equation (35) keeps `K = ψ_f` (the reluctance torque is a
 //! load to it, which τ̂_L takes up). With `L_d = L_q`, `ψ_a = ψ_f` exactly: the paper's
 //! equations to the bit.
 //!
