@@ -269,7 +269,7 @@ use pmsm_host_sim::board::SimBoard;
 use pmsm_host_sim::observer::ObserverKind;
 use pmsm_host_sim::report::summary::Summary;
 use pmsm_host_sim::scenario::Spec;
-use pmsm_host_sim::sim::{run as run_sim, Row, SimConfig};
+use pmsm_host_sim::sim::{run as run_sim, Row, Run, SimConfig};
 use pmsm_sensorless::drive::{Mode, Reason};
 
 /// The board's defaults (`SimBoard::board_defaults`: 500 ns dead time compensated, 1 % noise,
@@ -292,6 +292,14 @@ fn drive_config(file: &str, spec: &Spec, theta_m0: f64, injection: bool) -> SimC
     cfg.theta_m0 = theta_m0;
     cfg.injection = injection;
     cfg
+}
+
+/// A run's mode changes, `"t from->to reason"`, for the messages.
+fn modes(r: &Run) -> Vec<String> {
+    r.transitions
+        .iter()
+        .map(|(t, tr)| format!("{t:.4} {:?}->{:?} {:?}", tr.from, tr.to, tr.reason))
+        .collect()
 }
 
 /// The rotor's mechanical travel from its start \[rad], unwrapped from the rows' wrapped
@@ -335,11 +343,7 @@ windows = [["half", 1.2, 1.5]]
         let rate = cfg.rate_hz;
         let r = run_sim(cfg).unwrap();
         let s = Summary::of(&r);
-        let modes: Vec<_> = r
-            .transitions
-            .iter()
-            .map(|(t, tr)| format!("{t:.4} {:?}->{:?} {:?}", tr.from, tr.to, tr.reason))
-            .collect();
+        let modes = modes(&r);
         let travel = travel_m(&r.rows, n);
         let back = travel.iter().fold(0.0f64, |a, &x| a.min(x));
         let handover = r
@@ -424,11 +428,7 @@ windows = [["held", 0.4, 2.4]]
         let rated_rpm = f64::from(cfg.scenario.motor.ratings.speed_rpm);
         let r = run_sim(cfg).unwrap();
         let s = Summary::of(&r);
-        let modes: Vec<_> = r
-            .transitions
-            .iter()
-            .map(|(t, tr)| format!("{t:.4} {:?}->{:?} {:?}", tr.from, tr.to, tr.reason))
-            .collect();
+        let modes = modes(&r);
         let travel = travel_m(&r.rows, n);
         let held: Vec<(&Row, f64)> = r
             .rows
