@@ -1,7 +1,7 @@
 //! The drive's configuration in SI units, its validation, and what it derives: the FOC gains,
 //! the observers' settings, and each mode's per-step coefficients.
 
-use super::config_observers::{ADVANCE_PERIODS, PLL_BANDWIDTH_HZ};
+use super::config_observers::{default_speed_bandwidth_hz, ADVANCE_PERIODS, PLL_BANDWIDTH_HZ};
 pub use super::config_rate::PowerStageConfig;
 use super::derating::FIELD_WEAKENING_MARGIN;
 #[cfg(feature = "identify")]
@@ -155,7 +155,9 @@ impl DriveConfig {
     /// an observer healthy after 20 ms of mean residual below ¼, lost after 3 ms at ½;
     /// observer loss after 20 ms without a healthy one or of 30° or 10 % of rated speed
     /// contradiction; stall after 0.5 s of open loop without lock or 0.1 s at the current
-    /// limit below half the speed reference. The power stage is the B-G431B-ESC1's (20 kHz
+    /// limit below half the speed reference. The speed loop at 20 Hz, lower where it would make
+    /// more than ten times the current sensors' noise of its torque command
+    /// (`config_observers::default_speed_bandwidth_hz`). The power stage is the B-G431B-ESC1's (20 kHz
     /// PWM, 500 ns dead time); the dead-time
     /// compensation's smooth sign reaches full at 5 % of the rated-torque current: five
     /// standard deviations of the 1 %-of-rated-current noise a board's sensing has
@@ -188,7 +190,7 @@ impl DriveConfig {
             rate_hz: control_rate(motor.params.pole_pairs, speed, PWM_HZ, &CpuBudget::BOARD)
                 .rate_hz,
             current_bandwidth_hz: 300.0,
-            speed_bandwidth_hz: 20.0,
+            speed_bandwidth_hz: default_speed_bandwidth_hz(&motor.params),
             limits: Limits {
                 i_max_a: i_max,
                 i_trip_a: i_trip,
@@ -345,10 +347,12 @@ impl DriveConfig {
     }
 
     /// The speed loop's load-torque observer: the motor's mechanics at the speed loop's rate,
-    /// its bandwidth a fifth of the PLL's (10 Hz): it works on the PLL's speed estimate, whose
-    /// phase lag must stay small at its bandwidth (22° at a fifth of the PLL's natural
+    /// its bandwidth a fifth of the paper's PLL's (10 Hz): it works on the PLL's speed estimate,
+    /// whose phase lag must stay small at its bandwidth (22° at a fifth of the PLL's natural
     /// frequency, 43° at 20 Hz, where the speed loop with it oscillated on Ortega's test
-    /// motor after a flying start) (unvalidated).
+    /// motor after a flying start). Kept where the speed loop and its PLL are lowered for noise
+    /// (`config_observers::pll_bandwidth_hz`): lowered with them on the Brusa HSM1, the salient
+    /// motor lost two of its 20 must-show cells (reversal at 20 %) (unvalidated).
     pub(super) fn load_observer_config(&self) -> LoadObserverConfig {
         LoadObserverConfig {
             j_kgm2: self.motor.j_kgm2,

@@ -4,12 +4,14 @@
 
 use super::DriveConfig;
 use crate::bounds::{ks_max_e2, ks_max_t};
+use crate::motor::MotorParams;
 use crate::observer::flux::FluxConfig;
 use crate::observer::flux_speed::FluxPll;
 use crate::observer::pll::PllConfig;
 use crate::observer::sliding::{SlidingConfig, SlidingGain, SlidingObserver};
 use crate::param::{Allowed, ParamError};
 use crate::units::RAD_S_PER_RPM;
+use core::f32::consts::TAU;
 
 /// The sliding observer's back-EMF angle leads the sample by half a period of rotation: the
 /// middle of the period between two samples (the back-EMF's mean over it). The controller's
@@ -18,9 +20,62 @@ use crate::units::RAD_S_PER_RPM;
 /// over.
 pub(super) const ADVANCE_PERIODS: f32 = 0.5;
 
-/// Natural frequency \[Hz] and damping of the PLL on the flux observer's angle.
+/// Natural frequency \[Hz] and damping of the PLL on the flux observer's angle, with the
+/// speed loop at its default bandwidth [`SPEED_BANDWIDTH_HZ`] or faster ([`pll_bandwidth_hz`]).
 pub(super) const PLL_BANDWIDTH_HZ: f32 = 50.0;
 pub(super) const PLL_DAMPING: f32 = 1.0;
+
+/// The speed loop's default bandwidth \[Hz] ([`default_speed_bandwidth_hz`]).
+pub(super) const SPEED_BANDWIDTH_HZ: f32 = 20.0;
+
+/// The most torque-command current the speed loop may make of each ampere of current-sensor
+/// noise ([`speed_noise_gain`]): at the 1 %-of-rated-current noise a board's sensing has
+/// (`DESIGN.md`) the command's noise then stays within 10 % of the rated current, three
+/// standard deviations within 30 %, clear of the current limit (150 %). Measured on the
+/// zoo: the Brusa HSM1 (gain 41 at 20/50 Hz) saturated its torque command at ±1.5× rated
+/// at 3 % speed on that noise, its mean speed 10–16 % low; every other zoo motor is below 1.2.
+pub(super) const SPEED_NOISE_GAIN_MAX: f32 = 10.0;
+
+/// The PLL's natural frequency \[Hz] for a speed loop of `speed_bandwidth_hz`: the paper's
+/// [`PLL_BANDWIDTH_HZ`] with the default speed loop or a faster one; with a slower one lowered
+/// with it, at the same ratio (2.5): the speed estimate filtered at the pace the speed loop
+/// needs. An unusable `speed_bandwidth_hz` leaves the paper's (the FOC's check names it).
+pub(super) fn pll_bandwidth_hz(speed_bandwidth_hz: f32) -> f32 {
+    if speed_bandwidth_hz > 0.0 && speed_bandwidth_hz < SPEED_BANDWIDTH_HZ {
+        PLL_BANDWIDTH_HZ * speed_bandwidth_hz / SPEED_BANDWIDTH_HZ
+    } else {
+        PLL_BANDWIDTH_HZ
+    }
+}
+
+/// The speed loop's noise gain: torque-command current per ampere of current-sensor noise
+/// \[A/A], through the flux observer's angle (its flux estimate `λ − L_q i` carries the
+/// noise as `L_q σ_i`, the angle as `σ_θ = L_q σ_i/ψ_f` rad electrical), the PLL's
+/// proportional path (speed `2ζω_n σ_θ/N` rad/s mechanical) and the speed PI's proportional
+/// gain `J ω_s/K_t` (`crate::foc`):
+/// `G = 2ζ ω_n · J ω_s/K_t · L_q/(N ψ_f)`, with ω_n, ω_s in rad/s.
+pub(super) fn speed_noise_gain(
+    m: &MotorParams,
+    speed_bandwidth_hz: f32,
+    pll_bandwidth_hz: f32,
+) -> f32 {
+    let kp_speed = m.j_kgm2 * TAU * speed_bandwidth_hz / m.torque_constant();
+    2.0 * PLL_DAMPING * TAU * pll_bandwidth_hz * kp_speed * m.l_q_h() / (m.n() * m.flux_wb)
+}
+
+/// The speed loop's default bandwidth \[Hz] for the motor: [`SPEED_BANDWIDTH_HZ`], lowered
+/// where the speed loop's noise gain there ([`speed_noise_gain`], with the PLL at
+/// [`PLL_BANDWIDTH_HZ`]) exceeds [`SPEED_NOISE_GAIN_MAX`]. The gain goes with the product of
+/// the two bandwidths and the PLL follows the speed loop ([`pll_bandwidth_hz`]), so both
+/// are lowered by `√(G_max/G)`, keeping the speed loop's phase margin (their ratio).
+pub(super) fn default_speed_bandwidth_hz(m: &MotorParams) -> f32 {
+    let gain = speed_noise_gain(m, SPEED_BANDWIDTH_HZ, PLL_BANDWIDTH_HZ);
+    if gain > SPEED_NOISE_GAIN_MAX {
+        SPEED_BANDWIDTH_HZ * libm::sqrtf(SPEED_NOISE_GAIN_MAX / gain)
+    } else {
+        SPEED_BANDWIDTH_HZ
+    }
+}
 /// The plain PLL's phase lag \[rad] under the motor's largest acceleration above which it is
 /// aided ([`DriveConfig::pll_aided`]): π, where its phase error, wrapped to ±π, turns
 /// ambiguous and the loop slips a cycle. Below it the plain loop lags but recovers, and
@@ -166,7 +221,7 @@ impl DriveConfig {
     pub(super) fn pll_config(&self) -> PllConfig {
         PllConfig {
             rate_hz: self.rate_hz / self.steps_per_tick(),
-            bandwidth_hz: PLL_BANDWIDTH_HZ,
+            bandwidth_hz: pll_bandwidth_hz(self.speed_bandwidth_hz),
             damping: PLL_DAMPING,
         }
     }
