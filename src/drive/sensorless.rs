@@ -322,9 +322,9 @@ impl Settings {
     /// Boldea, Andreescu & Blaabjerg, "I-F starting method with smooth transition to EMF based
     /// motion-sensorless vector control of PM synchronous motor/generator", IEEE PESC 2008).
     ///
-    /// Under a command and a speed reference below the hand-over speed (one the open loop
-    /// handed over at, not a reference on its way up from a rotor handed over slow nor a stop's
-    /// on its way down from speed) the d current fades only down
+    /// Under a speed reference below the hand-over speed (one the open loop handed over at, a
+    /// reversal's or a catch's on its way through zero, a stop's once it is that low; not a
+    /// stop's on its way down from speed) the d current fades only down
     /// to `low_speed_d_a`, and is held there. An unloaded rotor there needs almost no
     /// current, and phase currents near zero leave the inverter's dead-time voltage
     /// `t_d f_pwm V_bus` unknown in sign (its compensation follows the current's sign: Choi &
@@ -504,14 +504,17 @@ impl Settings {
                 return Next::Fault(Fault::Overspeed);
             }
         }
-        // The hand-over's d current: fading, held under a command below the hand-over speed
+        // The hand-over's d current: fading, held under a speed reference below the hand-over speed
         // (`enter`).
         let decayed = s.i_d_handover * self.handover_decay;
-        // (Not on the way down from a higher speed, a stop's: the speed reference too below the
-        // hand-over speed, else the held d current stands in the braking's way: the stop into a
-        // supply that cannot sink, `host-sim/tests/dc_link.rs`.)
+        // (The speed reference, not the command, below the hand-over speed: on a stop's way down
+        // from speed a held d current stands in the braking's way (the stop into a supply that
+        // cannot sink, `host-sim/tests/dc_link.rs`); on a reversal's or a catch's way through
+        // zero, the command beyond it, the dead-time voltage near zero current threw the
+        // observers off (issue #26's zoo: 21 through-zero cells of 8 motors that pass on an
+        // inverter without dead time).)
         let low = self.through_zero_rpm;
-        s.i_d_handover = if cmd_rpm.abs() < low && s.speed_ref_rpm.abs() < low {
+        s.i_d_handover = if s.speed_ref_rpm.abs() < low {
             // (Laid out of the way: the running drive's tick falls through.)
             cold_path();
             max(decayed, self.low_speed_d_a)
