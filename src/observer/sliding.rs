@@ -26,8 +26,8 @@
 //! IPM's speed 7 % low at 1000 rpm, `host-sim/matrices/zoo-salient.toml`). The gains are the
 //! paper's with `L = L_q`, `ψ_a` taken as constant over the observer's time constants; the
 //! `K_s` window the drive chooses `K_s` in (`crate::bounds`, `drive/config_observers.rs`) is
-//! still computed with the mean `L` (an open point: with `L_q` it narrows E2's bound on a
-//! salient motor); the mechanical equation (35) keeps `K = ψ_f` (the reluctance torque is a
+//! computed with `L_q` too (with the mean `L` before: the same 160 cells of
+//! `host-sim/matrices/zoo-salient.toml` passed either way); the mechanical equation (35) keeps `K = ψ_f` (the reluctance torque is a
 //! load to it, which τ̂_L takes up). With `L_d = L_q`, `ψ_a = ψ_f` exactly: the paper's
 //! equations to the bit.
 //!
