@@ -75,6 +75,15 @@ impl LastPeriod {
         self.v_cmd = v_ab;
     }
 
+    /// A period with the PWM off on a board that senses the terminals: their voltage `v_ab`
+    /// \[V] (a catch's, the back-EMF), the observers' input should the PWM start at the next
+    /// step (the catch's hand-over): with none recorded, a rotor at 72° electrical per period
+    /// (the T-motor drone motor at 20 kHz) froze the observers for one, and tripped.
+    pub(super) fn record_off(&mut self, v_ab: AlphaBeta) {
+        self.v_ab = v_ab;
+        self.v_cmd = v_ab;
+    }
+
     /// The bus `v_bus` \[V] sampled with the PWM off.
     #[cfg_attr(not(feature = "identify"), allow(dead_code))]
     pub(super) fn record_bus(&mut self, v_bus: f32) {

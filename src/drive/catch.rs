@@ -68,6 +68,29 @@ impl Catch {
 }
 
 impl Settings {
+    /// The terminal voltage over the coming period with the PWM off \[V]: `v_ab`, this
+    /// period's, turned on as far as it turned since the last (the back-EMF turns at ω_e:
+    /// `v_ab · v_ab/v_prev` as complex numbers), or `v_ab` itself before a last one above
+    /// `v_min`. The observers take it should the catch hand over at the next step.
+    pub(super) fn next_period(&self, c: &Catch, v_ab: AlphaBeta) -> AlphaBeta {
+        let p = c.v_prev;
+        let p2 = p.alpha * p.alpha + p.beta * p.beta;
+        // (False for a NaN sample too.)
+        let seen = p2 >= self.v_min * self.v_min;
+        if !seen {
+            return v_ab;
+        }
+        // The turn `v_ab/v_prev` = v_ab · conj(v_prev)/|v_prev|².
+        let (c_re, c_im) = (
+            (v_ab.alpha * p.alpha + v_ab.beta * p.beta) / p2,
+            (v_ab.beta * p.alpha - v_ab.alpha * p.beta) / p2,
+        );
+        AlphaBeta::new(
+            v_ab.alpha * c_re - v_ab.beta * c_im,
+            v_ab.alpha * c_im + v_ab.beta * c_re,
+        )
+    }
+
     /// One catch step with the PWM off, `v_ab` the terminal voltage of the period that just
     /// ended \[V]. Before the seed: two samples of back-EMF above `v_min` in a row (a first
     /// sample taken before any period was measured reads zero), or the rotor at rest; then the
@@ -76,13 +99,12 @@ impl Settings {
     #[inline(never)]
     pub(super) fn step(&self, c: &mut Catch, v_ab: AlphaBeta) -> Seen {
         c.steps = c.steps.saturating_add(1);
+        let prev = core::mem::replace(&mut c.v_prev, v_ab);
         if c.seeded {
             return Seen::Wait;
         }
         let emf2 = v_ab.alpha * v_ab.alpha + v_ab.beta * v_ab.beta;
-        let prev = c.v_prev;
         let emf2_prev = prev.alpha * prev.alpha + prev.beta * prev.beta;
-        c.v_prev = v_ab;
         // A back-EMF seen (false for a NaN sample too); squares compared.
         let v_min2 = self.v_min * self.v_min;
         let (seen, seen_prev) = (emf2 >= v_min2, emf2_prev >= v_min2);

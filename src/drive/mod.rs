@@ -548,6 +548,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                     st.watch = catch_zero::Watch::default();
                     return Outcome::Off(None);
                 };
+                st.last.record_off(self.catch.next_period(c, v_ab));
                 match self.catch.step(c, v_ab) {
                     Seen::AtRest => {
                         st.mode = self.at_rest();
