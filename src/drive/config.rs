@@ -349,7 +349,7 @@ impl DriveConfig {
     /// phase lag must stay small at its bandwidth (22° at a fifth of the PLL's natural
     /// frequency, 43° at 20 Hz, where the speed loop with it oscillated on Ortega's test
     /// motor after a flying start) (unvalidated).
-    pub(super) fn load_observer_config(&self) -> LoadObserverConfig {
+    pub(crate) fn load_observer_config(&self) -> LoadObserverConfig {
         LoadObserverConfig {
             j_kgm2: self.motor.j_kgm2,
             b_nms: self.motor.b_nms,

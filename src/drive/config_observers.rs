@@ -163,7 +163,7 @@ impl DriveConfig {
     }
 
     /// The PLL's settings (unvalidated).
-    pub(super) fn pll_config(&self) -> PllConfig {
+    pub(crate) fn pll_config(&self) -> PllConfig {
         PllConfig {
             rate_hz: self.rate_hz / self.steps_per_tick(),
             bandwidth_hz: PLL_BANDWIDTH_HZ,
