@@ -228,6 +228,21 @@ impl FixedDrive {
     /// the f32 drive's resistance and flux linkage at a take-over, in the bases of its
     /// nominal model, so that the board's scaling of its samples stays).
     pub fn build_in(cfg: &DriveConfig, pu: &PerUnit) -> Result<Self, ParamError> {
+        Self::build_with(cfg, pu, None)
+    }
+
+    /// [`FixedDrive::build`] with the PLL in the step whatever the motor's speed (a bench's
+    /// worst case; a drive that wants its speed estimate every step).
+    pub fn build_pll_in_step(cfg: &DriveConfig) -> Result<Self, ParamError> {
+        Self::build_with(cfg, &PerUnit::of_drive(cfg)?, Some(true))
+    }
+
+    /// The build; `pll_in_step` forced, or chosen from the motor's rated speed (`None`).
+    fn build_with(
+        cfg: &DriveConfig,
+        pu: &PerUnit,
+        pll_in_step: Option<bool>,
+    ) -> Result<Self, ParamError> {
         let pu = *pu;
         let flux = FluxObserverQ::build(&cfg.flux_config(), &pu)?;
         // The monitor: where the f32 drive's is judged (its K_s window not empty,
@@ -243,7 +258,8 @@ impl FixedDrive {
         // there, `observer::pll`).
         let steps_f = cfg.steps_per_tick();
         let rated_e = cfg.ratings.speed_rpm * crate::units::RAD_S_PER_RPM * cfg.motor.n();
-        let pll_in_step = 1.5 * rated_e * steps_f / cfg.rate_hz >= core::f32::consts::PI;
+        let pll_in_step =
+            pll_in_step.unwrap_or(1.5 * rated_e * steps_f / cfg.rate_hz >= core::f32::consts::PI);
         let pll_cfg = if pll_in_step {
             crate::observer::pll::PllConfig {
                 rate_hz: cfg.rate_hz,
