@@ -111,25 +111,28 @@ impl Angle {
     /// next 16 bits of the angle. Error at most 2.4·10⁻⁴ (8 LSB) against the exact sine
     /// (`tests/fixed.rs`: the table's rounding, ½ LSB, and the chord's sag, (2π/256)²/8 =
     /// 7.5·10⁻⁵ = 2.5 LSB, with the interpolation's rounding).
+    ///
+    /// cos θ = sin(θ + π/2): the same position between entries (a quarter turn is 64 entries
+    /// exactly), the index 64 on, so the position is taken once.
     #[inline(always)]
     pub fn sin_cos(self) -> (Q15, Q15) {
-        let quarter = Angle(1 << 30);
-        (self.sin(), self.advanced(quarter).sin())
-    }
-
-    /// sin θ in Q15 ([`Angle::sin_cos`]).
-    #[inline(always)]
-    fn sin(self) -> Q15 {
         let i = (self.0 >> (32 - TABLE_BITS)) as usize;
         // The 16 bits below the index: the position between entries i and i+1.
         let frac = ((self.0 >> (16 - TABLE_BITS)) & 0xFFFF) as i32;
-        let (a, b) = match (SIN_Q15.get(i), SIN_Q15.get(i + 1)) {
-            (Some(&a), Some(&b)) => (i32::from(a), i32::from(b)),
-            // i < 256 always (an 8-bit index into 257 entries).
-            _ => (0, 0),
-        };
-        sat_q15(a + (((b - a) * frac + (1 << 15)) >> 16))
+        (interpolate(i, frac), interpolate((i + 64) & 0xFF, frac))
     }
+}
+
+/// The table's entries `i` and `i + 1` (`i` < 256) interpolated at `frac`/2¹⁶: between the
+/// two entries, so within Q15 (no saturation needed).
+#[inline(always)]
+fn interpolate(i: usize, frac: i32) -> Q15 {
+    let (a, b) = match (SIN_Q15.get(i), SIN_Q15.get(i + 1)) {
+        (Some(&a), Some(&b)) => (i32::from(a), i32::from(b)),
+        // i < 256 always (an 8-bit index into 257 entries).
+        _ => (0, 0),
+    };
+    (a + (((b - a) * frac + (1 << 15)) >> 16)) as i16
 }
 
 /// Phase currents (or voltages) in Q15.
