@@ -34,6 +34,7 @@ mod firmware {
     use pmsm_sensorless::fixed::pll::{PllQ, PllStateQ};
     use pmsm_sensorless::fixed::pu::PerUnit;
     use pmsm_sensorless::fixed::sliding::{SlidingObserverQ, SlidingStateQ};
+    #[cfg(feature = "fixed-step")]
     use pmsm_sensorless::fixed::step::{FixedDrive, FixedInput, FixedOutput, FixedState};
     use pmsm_sensorless::fixed::svpwm::{svpwm_limited_q15, SvpwmQ15};
     use pmsm_sensorless::fixed::{AbcQ15, AlphaBetaQ15, Angle, DqQ15, Q15};
@@ -92,6 +93,14 @@ mod firmware {
         bench_begin_tick_salient, bench_end_tick_salient, 28u32;
         bench_begin_step_inject, bench_end_step_inject, 29u32;
         bench_begin_tick_inject, bench_end_tick_inject, 30u32;
+    }
+
+    // The fixed-point step's cases: in the M0's bench only (its package's feature
+    // `fixed-step`), so that the M4F's bench, whose step cases have no headroom, is compiled
+    // as before (with these cases in its binary LTO moved its f32 step cases by 1 to 4
+    // cycles).
+    #[cfg(feature = "fixed-step")]
+    markers! {
         bench_begin_fixed_step, bench_end_fixed_step, 31u32;
         bench_begin_fixed_step_pll, bench_end_fixed_step_pll, 32u32;
         bench_begin_fixed_tick, bench_end_fixed_tick, 33u32;
@@ -193,11 +202,13 @@ mod firmware {
 
     /// The fixed-point step and task (`pmsm_sensorless::fixed::step`), each in a function of
     /// its own like [`control_step`].
+    #[cfg(feature = "fixed-step")]
     #[inline(never)]
     fn fixed_step(drive: &FixedDrive, st: &mut FixedState, input: &FixedInput) -> FixedOutput {
         drive.step(st, input)
     }
 
+    #[cfg(feature = "fixed-step")]
     #[inline(never)]
     fn fixed_tick(drive: &FixedDrive, st: &mut FixedState, speed_cmd: Q15) {
         black_box(drive.tick(st, speed_cmd));
@@ -704,6 +715,7 @@ mod firmware {
         // millisecond at 1.5 times its rated speed has it, the drone's or the EMRAX's); and
         // the PLL in the step with the bus at its under-voltage trip, where the back-EMF takes
         // the current loop to its voltage limit (the radial cut).
+        #[cfg(feature = "fixed-step")]
         for case in 0..3u32 {
             let built = if case == 0 {
                 FixedDrive::build(&cfg)
