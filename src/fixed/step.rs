@@ -459,7 +459,7 @@ impl FixedDrive {
 
     /// The PLL (Ortega Sec V iii) on the flux observer's angle: the phase detector
     /// `sin(θ̂ − z1)`, the cross product of the two unit vectors, taken as the angle (a
-    /// quarter turn beyond ±90°); the speed in Q15 of `ω_b`.
+    /// quarter turn beyond ±90°).
     #[inline(always)]
     fn track(&self, st: &mut FixedState, (s, c): (Q15, Q15)) {
         let (s, c) = (i32::from(s), i32::from(c));
@@ -476,7 +476,6 @@ impl FixedDrive {
         };
         let theta = st.pll.z1.advanced(Angle(err as u32));
         self.pll.update(&mut st.pll, theta);
-        st.omega = self.pll.omega_q15(&st.pll);
     }
 
     /// sin/cos of the output lead at the PLL's increment `delta` (angle units per task).
@@ -633,8 +632,11 @@ impl FixedDrive {
         if !self.pll_in_step {
             self.track(st, frame);
         }
+        // The speed in per unit at the task's rate wherever the PLL runs (the f32 drive's
+        // current loop takes it so).
+        let w = self.pll.omega_q15(&st.pll);
+        st.omega = w;
         let (s, c) = (i32::from(frame.0), i32::from(frame.1));
-        let w = st.omega;
         st.lead_sc = self.lead_of(st.pll.delta);
         // The speed reference: the command within the rated speed, slewed.
         let cmd = i32::from(speed_cmd).clamp(-self.speed_max, self.speed_max) << 16;
