@@ -348,7 +348,9 @@ impl FixedDrive {
                 .min(2.0e9) as i32,
             monitor_from: libm::roundf(rpm_to_q15(cfg.start.handover_rpm)).min(32_767.0) as i32,
             cos_disagree: q15(libm::cosf(cfg.health.max_disagreement_deg.to_radians())),
-            loss_ticks: libm::roundf(cfg.health.loss_time_s * 1000.0).clamp(1.0, 60_000.0) as u16,
+            // (A NaN loss time reads as one task.)
+            loss_ticks: (libm::roundf(cfg.health.loss_time_s * 1000.0).clamp(1.0, 60_000.0) as u16)
+                .max(1),
             steps: steps as u16,
             steps_max: (steps as u32 * crate::schedule::TICKS_MISSED_MAX).min(60_000) as u16,
             pu,
@@ -435,7 +437,8 @@ impl FixedDrive {
         let iq = self
             .pu
             .current(i_q_a)
-            .clamp(-self.i_max as i16, self.i_max as i16);
+            .max(-self.i_max as i16)
+            .min(self.i_max as i16);
         st.i_ref = DqQ15 { d: 0, q: iq };
         st.speed_ref = i32::from(w) << 16;
         // The load observer at the load's current (its read-out `z − gJ ω/K_t` = i_q), the
@@ -638,10 +641,15 @@ impl FixedDrive {
         st.omega = w;
         let (s, c) = (i32::from(frame.0), i32::from(frame.1));
         st.lead_sc = self.lead_of(st.pll.delta);
-        // The speed reference: the command within the rated speed, slewed.
-        let cmd = i32::from(speed_cmd).clamp(-self.speed_max, self.speed_max) << 16;
-        let step =
-            (cmd.saturating_sub(st.speed_ref)).clamp(-self.speed_step_q31, self.speed_step_q31);
+        // The speed reference: the command within the rated speed, slewed. (Bounds from the
+        // settings by `max`/`min`: `clamp`'s check of its bounds is a panic path.)
+        let cmd = i32::from(speed_cmd)
+            .max(-self.speed_max)
+            .min(self.speed_max)
+            << 16;
+        let step = (cmd.saturating_sub(st.speed_ref))
+            .max(-self.speed_step_q31)
+            .min(self.speed_step_q31);
         st.speed_ref = st.speed_ref.saturating_add(step);
         // The speed PI (the f32 `Pi::update_within`): the integrator moves unless the output is
         // at a limit and the error pushes further.
@@ -662,13 +670,16 @@ impl FixedDrive {
         let candidate = st
             .speed_integral
             .saturating_add(self.speed_ki.apply(e))
-            .clamp(-self.i_max_q31, self.i_max_q31);
+            .max(-self.i_max_q31)
+            .min(self.i_max_q31);
         let unclamped = p + (candidate >> 16);
         let further = (unclamped > self.i_max && e > 0) || (unclamped < -self.i_max && e < 0);
         if !further {
             st.speed_integral = candidate;
         }
-        let i_q = (p + (st.speed_integral >> 16)).clamp(-self.i_max, self.i_max);
+        let i_q = (p + (st.speed_integral >> 16))
+            .max(-self.i_max)
+            .min(self.i_max);
         st.i_ref = DqQ15 {
             d: 0,
             q: i_q as i16,
