@@ -8,7 +8,9 @@
 //! `cargo emu` (alias in .cargo/config.toml) builds it and runs it under QEMU, decoding the
 //! log with defmt-print (`.cargo/qemu-run.sh`, relative to the workspace root). `cargo emu-m0`
 //! builds this same program for an emulated Cortex-M0 (`examples/qemu-m0`, QEMU `microbit`,
-//! thumbv6m: no FPU, the f32 core in software floating point) with the same checks.
+//! thumbv6m: no FPU, the f32 core in software floating point) with the same checks, and a
+//! third run there (its feature `fixed-step`): the fixed-point step (issue #30) taking the
+//! rotor over from the f32 drive 0.3 s into sensorless control, with the same checks.
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
 #[cfg(not(target_os = "none"))]
