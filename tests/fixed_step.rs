@@ -67,6 +67,8 @@ struct Diff {
     fault: Option<pmsm_sensorless::drive::Fault>,
     /// The f32 drive's mode at the end.
     mode_a: Option<Mode>,
+    /// The monitor's strikes at the end (`None`: no monitor).
+    monitor: Option<u8>,
     /// Seconds from the enable to the take-over.
     takeover_s: f64,
 }
@@ -304,6 +306,7 @@ fn run(motor: Motor, update_delay_s: f64) -> Result<Diff, String> {
         t += dt;
     }
     d.mode_a = Some(ca.telemetry().mode);
+    d.monitor = fixed.has_monitor().then_some(st.strikes);
     Ok(d)
 }
 
@@ -327,8 +330,8 @@ fn fixed_step_runs_beside_the_f32_drive() {
                 Err(e) => println!("{name:34} not compared: {e}"),
                 Ok(d) => {
                     println!(
-                        "{name:34} take-over {:.2} s: speed {:.2e} of rated (window mean; two f32 drives {:.2e}; sample {:.2e}, the f32 drive's ripple {:.2e}), angle fixed vs f32 {:.4}°, speed estimate {:.2e}; to the true angle: fixed {:.3}°, f32 {:.3}°; fault {:?}, f32 drive {:?}",
-                        d.takeover_s, d.speed_rel, d.floor, d.speed_rel_sample, d.ripple_a, d.angle_deg, d.speed_hat_rel, d.fixed_err_deg, d.f32_err_deg, d.fault, d.mode_a
+                        "{name:34} take-over {:.2} s: speed {:.2e} of rated (window mean; two f32 drives {:.2e}; sample {:.2e}, the f32 drive's ripple {:.2e}), angle fixed vs f32 {:.4}°, speed estimate {:.2e}; to the true angle: fixed {:.3}°, f32 {:.3}°; fault {:?}, f32 drive {:?}, monitor strikes {:?}",
+                        d.takeover_s, d.speed_rel, d.floor, d.speed_rel_sample, d.ripple_a, d.angle_deg, d.speed_hat_rel, d.fixed_err_deg, d.f32_err_deg, d.fault, d.mode_a, d.monitor
                     );
                     if d.mode_a != Some(Mode::Sensorless) {
                         println!(
