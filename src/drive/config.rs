@@ -353,7 +353,7 @@ impl DriveConfig {
     /// motor after a flying start). Kept where the speed loop and its PLL are lowered for noise
     /// (`config_observers::pll_bandwidth_hz`): lowered with them on the Brusa HSM1, the salient
     /// motor lost two of its 20 must-show cells (reversal at 20 %) (unvalidated).
-    pub(super) fn load_observer_config(&self) -> LoadObserverConfig {
+    pub(crate) fn load_observer_config(&self) -> LoadObserverConfig {
         LoadObserverConfig {
             j_kgm2: self.motor.j_kgm2,
             b_nms: self.motor.b_nms,
