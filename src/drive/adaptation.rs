@@ -75,7 +75,7 @@
 
 use super::io::ResistanceRefused;
 use crate::frames::AlphaBeta;
-use crate::math::sqrt_or_zero;
+use crate::math::{clamp, sqrt_or_zero};
 
 /// The adaptation's settings (from the configured motor).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -109,6 +109,13 @@ pub(super) struct Settings {
     /// rated torque at rated speed, `ω_e L i_q` 0.8 of the back-EMF, walked ψ_f 18 % down in
     /// 0.5 s with its angle within 3°, and the residual that followed faulted `observer_loss`.
     pub(super) flux_max_i_q_a: f32,
+    /// The inverter's dead-time voltage, its fundamental `(4/π) t_d f_pwm V_bus` at the rated
+    /// bus \[V], and the current vector \[A] (twice the compensation's band) below which its
+    /// compensation does not know its sign: there a measurement is `ψ_f` within
+    /// `± dead_time_v/ω_e` only, and moves the model only as far as it proves it wrong by more
+    /// ([`Settings::track_flux`]).
+    pub(super) flux_dead_time_v: f32,
+    pub(super) flux_dead_time_i_a: f32,
 }
 
 /// The adapted model and the observers' input transform; `Default` is unset (the drive
@@ -257,9 +264,23 @@ impl Settings {
         );
         let e_len = sqrt_or_zero(e.alpha * e.alpha + e.beta * e.beta);
         let measured = e_len / w;
+        // With the phase currents inside the dead-time compensation's band, the inverter's
+        // error voltage, of unknown sign there, is up to `dead_time_v` of `|e|`: the
+        // measurement is a band `measured ± u`, u = dead_time_v/ω_e, and the model moves only
+        // to its nearer edge (a model inside it stays). The gimbal motor unloaded, slowing
+        // through 150–30 rpm (0.26 V against 1–3 V of back-EMF), walked ψ_f 6–10 % low and lost
+        // its observers through zero; a model 15 % off (Ortega's test motor started on
+        // 0.85 ψ_f) is still pulled in.
+        let i2 = i_ab.alpha * i_ab.alpha + i_ab.beta * i_ab.beta;
+        let u = if i2 < self.flux_dead_time_i_a * self.flux_dead_time_i_a {
+            self.flux_dead_time_v / w
+        } else {
+            0.0
+        };
+        let target = clamp(m.flux_wb, measured - u, measured + u);
         let (lo, hi) = self.flux_range;
         if measured >= lo && measured <= hi {
-            let flux = m.flux_wb + self.flux_gain * (measured - m.flux_wb);
+            let flux = m.flux_wb + self.flux_gain * (target - m.flux_wb);
             self.set(m, m.r_ohm, flux);
         }
     }

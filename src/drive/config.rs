@@ -440,6 +440,11 @@ impl DriveConfig {
                     * RAD_S_PER_RPM,
                 flux_max_r_share: FLUX_ADAPT_MAX_R_SHARE,
                 flux_max_i_q_a: FLUX_ADAPT_MAX_R_SHARE * m.flux_wb / m.l_q_h(),
+                flux_dead_time_v: 4.0 / core::f32::consts::PI
+                    * self.power_stage.dead_time_s
+                    * self.power_stage.pwm_hz
+                    * self.ratings.bus_v,
+                flux_dead_time_i_a: 2.0 * self.power_stage.dead_time_band_a,
             },
             catch: catch::Settings {
                 v_min: m.emf_constant() * s.handback_rpm * RAD_S_PER_RPM,
