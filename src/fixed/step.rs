@@ -141,13 +141,13 @@ pub struct FixedDrive {
     speed_kp: Gain,
     speed_ki: Gain,
     /// The speed loop's load observer ([`crate::load_observer`], the f32 drive's
-    /// feed-forward), in current units: `gT` on the state (Q31), the speed's coefficient
-    /// `(g²JT − gTB)/K_t · ω_b/(N I_b)` (its sign apart), `gT` on the torque current, and the
-    /// read-out's `gJ/K_t · ω_b/(N I_b)`.
+    /// feed-forward) on its estimate `τ̂_L/K_t` (in current units), not on the f32 state
+    /// `z = τ̂_L + gJω` (the same recursion: module doc of `tick`): `gT` on the estimate (Q31)
+    /// and on the torque current, the speed's change's `gJ(1 − gT)/K_t · ω_b/(N I_b)`, the
+    /// speed's `gTB/K_t · ω_b/(N I_b)`.
     lo_gt: Coef,
-    lo_w: Coef,
-    lo_w_negative: bool,
-    lo_gj: Coef,
+    lo_dw: Coef,
+    lo_b: Coef,
     /// The current limit, Q15 of `I_b`, and in Q31.
     i_max: i32,
     i_max_q31: i32,
@@ -194,8 +194,8 @@ pub struct FixedState {
     pub speed_ref: i32,
     /// The speed PI's integrator, Q31 of `I_b`.
     pub speed_integral: i32,
-    /// The load observer's state `z/K_t`, Q31 of `I_b`.
-    pub load_z: i32,
+    /// The load observer's estimate `τ̂_L/K_t`, Q31 of `I_b` (the feed-forward).
+    pub load: i32,
     /// The phase-sum check's count.
     pub sum_count: u8,
     /// Tasks in a row of the monitor's disagreement.
@@ -293,7 +293,8 @@ impl FixedDrive {
         lo.build()?;
         let (g_lo, kt) = (core::f32::consts::TAU * lo.bandwidth_hz, lo.torque_constant);
         let gt = g_lo * tick_s;
-        let lo_w = (g_lo * g_lo * lo.j_kgm2 * tick_s - gt * lo.b_nms) / kt * w_mech_b / pu.i_base_a;
+        let lo_dw = g_lo * lo.j_kgm2 * (1.0 - gt) / kt * w_mech_b / pu.i_base_a;
+        let lo_b = gt * lo.b_nms / kt * w_mech_b / pu.i_base_a;
         // The lead per PLL increment, advance/steps, as a gain on Δ >> s: the largest s ≤ 16
         // that keeps it below 2^14 (Δ >> 16 resolves 2^-16 turn per task).
         let lead_per_delta = foc.angle_advance_periods / if pll_in_step { 1.0 } else { steps };
@@ -335,12 +336,8 @@ impl FixedDrive {
                 g.speed_ki * tick_s * w_mech_b / pu.i_base_a * 65_536.0,
             )?,
             lo_gt: Coef::new("fixed step: load observer g T", gt)?,
-            lo_w: Coef::new("fixed step: load observer speed", lo_w.abs())?,
-            lo_w_negative: lo_w < 0.0,
-            lo_gj: Coef::new(
-                "fixed step: load observer g J/K_t",
-                g_lo * lo.j_kgm2 / kt * w_mech_b / pu.i_base_a,
-            )?,
+            lo_dw: Coef::new("fixed step: load observer g J (1 - g T)/K_t", lo_dw)?,
+            lo_b: Coef::new("fixed step: load observer g T B/K_t", lo_b)?,
             i_max: q15(i_max).min(32_767),
             i_max_q31: (q15(i_max).min(32_767)) << 16,
             speed_max: libm::roundf(rpm_to_q15(cfg.ratings.speed_rpm)).min(32_767.0) as i32,
@@ -441,9 +438,9 @@ impl FixedDrive {
             .min(self.i_max as i16);
         st.i_ref = DqQ15 { d: 0, q: iq };
         st.speed_ref = i32::from(w) << 16;
-        // The load observer at the load's current (its read-out `z − gJ ω/K_t` = i_q), the
-        // speed loop's integrator at zero.
-        st.load_z = (i32::from(iq) << 16).saturating_add(self.lo_gj.apply(i32::from(w), 16));
+        // The load observer at the load's current (its estimate = i_q), the speed loop's
+        // integrator at zero.
+        st.load = i32::from(iq) << 16;
         st.current.integral_q = self
             .current
             .integral_of(self.r_pu * f32::from(iq) / 32_768.0);
@@ -638,7 +635,7 @@ impl FixedDrive {
         // The speed in per unit at the task's rate wherever the PLL runs (the f32 drive's
         // current loop takes it so).
         let w = self.pll.omega_q15(&st.pll);
-        st.omega = w;
+        let w_prev = core::mem::replace(&mut st.omega, w);
         let (s, c) = (i32::from(frame.0), i32::from(frame.1));
         st.lead_sc = self.lead_of(st.pll.delta);
         // The speed reference: the command within the rated speed, slewed. (Bounds from the
@@ -657,15 +654,21 @@ impl FixedDrive {
         let e = (e - i32::from(w)).clamp(-65_536, 65_536);
         // The load observer (`crate::load_observer`) on the last torque current: its estimate
         // fed forward, as the f32 drive's speed loop does.
+        // On its estimate `L = τ̂_L/K_t`, not on the f32 state `z = τ̂_L + gJω`: at the rated
+        // speed `gJω/K_t` exceeds the current's base on a motor of large inertia (Ortega's
+        // 40 kW machine: z saturated its Q31 above 1 200 rpm, the feed-forward 100 A short,
+        // the speed PI making it up at its pace). The f32 recursion `z' = (1 − gT) z +
+        // (g²JT − gTB) ω' + gT K_t i`, `τ̂' = z' − gJω'`, is in `τ̂`:
+        // `τ̂' = (1 − gT) τ̂ + gT (K_t i − B ω') − gJ (1 − gT)(ω' − ω)`, bounded as the load is.
         let wi = i32::from(w);
-        let lo_w = self.lo_w.apply(wi, 16);
-        let lo_w = if self.lo_w_negative { -lo_w } else { lo_w };
-        st.load_z = st
-            .load_z
-            .saturating_sub(self.lo_gt.apply_wide(st.load_z, 0))
-            .saturating_add(lo_w)
-            .saturating_add(self.lo_gt.apply(i32::from(st.i_ref.q), 16));
-        let ff = ((st.load_z.saturating_sub(self.lo_gj.apply(wi, 16)) >> 15) + 1) >> 1;
+        let dw = (wi - i32::from(w_prev)).clamp(-65_536, 65_536);
+        st.load = st
+            .load
+            .saturating_sub(self.lo_gt.apply_wide(st.load, 0))
+            .saturating_add(self.lo_gt.apply(i32::from(st.i_ref.q), 16))
+            .saturating_sub(self.lo_b.apply(wi, 16))
+            .saturating_sub(self.lo_dw.apply(dw, 16));
+        let ff = ((st.load >> 15) + 1) >> 1;
         let p = self.speed_kp.apply(e) + ff;
         let candidate = st
             .speed_integral
