@@ -142,7 +142,7 @@ pub struct FixedDrive {
     speed_ki: Gain,
     /// The speed loop's load observer ([`crate::load_observer`], the f32 drive's
     /// feed-forward) on its estimate `τ̂_L/K_t` (in current units), not on the f32 state
-    /// `z = τ̂_L + gJω` (the same recursion: module doc of `tick`): `gT` on the estimate (Q31)
+    /// `z = τ̂_L + gJω` (the same recursion: the comment in `tick`): `gT` on the estimate (Q31)
     /// and on the torque current, the speed's change's `gJ(1 − gT)/K_t · ω_b/(N I_b)`, the
     /// speed's `gTB/K_t · ω_b/(N I_b)`.
     lo_gt: Coef,
