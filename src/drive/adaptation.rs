@@ -269,8 +269,8 @@ impl Settings {
         // measurement is a band `measured ± u`, u = dead_time_v/ω_e, and the model moves only
         // to its nearer edge (a model inside it stays). The gimbal motor unloaded, slowing
         // through 150–30 rpm (0.26 V against 1–3 V of back-EMF), walked ψ_f 6–10 % low and lost
-        // its observers through zero; a model 15 % off (Ortega's test motor started on
-        // 0.85 ψ_f) is still pulled in.
+        // its observers through zero; a model 15 % off (the robustness matrix's ψ_f × 0.85 on
+        // the Sinano motor) is still pulled in.
         let i2 = i_ab.alpha * i_ab.alpha + i_ab.beta * i_ab.beta;
         let u = if i2 < self.flux_dead_time_i_a * self.flux_dead_time_i_a {
             self.flux_dead_time_v / w

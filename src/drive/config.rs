@@ -157,8 +157,8 @@ impl DriveConfig {
     /// contradiction; stall after 0.5 s of open loop without lock or 0.1 s at the current
     /// limit below half the speed reference. The speed loop at 20 Hz, lower where it would make
     /// more than ten times the current sensors' noise of its torque command
-    /// (`config_observers::default_speed_bandwidth_hz`). The power stage is the B-G431B-ESC1's (20 kHz
-    /// PWM, 500 ns dead time); the dead-time
+    /// (`config_observers::default_speed_bandwidth_hz`). The power stage is the
+    /// B-G431B-ESC1's (20 kHz PWM, 500 ns dead time); the dead-time
     /// compensation's smooth sign reaches full at 5 % of the rated-torque current: five
     /// standard deviations of the 1 %-of-rated-current noise a board's sensing has
     /// (`DESIGN.md`), so noise at a zero crossing moves the compensation by a fifth of it
