@@ -96,10 +96,9 @@ mod firmware {
         }
     }
 
-    /// One run of `drive` (`name` in the log) on the shared control loop (the step, then the
-    /// 1 kHz task when due); returns whether it met its checks.
-    fn run<P: Observer, M: Observer>(name: &str, drive: Drive<P, M>) -> bool {
-        // The rotor at rest, 0.3 rad (electrical) from the align axis.
+    /// `drive` on the Sinano motor, the rotor at rest 0.3 rad (electrical) from the align axis,
+    /// and the run's command.
+    fn at_rest<P: Observer, M: Observer>(drive: Drive<P, M>) -> (Control<P, M, Bench>, Commands) {
         let params = PlantParams::from(&HORNG_SINANO.params);
         let bench = Bench {
             plant: Plant::new(params, StiffBus { v_bus: BUS_V }, 0.3 / params.n, 0.0),
@@ -109,12 +108,18 @@ mod firmware {
             },
             duties: None,
         };
-        let mut control = Control::new(drive, bench);
         let cmd = Commands {
             enable: true,
             speed_rpm: SPEED_CMD_RPM,
             ..Commands::default()
         };
+        (Control::new(drive, bench), cmd)
+    }
+
+    /// One run of `drive` (`name` in the log) on the shared control loop (the step, then the
+    /// 1 kHz task when due); returns whether it met its checks.
+    fn run<P: Observer, M: Observer>(name: &str, drive: Drive<P, M>) -> bool {
+        let (mut control, cmd) = at_rest(drive);
         let steps = (DURATION_S * RATE_HZ) as u32;
         let (mut n, mut speed_err, mut angle_err, mut handovers) = (0u32, 0.0f32, 0.0f32, 0u32);
         for k in 0..steps {
@@ -181,21 +186,7 @@ mod firmware {
             defmt::error!("the fixed-point drive does not build");
             return false;
         };
-        let params = PlantParams::from(&HORNG_SINANO.params);
-        let bench = Bench {
-            plant: Plant::new(params, StiffBus { v_bus: BUS_V }, 0.3 / params.n, 0.0),
-            inverter: Inverter {
-                dead_time_s: 0.0,
-                pwm_hz: 20_000.0,
-            },
-            duties: None,
-        };
-        let mut control = Control::new(drive, bench);
-        let cmd = Commands {
-            enable: true,
-            speed_rpm: SPEED_CMD_RPM,
-            ..Commands::default()
-        };
+        let (mut control, cmd) = at_rest(drive);
         let steps = (DURATION_S * RATE_HZ) as u32;
         let steps_per_tick = (RATE_HZ / 1000.0) as u32;
         let pu = *nominal.per_unit();
