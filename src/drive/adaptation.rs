@@ -75,7 +75,7 @@
 
 use super::io::ResistanceRefused;
 use crate::frames::AlphaBeta;
-use crate::math::sqrt_or_zero;
+use crate::math::{clamp, sqrt_or_zero};
 
 /// The adaptation's settings (from the configured motor).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -109,6 +109,13 @@ pub(super) struct Settings {
     /// rated torque at rated speed, `ω_e L i_q` 0.8 of the back-EMF, walked ψ_f 18 % down in
     /// 0.5 s with its angle within 3°, and the residual that followed faulted `observer_loss`.
     pub(super) flux_max_i_q_a: f32,
+    /// The inverter's dead-time voltage, its fundamental `(4/π) t_d f_pwm V_bus` at the rated
+    /// bus \[V], and the current vector \[A] (twice the compensation's band) below which its
+    /// compensation does not know its sign: there a measurement is `ψ_f` within
+    /// `± dead_time_v/ω_e` only, and moves the model only as far as it proves it wrong by more
+    /// ([`Settings::track_flux`]).
+    pub(super) flux_dead_time_v: f32,
+    pub(super) flux_dead_time_i_a: f32,
 }
 
 /// The adapted model and the observers' input transform; `Default` is unset (the drive
@@ -200,7 +207,8 @@ impl Settings {
     }
 
     /// One 1 kHz check of ψ_f in steady running: `i_ab` the current sampled now \[A], `v_ab`
-    /// the voltage applied over the period that ended with it \[V], `omega_m` the speed
+    /// the voltage of the period that starts with it \[V] (the one the last step computed,
+    /// `LastPeriod`: the 1 kHz task runs after the step), `omega_m` the speed
     /// [rad/s, mechanical], `i_q_ref_a` the q current commanded \[A] (R's error moves `|e|` by
     /// itself times the current along the back-EMF, to first order; a d current, at right
     /// angles to it, only to second order). Outside the operating range where it is measured,
@@ -231,12 +239,19 @@ impl Settings {
         if m.steady_checks < self.steady_checks {
             return;
         }
-        // The voltage of the period's middle, turned on by half a period to the sample's
-        // angle: (c, s) ≈ (1 − x²/2, x), x = ω_e T/2 (≤ 0.2 rad below the drive's speed
-        // limits; error below 1e-4). Not `SinCos::of_small`: its higher terms and its
-        // fallback cost 100 bytes of the firmware's last 170.
+        // The period's mean voltage at the sample: the period's middle is half a period
+        // after the sample, and a vector turning at ω_e averages over a period to
+        // sinc x = sin x/x of its length at the middle, x = ω_e T/2. Under steady sinusoidal
+        // running, the mean turned back by x and divided by sinc x is `R i + jω_e L i + e` at
+        // the sample: (c, s) = (x cot x, −x), x cot x ≈ 1 − x²/3 − x⁴/45 (error 1.3e-4 at
+        // x = 0.63 rad, the T-motor drone motor at rated speed, 5 samples per electrical
+        // period; 20 samples give 0.16 rad). Turned forward by x without the sinc (the
+        // period taken as the one ending at the sample), that motor's ψ_f came out 10 % low
+        // under load and it lost its observers. Not `SinCos::of_small`: its higher terms and
+        // its fallback cost flash the commissioning firmware does not have.
         let x = omega_e * self.half_ts;
-        let (c, s) = (1.0 - 0.5 * x * x, x);
+        let x2 = x * x;
+        let (c, s) = (1.0 - x2 * (1.0 / 3.0 + x2 * (1.0 / 45.0)), -x);
         let v = AlphaBeta::new(
             c * v_ab.alpha - s * v_ab.beta,
             s * v_ab.alpha + c * v_ab.beta,
@@ -249,9 +264,23 @@ impl Settings {
         );
         let e_len = sqrt_or_zero(e.alpha * e.alpha + e.beta * e.beta);
         let measured = e_len / w;
+        // With the phase currents inside the dead-time compensation's band, the inverter's
+        // error voltage, of unknown sign there, is up to `dead_time_v` of `|e|`: the
+        // measurement is a band `measured ± u`, u = dead_time_v/ω_e, and the model moves only
+        // to its nearer edge (a model inside it stays). The gimbal motor unloaded, slowing
+        // through 150–30 rpm (0.26 V against 1–3 V of back-EMF), walked ψ_f 6–10 % low and lost
+        // its observers through zero; a model 15 % off (the robustness matrix's ψ_f × 0.85 on
+        // the Sinano motor) is still pulled in.
+        let i2 = i_ab.alpha * i_ab.alpha + i_ab.beta * i_ab.beta;
+        let u = if i2 < self.flux_dead_time_i_a * self.flux_dead_time_i_a {
+            self.flux_dead_time_v / w
+        } else {
+            0.0
+        };
+        let target = clamp(m.flux_wb, measured - u, measured + u);
         let (lo, hi) = self.flux_range;
         if measured >= lo && measured <= hi {
-            let flux = m.flux_wb + self.flux_gain * (measured - m.flux_wb);
+            let flux = m.flux_wb + self.flux_gain * (target - m.flux_wb);
             self.set(m, m.r_ohm, flux);
         }
     }

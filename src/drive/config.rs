@@ -157,8 +157,8 @@ impl DriveConfig {
     /// contradiction; stall after 0.5 s of open loop without lock or 0.1 s at the current
     /// limit below half the speed reference. The speed loop at 20 Hz, lower where it would make
     /// more than ten times the current sensors' noise of its torque command
-    /// (`config_observers::default_speed_bandwidth_hz`). The power stage is the B-G431B-ESC1's (20 kHz
-    /// PWM, 500 ns dead time); the dead-time
+    /// (`config_observers::default_speed_bandwidth_hz`). The power stage is the
+    /// B-G431B-ESC1's (20 kHz PWM, 500 ns dead time); the dead-time
     /// compensation's smooth sign reaches full at 5 % of the rated-torque current: five
     /// standard deviations of the 1 %-of-rated-current noise a board's sensing has
     /// (`DESIGN.md`), so noise at a zero crossing moves the compensation by a fifth of it
@@ -353,7 +353,7 @@ impl DriveConfig {
     /// motor after a flying start). Kept where the speed loop and its PLL are lowered for noise
     /// (`config_observers::pll_bandwidth_hz`): lowered with them on the Brusa HSM1, the salient
     /// motor lost two of its 20 must-show cells (reversal at 20 %) (unvalidated).
-    pub(super) fn load_observer_config(&self) -> LoadObserverConfig {
+    pub(crate) fn load_observer_config(&self) -> LoadObserverConfig {
         LoadObserverConfig {
             j_kgm2: self.motor.j_kgm2,
             b_nms: self.motor.b_nms,
@@ -440,6 +440,11 @@ impl DriveConfig {
                     * RAD_S_PER_RPM,
                 flux_max_r_share: FLUX_ADAPT_MAX_R_SHARE,
                 flux_max_i_q_a: FLUX_ADAPT_MAX_R_SHARE * m.flux_wb / m.l_q_h(),
+                flux_dead_time_v: 4.0 / core::f32::consts::PI
+                    * self.power_stage.dead_time_s
+                    * self.power_stage.pwm_hz
+                    * self.ratings.bus_v,
+                flux_dead_time_i_a: 2.0 * self.power_stage.dead_time_band_a,
             },
             catch: catch::Settings {
                 v_min: m.emf_constant() * s.handback_rpm * RAD_S_PER_RPM,

@@ -218,7 +218,7 @@ impl DriveConfig {
     }
 
     /// The PLL's settings (unvalidated).
-    pub(super) fn pll_config(&self) -> PllConfig {
+    pub(crate) fn pll_config(&self) -> PllConfig {
         PllConfig {
             rate_hz: self.rate_hz / self.steps_per_tick(),
             bandwidth_hz: pll_bandwidth_hz(self.speed_bandwidth_hz),

@@ -89,12 +89,12 @@ impl DriveConfig {
     }
 
     /// The update delay in control periods, `update_delay_s · rate_hz`.
-    pub(super) fn delay_periods(&self) -> f32 {
+    pub(crate) fn delay_periods(&self) -> f32 {
         self.power_stage.update_delay_s * self.rate_hz
     }
 
     /// The steps per 1 kHz task, unvalidated (the rate rounded to whole kHz, at least one).
-    pub(super) fn steps_per_tick(&self) -> f32 {
+    pub(crate) fn steps_per_tick(&self) -> f32 {
         libm::roundf(self.rate_hz / crate::schedule::TICK_HZ).max(1.0)
     }
 }

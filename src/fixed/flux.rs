@@ -181,6 +181,17 @@ impl FluxObserverQ {
         self.inv_phi2.apply(mag2_q15.min(65_537))
     }
 
+    /// Sets the estimate to a known `x̂` (Q31 of `ψ_b`; an f32 observer's, at a take-over):
+    /// `η̂ = x̂ − L i` (eq (4)) with `i_ab` this sample.
+    pub fn reset_x_hat(&self, st: &mut FluxStateQ, i_ab: AlphaBetaQ15, x_hat: AlphaBetaQ31) {
+        *st = FluxStateQ {
+            x_hat,
+            i_last: i_ab,
+            rotor_flux: self.rotor_flux(x_hat, i_ab),
+            started: true,
+        };
+    }
+
     /// Sets the estimate to a known rotor angle: `x̂ = L i + Φ c(θ_e)` (eq (4)).
     pub fn reset(&self, st: &mut FluxStateQ, i_ab: AlphaBetaQ15, theta_e: Angle) {
         let (s, c) = theta_e.sin_cos();

@@ -1,10 +1,10 @@
 //! Fixed-point frames for FPU-less Cortex-M0+ parts (issue #30): the first blocks of the
 //! fixed-point step, each the f32 block of [`crate::frames`] it mirrors computed in integers,
 //! and checked against it (`tests/fixed.rs`, over every angle and the full per-unit range).
-//! Not yet wired into a step. Beside the frames: the per-unit bases, gains and the
-//! division-free normalisation ([`pu`]), the current loop ([`current`]), Ortega's flux
-//! observer ([`flux`]), the PLL on its angle ([`pll`]), the SVPWM ([`svpwm`]) and Horng &
-//! Chin's sliding torque observer ([`sliding`]); the speed loop and the protections follow.
+//! Beside the frames: the per-unit bases, gains and the division-free normalisation
+//! ([`pu`]), the current loop ([`current`]), Ortega's flux observer ([`flux`]), the PLL on
+//! its angle ([`pll`]), the SVPWM ([`svpwm`]) and Horng & Chin's sliding torque observer
+//! ([`sliding`]); assembled into the sensorless running step and its 1 kHz task in [`step`].
 //!
 //! Formats (the choice ST's motor-control SDK makes on Cortex-M0, and TI's IQmath in Q15):
 //! - An angle is a wrapping [`Angle`], one turn = 2³² (as `idsp`'s `W<i32>` phase): adding
@@ -22,6 +22,7 @@ pub mod flux;
 pub mod pll;
 pub mod pu;
 pub mod sliding;
+pub mod step;
 pub mod svpwm;
 
 /// An electrical angle: one turn is 2³², wrapping (θ = `0` is 0 rad, `1 << 31` is ±π).
@@ -36,6 +37,9 @@ pub const ONE_Q15: i32 = 1 << 15;
 
 /// 1/√3 in Q15, rounded: 0.57735 × 32 768 = 18 918.6.
 const INV_SQRT3_Q15: i32 = 18_919;
+
+/// 1/3 in Q15, rounded: 10 922.7.
+const ONE_THIRD_Q15: i32 = 10_923;
 
 /// √3/2 in Q15, rounded: 0.866 03 × 32 768 = 28 377.9.
 const SQRT3_OVER_2_Q15: i32 = 28_378;
@@ -107,25 +111,28 @@ impl Angle {
     /// next 16 bits of the angle. Error at most 2.4·10⁻⁴ (8 LSB) against the exact sine
     /// (`tests/fixed.rs`: the table's rounding, ½ LSB, and the chord's sag, (2π/256)²/8 =
     /// 7.5·10⁻⁵ = 2.5 LSB, with the interpolation's rounding).
+    ///
+    /// cos θ = sin(θ + π/2): the same position between entries (a quarter turn is 64 entries
+    /// exactly), the index 64 on, so the position is taken once.
     #[inline(always)]
     pub fn sin_cos(self) -> (Q15, Q15) {
-        let quarter = Angle(1 << 30);
-        (self.sin(), self.advanced(quarter).sin())
-    }
-
-    /// sin θ in Q15 ([`Angle::sin_cos`]).
-    #[inline(always)]
-    fn sin(self) -> Q15 {
         let i = (self.0 >> (32 - TABLE_BITS)) as usize;
         // The 16 bits below the index: the position between entries i and i+1.
         let frac = ((self.0 >> (16 - TABLE_BITS)) & 0xFFFF) as i32;
-        let (a, b) = match (SIN_Q15.get(i), SIN_Q15.get(i + 1)) {
-            (Some(&a), Some(&b)) => (i32::from(a), i32::from(b)),
-            // i < 256 always (an 8-bit index into 257 entries).
-            _ => (0, 0),
-        };
-        sat_q15(a + (((b - a) * frac + (1 << 15)) >> 16))
+        (interpolate(i, frac), interpolate((i + 64) & 0xFF, frac))
     }
+}
+
+/// The table's entries `i` and `i + 1` (`i` < 256) interpolated at `frac`/2¹⁶: between the
+/// two entries, so within Q15 (no saturation needed).
+#[inline(always)]
+fn interpolate(i: usize, frac: i32) -> Q15 {
+    let (a, b) = match (SIN_Q15.get(i), SIN_Q15.get(i + 1)) {
+        (Some(&a), Some(&b)) => (i32::from(a), i32::from(b)),
+        // i < 256 always (an 8-bit index into 257 entries).
+        _ => (0, 0),
+    };
+    (a + (((b - a) * frac + (1 << 15)) >> 16)) as i16
 }
 
 /// Phase currents (or voltages) in Q15.
@@ -167,6 +174,23 @@ impl AbcQ15 {
         AlphaBetaQ15 {
             alpha: self.a,
             beta: sat_q15(((a + 2 * b) * INV_SQRT3_Q15 + (1 << 14)) >> 15),
+        }
+    }
+}
+
+impl AbcQ15 {
+    /// Amplitude-invariant Clarke transform of any three phase values, as the f32
+    /// [`crate::frames::Abc::to_alpha_beta`]: `α = (2a − b − c)/3`, `β = (b − c)/√3`, the
+    /// zero-sequence part `(a + b + c)/3` discarded (a current sensor's offset left in one
+    /// phase shows as one; [`AbcQ15::to_alpha_beta`] would take it into `α` and `β`: on the
+    /// plant, 0.7 % of the rated current left after the offsets' calibration moved the flux
+    /// observer's circle by 6 % of `ψ_f`). Saturating.
+    #[inline(always)]
+    pub fn to_alpha_beta_3(self) -> AlphaBetaQ15 {
+        let (a, b, c) = (i32::from(self.a), i32::from(self.b), i32::from(self.c));
+        AlphaBetaQ15 {
+            alpha: sat_q15(((2 * a - b - c) * ONE_THIRD_Q15 + (1 << 14)) >> 15),
+            beta: sat_q15(((b - c) * INV_SQRT3_Q15 + (1 << 14)) >> 15),
         }
     }
 }

@@ -110,14 +110,14 @@ impl Coef {
 /// `x·2^(−sh)`: rounded (ties up) for `sh > 0`, saturated for `sh < 0`.
 #[inline(always)]
 fn shift_round(x: i32, sh: i32) -> i32 {
-    if sh > 0 {
-        if sh > 31 {
-            0
-        } else {
-            // x >> (sh − 1) is below 2³¹ − 1 (|x| < 2³¹ − 2¹⁶: a Coef's product): no overflow.
-            let sh = sh as u32;
-            ((x >> (sh - 1)) + 1) >> 1
-        }
+    // The usual case first, in one unsigned compare: 1 ≤ sh ≤ 31.
+    let r = sh.wrapping_sub(1) as u32;
+    if r < 31 {
+        // x >> (sh − 1) is below 2³¹ − 1 (|x| < 2³¹ − 2¹⁶: a Coef's product): no overflow.
+        ((x >> r) + 1) >> 1
+    } else if sh > 0 {
+        // sh > 31.
+        0
     } else {
         let up = (-sh) as u32;
         if up == 0 {

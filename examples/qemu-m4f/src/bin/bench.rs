@@ -34,6 +34,8 @@ mod firmware {
     use pmsm_sensorless::fixed::pll::{PllQ, PllStateQ};
     use pmsm_sensorless::fixed::pu::PerUnit;
     use pmsm_sensorless::fixed::sliding::{SlidingObserverQ, SlidingStateQ};
+    #[cfg(feature = "fixed-step")]
+    use pmsm_sensorless::fixed::step::{FixedDrive, FixedInput, FixedOutput, FixedState};
     use pmsm_sensorless::fixed::svpwm::{svpwm_limited_q15, SvpwmQ15};
     use pmsm_sensorless::fixed::{AbcQ15, AlphaBetaQ15, Angle, DqQ15, Q15};
     use pmsm_sensorless::foc::{CurrentLoopState, Foc, FocConfig, FocInput, FocOutput, Reference};
@@ -91,6 +93,18 @@ mod firmware {
         bench_begin_tick_salient, bench_end_tick_salient, 28u32;
         bench_begin_step_inject, bench_end_step_inject, 29u32;
         bench_begin_tick_inject, bench_end_tick_inject, 30u32;
+    }
+
+    // The fixed-point step's cases: in the M0's bench only (its package's feature
+    // `fixed-step`), so that the M4F's bench, whose step cases have no headroom, is compiled
+    // as before (with these cases in its binary LTO moved its f32 step cases by 1 to 4
+    // cycles).
+    #[cfg(feature = "fixed-step")]
+    markers! {
+        bench_begin_fixed_step, bench_end_fixed_step, 31u32;
+        bench_begin_fixed_step_pll, bench_end_fixed_step_pll, 32u32;
+        bench_begin_fixed_tick, bench_end_fixed_tick, 33u32;
+        bench_begin_fixed_step_limited, bench_end_fixed_step_limited, 34u32;
     }
 
     /// Steps measured per case.
@@ -184,6 +198,20 @@ mod firmware {
     #[inline(never)]
     fn fixed_svpwm(v_ab: AlphaBetaQ15) -> SvpwmQ15 {
         svpwm_limited_q15(v_ab)
+    }
+
+    /// The fixed-point step and task (`pmsm_sensorless::fixed::step`), each in a function of
+    /// its own like [`control_step`].
+    #[cfg(feature = "fixed-step")]
+    #[inline(never)]
+    fn fixed_step(drive: &FixedDrive, st: &mut FixedState, input: &FixedInput) -> FixedOutput {
+        drive.step(st, input)
+    }
+
+    #[cfg(feature = "fixed-step")]
+    #[inline(never)]
+    fn fixed_tick(drive: &FixedDrive, st: &mut FixedState, speed_cmd: Q15) {
+        black_box(drive.tick(st, speed_cmd));
     }
 
     #[inline(never)]
@@ -680,6 +708,81 @@ mod firmware {
             }
         } else {
             defmt::error!("the fixed-point blocks do not build for the bench's motor");
+        }
+        // The fixed-point step and its task on the same motor, in sensorless control at
+        // 1000 rpm (seeded there), a full electrical turn each: the PLL in the task (the
+        // Sinano's drive); the PLL in the step (as a motor turning more than half a turn per
+        // millisecond at 1.5 times its rated speed has it, the drone's or the EMRAX's); and
+        // the PLL in the step with the bus at its under-voltage trip, where the back-EMF takes
+        // the current loop to its voltage limit (the radial cut).
+        #[cfg(feature = "fixed-step")]
+        for case in 0..3u32 {
+            let built = if case == 0 {
+                FixedDrive::build(&cfg)
+            } else {
+                FixedDrive::build_pll_in_step(&cfg)
+            };
+            let Ok(fixed) = built else {
+                defmt::error!("the fixed-point step does not build for the bench's motor");
+                continue;
+            };
+            let pu = *fixed.per_unit();
+            let bus_v = if case == 2 {
+                cfg.limits.bus_min_v + 0.5
+            } else {
+                m.ratings.bus_v
+            };
+            let bus = (bus_v / fixed.bus_base_v() * 32_768.0) as i16;
+            let input = |k: u32| {
+                let (_, i_ab) = sample(k);
+                let abc = i_ab.to_abc();
+                FixedInput {
+                    i_abc: AbcQ15 {
+                        a: pu.current(abc.a),
+                        b: pu.current(abc.b),
+                        c: pu.current(abc.c),
+                    },
+                    v_bus: bus,
+                }
+            };
+            let omega_e = 4.0 * omega_m;
+            let mut st = fixed.seed(
+                input(0).i_abc,
+                sample(0).0,
+                omega_e,
+                if case == 2 { 5.0 } else { 0.5 },
+                AlphaBeta::new(2.0, 1.0),
+                None,
+            );
+            let cmd = pu.speed(omega_e);
+            for k in 1..=STEPS {
+                let x = input(k);
+                match case {
+                    0 => {
+                        bench_begin_fixed_step();
+                        black_box(fixed_step(&fixed, &mut st, &x));
+                        bench_end_fixed_step();
+                    }
+                    1 => {
+                        bench_begin_fixed_step_pll();
+                        black_box(fixed_step(&fixed, &mut st, &x));
+                        bench_end_fixed_step_pll();
+                    }
+                    _ => {
+                        bench_begin_fixed_step_limited();
+                        black_box(fixed_step(&fixed, &mut st, &x));
+                        bench_end_fixed_step_limited();
+                    }
+                }
+                if k % steps_per_ms.max(1) == 0 {
+                    bench_begin_fixed_tick();
+                    fixed_tick(&fixed, &mut st, cmd);
+                    bench_end_fixed_tick();
+                }
+            }
+            if st.fault.is_some() {
+                defmt::error!("the fixed-point step faulted in the bench");
+            }
         }
         debug::exit(EXIT_SUCCESS);
         loop {
