@@ -521,6 +521,16 @@ impl DriveConfig {
                 low_speed_d_a: 2.0 * self.power_stage.dead_time_band_a,
                 handback_rpm: s.handback_rpm,
                 through_zero_rpm: s.handover_rpm,
+                // Where the dead-time voltage's fundamental `(4/π) t_d f_pwm V_bus` is a tenth
+                // of the back-EMF `N ψ_f ω_m` (an angle error up to tan⁻¹ 0.1 = 6° where the
+                // compensation does not know the current's sign).
+                dead_time_rpm: (10.0 * 4.0 / core::f32::consts::PI
+                    * self.power_stage.dead_time_s
+                    * self.power_stage.pwm_hz
+                    * self.ratings.bus_v
+                    / m.emf_constant()
+                    * RPM_PER_RAD_S)
+                    .max(s.handover_rpm),
                 stop_rpm: s.stop_rpm,
                 // `FIELD_WEAKENING_MARGIN v_bus/(√3 N (ψ_f − L i_max))` per volt (`sensorless.rs`).
                 overspeed_rpm_per_v: FIELD_WEAKENING_MARGIN * m.bus_limited_rpm(1.0) * m.flux_wb

@@ -53,6 +53,11 @@ pub(super) struct Settings {
     /// the catch holds (`catch_zero::Settings::i_hold_a`), so that every phase current but
     /// near its zero crossings has a sign the compensation knows.
     pub(super) low_speed_d_a: f32,
+    /// Below this |reference| \[rpm], and above the hand-over speed, the d current is held at
+    /// `low_speed_d_a` while the q current the speed loop last asked for is smaller: the
+    /// speed where the inverter's dead-time voltage is a tenth of the back-EMF (see
+    /// [`Settings::enter`]).
+    pub(super) dead_time_rpm: f32,
     /// Without a usable observer, below this |speed| and |reference| open loop takes over
     /// again \[rpm].
     pub(super) handback_rpm: f32,
@@ -513,8 +518,10 @@ impl Settings {
         // zero, the command beyond it, the dead-time voltage near zero current threw the
         // observers off (issue #26's zoo: 21 through-zero cells of 8 motors that pass on an
         // inverter without dead time).)
-        let low = self.through_zero_rpm;
-        s.i_d_handover = if s.speed_ref_rpm.abs() < low {
+        let ref_abs = s.speed_ref_rpm.abs();
+        let low = ref_abs < self.through_zero_rpm
+            || (ref_abs < self.dead_time_rpm && s.i_q_ref.abs() < self.low_speed_d_a);
+        s.i_d_handover = if low {
             // (Laid out of the way: the running drive's tick falls through.)
             cold_path();
             max(decayed, self.low_speed_d_a)
