@@ -444,7 +444,7 @@ impl DriveConfig {
                     * self.power_stage.dead_time_s
                     * self.power_stage.pwm_hz
                     * self.ratings.bus_v,
-                flux_dead_time_i_a: 2.0 * self.power_stage.dead_time_band_a,
+                flux_dead_time_i_a: 4.0 * self.power_stage.dead_time_band_a,
             },
             catch: catch::Settings {
                 v_min: m.emf_constant() * s.handback_rpm * RAD_S_PER_RPM,
