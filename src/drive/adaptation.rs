@@ -110,8 +110,10 @@ pub(super) struct Settings {
     /// 0.5 s with its angle within 3°, and the residual that followed faulted `observer_loss`.
     pub(super) flux_max_i_q_a: f32,
     /// The inverter's dead-time voltage, its fundamental `(4/π) t_d f_pwm V_bus` at the rated
-    /// bus \[V], and the current vector \[A] (twice the compensation's band) below which its
-    /// compensation does not know its sign: there a measurement is `ψ_f` within
+    /// bus \[V], and the current vector \[A] below which its compensation does not know its
+    /// sign: sensorless control's held d current
+    /// ([`DriveConfig::low_speed_hold`](super::DriveConfig::low_speed_hold), twice the
+    /// compensation's band). There a measurement is `ψ_f` within
     /// `± dead_time_v/ω_e` only, and moves the model only as far as it proves it wrong by more
     /// ([`Settings::track_flux`]).
     pub(super) flux_dead_time_v: f32,

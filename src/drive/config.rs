@@ -376,6 +376,23 @@ impl DriveConfig {
         }
     }
 
+    /// The d current sensorless control holds where the speed loop asks for little q
+    /// current at low speed \[A], and the |speed reference| below which it holds it \[rpm]
+    /// (`sensorless::Settings::enter`): twice the dead-time compensation's band, as the
+    /// catch holds (`catch_zero::Settings::i_hold_a`); below the speed where the dead-time
+    /// voltage's fundamental `(4/π) t_d f_pwm V_bus` is a tenth of the back-EMF `N ψ_f ω_m`
+    /// (an angle error up to tan⁻¹ 0.1 = 6° where the compensation does not know the
+    /// current's sign), and at least below the hand-over speed.
+    pub fn low_speed_hold(&self) -> (f32, f32) {
+        let p = &self.power_stage;
+        let v_dead = 4.0 / core::f32::consts::PI * p.dead_time_s * p.pwm_hz * self.ratings.bus_v;
+        let below_rpm = 10.0 * v_dead / self.motor.emf_constant() * RPM_PER_RAD_S;
+        (
+            2.0 * p.dead_time_band_a,
+            below_rpm.max(self.start.handover_rpm),
+        )
+    }
+
     /// The drive with the sliding torque observer feeding the controller and the flux
     /// observer watching it.
     pub fn build_sliding_primary(&self) -> Result<Drive<SlidingObserver, FluxPll>, ParamError> {
@@ -444,7 +461,7 @@ impl DriveConfig {
                     * self.power_stage.dead_time_s
                     * self.power_stage.pwm_hz
                     * self.ratings.bus_v,
-                flux_dead_time_i_a: 4.0 * self.power_stage.dead_time_band_a,
+                flux_dead_time_i_a: self.low_speed_hold().0,
             },
             catch: catch::Settings {
                 v_min: m.emf_constant() * s.handback_rpm * RAD_S_PER_RPM,
@@ -516,21 +533,10 @@ impl DriveConfig {
                 // Five speed-loop time constants, 1/(2π f_speed) each: the speed loop takes the
                 // torque over as the d current fades.
                 handover_decay: 1.0 - slots * ts * TAU * self.speed_bandwidth_hz / 5.0,
-                // As the catch's (`catch_zero::Settings::i_hold_a`): twice the dead-time
-                // compensation's band.
-                low_speed_d_a: 2.0 * self.power_stage.dead_time_band_a,
+                low_speed_d_a: self.low_speed_hold().0,
                 handback_rpm: s.handback_rpm,
                 through_zero_rpm: s.handover_rpm,
-                // Where the dead-time voltage's fundamental `(4/π) t_d f_pwm V_bus` is a tenth
-                // of the back-EMF `N ψ_f ω_m` (an angle error up to tan⁻¹ 0.1 = 6° where the
-                // compensation does not know the current's sign).
-                dead_time_rpm: (10.0 * 4.0 / core::f32::consts::PI
-                    * self.power_stage.dead_time_s
-                    * self.power_stage.pwm_hz
-                    * self.ratings.bus_v
-                    / m.emf_constant()
-                    * RPM_PER_RAD_S)
-                    .max(s.handover_rpm),
+                dead_time_rpm: self.low_speed_hold().1,
                 stop_rpm: s.stop_rpm,
                 // `FIELD_WEAKENING_MARGIN v_bus/(√3 N (ψ_f − L i_max))` per volt (`sensorless.rs`).
                 overspeed_rpm_per_v: FIELD_WEAKENING_MARGIN * m.bus_limited_rpm(1.0) * m.flux_wb

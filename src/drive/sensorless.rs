@@ -342,6 +342,14 @@ impl Settings {
     /// within a few degrees. Not more: a d current makes a torque `∝ i_d sin(θ − θ̂)` about the
     /// observer's angle, a spring that shook the Delta servo's rotor by ±70 rpm at 90 rpm with
     /// the whole I/f current held.
+    ///
+    /// Above the hand-over speed too, up to where the dead-time voltage is a tenth of the
+    /// back-EMF (`dead_time_rpm`, [`DriveConfig::low_speed_hold`](super::DriveConfig::low_speed_hold)),
+    /// while the speed loop last asked for less q current than the hold: on Ortega's test
+    /// motor (2 V of dead-time voltage against 4.6 V of back-EMF at its hand-over speed) a
+    /// stop's way down from 300 to 140 rpm, the speed loop asking for almost no current,
+    /// threw both observers 20° off and ended in `observer_loss` in 14 of 120 seeded stops
+    /// (`host-sim/tests/regen.rs`' scenarios; none with the hold).
     // Out of line, like the other mode changes: rare, kept off the every-step path.
     #[inline(never)]
     pub(super) fn enter(&self, foc: &Foc, e: Entry) -> Sensorless {
