@@ -154,6 +154,11 @@ pub struct FixedDrive {
     /// The speed reference's limit (rated) and slew per task, Q15 of `ω_b`; the slew in Q31.
     speed_max: i32,
     speed_step_q31: i32,
+    /// The f32 drive's low-speed d current ([`DriveConfig::low_speed_hold`]), Q15 of `I_b`,
+    /// held while the speed reference is below `hold_below_q31` (Q31 of `ω_b`) and the q
+    /// current asked for is smaller.
+    hold_d: i32,
+    hold_below_q31: i32,
     /// The monitor is judged above this |speed| (Q15 of `ω_b`): its lowest speed.
     monitor_from: i32,
     /// `cos` of the largest disagreement, Q15.
@@ -343,6 +348,9 @@ impl FixedDrive {
             speed_max: libm::roundf(rpm_to_q15(cfg.ratings.speed_rpm)).min(32_767.0) as i32,
             speed_step_q31: libm::roundf(rpm_to_q15(cfg.start.accel_rpm_per_s * tick_s) * 65_536.0)
                 .min(2.0e9) as i32,
+            hold_d: q15(cfg.low_speed_hold().0 / pu.i_base_a).min(32_767),
+            hold_below_q31: libm::roundf(rpm_to_q15(cfg.low_speed_hold().1) * 65_536.0).min(2.0e9)
+                as i32,
             monitor_from: libm::roundf(rpm_to_q15(cfg.start.handover_rpm)).min(32_767.0) as i32,
             cos_disagree: q15(libm::cosf(cfg.health.max_disagreement_deg.to_radians())),
             // (A NaN loss time reads as one task.)
@@ -683,8 +691,13 @@ impl FixedDrive {
         let i_q = (p + (st.speed_integral >> 16))
             .max(-self.i_max)
             .min(self.i_max);
+        // The f32 drive's low-speed d current (`sensorless.rs`): at a low speed reference,
+        // while the q current last asked for is smaller, so that the phase currents keep a
+        // sign the dead-time compensation knows.
+        let held = st.speed_ref.saturating_abs() < self.hold_below_q31
+            && i32::from(st.i_ref.q).abs() < self.hold_d;
         st.i_ref = DqQ15 {
-            d: 0,
+            d: if held { self.hold_d as i16 } else { 0 },
             q: i_q as i16,
         };
         // The monitor: the sliding observer's angle against the flux observer's, above its
