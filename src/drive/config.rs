@@ -384,13 +384,16 @@ impl DriveConfig {
     /// (an angle error up to tan⁻¹ 0.1 = 6° where the compensation does not know the
     /// current's sign), and at least below the hand-over speed.
     pub fn low_speed_hold(&self) -> (f32, f32) {
+        let below_rpm = 10.0 * self.dead_time_v() / self.motor.emf_constant() * RPM_PER_RAD_S;
+        let hold_a = 2.0 * self.power_stage.dead_time_band_a;
+        (hold_a, below_rpm.max(self.start.handover_rpm))
+    }
+
+    /// The inverter's dead-time voltage at the rated bus, the fundamental of its square wave,
+    /// `(4/π) t_d f_pwm V_bus` \[V].
+    fn dead_time_v(&self) -> f32 {
         let p = &self.power_stage;
-        let v_dead = 4.0 / core::f32::consts::PI * p.dead_time_s * p.pwm_hz * self.ratings.bus_v;
-        let below_rpm = 10.0 * v_dead / self.motor.emf_constant() * RPM_PER_RAD_S;
-        (
-            2.0 * p.dead_time_band_a,
-            below_rpm.max(self.start.handover_rpm),
-        )
+        4.0 / core::f32::consts::PI * p.dead_time_s * p.pwm_hz * self.ratings.bus_v
     }
 
     /// The drive with the sliding torque observer feeding the controller and the flux
@@ -418,6 +421,7 @@ impl DriveConfig {
         let schedule = self.schedule()?;
         let slots = schedule.steps_per_tick() as f32;
         let (l, s, h) = (self.limits, self.start, self.health);
+        let (hold_a, hold_below_rpm) = self.low_speed_hold();
         let foc = self.foc_config().build()?;
         let ts = 1.0 / rate;
         let steps = |t: f32| (t * rate) as u32;
@@ -457,11 +461,8 @@ impl DriveConfig {
                     * RAD_S_PER_RPM,
                 flux_max_r_share: FLUX_ADAPT_MAX_R_SHARE,
                 flux_max_i_q_a: FLUX_ADAPT_MAX_R_SHARE * m.flux_wb / m.l_q_h(),
-                flux_dead_time_v: 4.0 / core::f32::consts::PI
-                    * self.power_stage.dead_time_s
-                    * self.power_stage.pwm_hz
-                    * self.ratings.bus_v,
-                flux_dead_time_i_a: self.low_speed_hold().0,
+                flux_dead_time_v: self.dead_time_v(),
+                flux_dead_time_i_a: hold_a,
             },
             catch: catch::Settings {
                 v_min: m.emf_constant() * s.handback_rpm * RAD_S_PER_RPM,
@@ -533,10 +534,10 @@ impl DriveConfig {
                 // Five speed-loop time constants, 1/(2π f_speed) each: the speed loop takes the
                 // torque over as the d current fades.
                 handover_decay: 1.0 - slots * ts * TAU * self.speed_bandwidth_hz / 5.0,
-                low_speed_d_a: self.low_speed_hold().0,
+                low_speed_d_a: hold_a,
                 handback_rpm: s.handback_rpm,
                 through_zero_rpm: s.handover_rpm,
-                dead_time_rpm: self.low_speed_hold().1,
+                dead_time_rpm: hold_below_rpm,
                 stop_rpm: s.stop_rpm,
                 // `FIELD_WEAKENING_MARGIN v_bus/(√3 N (ψ_f − L i_max))` per volt (`sensorless.rs`).
                 overspeed_rpm_per_v: FIELD_WEAKENING_MARGIN * m.bus_limited_rpm(1.0) * m.flux_wb
