@@ -43,11 +43,10 @@
 //! its window speed difference grew from 0.46 % to 0.69 % (now 0.03 %).
 //!
 //! The angle's error to the true angle is compared as RMS, its worst sample printed: the f32
-//! drive on board C (its noise's seed alone differs) is printed beside it, the floor. Worst
-//! samples of two f32 drives differ by up to 2.3° (Ortega's test motor: 4.95° and 7.23°),
-//! their RMS by 0.15° (1.29° and 1.43°); compared by the worst sample, the fixed step missed
-//! the 0.5° on that motor and the hoverboard (6.07° against 4.95°, 4.33° against 3.67°) with
-//! RMS errors within 0.2° of the f32 drive's.
+//! drive on board C (its noise's seed alone differs) is printed beside it, the floor. On
+//! Ortega's test motor with the update delay the worst samples of two f32 drives are 4.92°
+//! and 7.14°, their RMS 1.17° and 1.49°; the fixed step's worst sample there is 6.96° (2.0°
+//! beyond the f32 drive's, within board C's), its RMS 1.55° (0.38° beyond).
 //!
 //! Not asserted (measured, release build): the T-motor drone motor (5 samples per electrical
 //! period at its rated speed), whose f32 drive holds it since `adaptation.rs` takes the flux
