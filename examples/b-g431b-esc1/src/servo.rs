@@ -258,7 +258,9 @@ impl ServoDecoder {
         }
         if self.armed {
             let step = self.cfg.slew_per_s * dt_us as f32 * 1e-6;
-            let d = (self.target - self.throttle).clamp(-step, step);
+            // (`max`/`min`, not `f32::clamp`: its check of its bounds is a panic path in the
+            // image, the string and the code 150 B of the commissioning firmware's flash.)
+            let d = (self.target - self.throttle).max(-step).min(step);
             self.throttle = (self.throttle + d).clamp(0.0, 1.0);
         } else {
             self.throttle = 0.0;
