@@ -517,8 +517,8 @@ impl Settings {
                 return Next::Fault(Fault::Overspeed);
             }
         }
-        // The hand-over's d current: fading, held under a speed reference below the hand-over speed
-        // (`enter`).
+        // The hand-over's d current: fading, held under a speed reference below the hand-over
+        // speed, and below the dead-time speed while the q current asked for is smaller (`enter`).
         let decayed = s.i_d_handover * self.handover_decay;
         // (The speed reference, not the command, below the hand-over speed: on a stop's way down
         // from speed a held d current stands in the braking's way (the stop into a supply that

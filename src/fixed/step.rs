@@ -279,6 +279,7 @@ impl FixedDrive {
         let l = &cfg.limits;
         let bus_base = 2.0 * l.bus_max_v;
         let q15 = |x: f32| libm::roundf(x * 32_768.0) as i32;
+        let (hold_a, hold_below_rpm) = cfg.low_speed_hold();
         let dt = foc.dead_time;
         let delay = cfg.delay_periods();
         Allowed::between(0.0, 1.0)
@@ -348,9 +349,8 @@ impl FixedDrive {
             speed_max: libm::roundf(rpm_to_q15(cfg.ratings.speed_rpm)).min(32_767.0) as i32,
             speed_step_q31: libm::roundf(rpm_to_q15(cfg.start.accel_rpm_per_s * tick_s) * 65_536.0)
                 .min(2.0e9) as i32,
-            hold_d: q15(cfg.low_speed_hold().0 / pu.i_base_a).min(32_767),
-            hold_below_q31: libm::roundf(rpm_to_q15(cfg.low_speed_hold().1) * 65_536.0).min(2.0e9)
-                as i32,
+            hold_d: q15(hold_a / pu.i_base_a).min(32_767),
+            hold_below_q31: libm::roundf(rpm_to_q15(hold_below_rpm) * 65_536.0).min(2.0e9) as i32,
             monitor_from: libm::roundf(rpm_to_q15(cfg.start.handover_rpm)).min(32_767.0) as i32,
             cos_disagree: q15(libm::cosf(cfg.health.max_disagreement_deg.to_radians())),
             // (A NaN loss time reads as one task.)
