@@ -15,10 +15,9 @@
 //! switches start is the usual flying-start of sensorless drives (e.g. ST's motor-control
 //! SDK "on-the-fly start-up", VESC's observer on the sensed phase voltages).
 
-use super::mode::{against, Driving, Entry, Next};
-use super::{Fault, Reason};
+use super::mode::{Driving, Next};
 use crate::foc::Foc;
-use crate::frames::{AlphaBeta, Dq};
+use crate::frames::AlphaBeta;
 use crate::math::{atan2, rsqrt_normal};
 use crate::observer::Rotor;
 use core::f32::consts::FRAC_PI_2;
@@ -139,7 +138,7 @@ impl Settings {
     /// from zero for a rotor turning against the command `cmd_rpm` (`Entry::reference`, as
     /// every other hand-over: braked at the current limit, not carried on in reverse at the
     /// ramp's pace), or an observer loss at the time limit.
-    #[inline(never)]
+    #[inline(always)]
     pub(super) fn tick(
         &self,
         c: &mut Catch,
@@ -147,25 +146,6 @@ impl Settings {
         driving: Option<Driving>,
         cmd_rpm: f32,
     ) -> Next {
-        if let Some(d) = driving {
-            let i_q = foc.current_for_torque(d.load_nm.unwrap_or(0.0));
-            let entry = Entry {
-                omega_m: d.omega_m,
-                i_dq: Dq::new(0.0, i_q),
-                load_nm: d.load_nm,
-                ref_omega_m: Entry::reference(d.omega_m, cmd_rpm),
-            };
-            let reason = if against(d.omega_m, cmd_rpm) {
-                Reason::AgainstCommand
-            } else {
-                Reason::Caught
-            };
-            return Next::Sensorless(entry, reason);
-        }
-        c.checks = c.checks.saturating_add(1);
-        if c.checks >= self.timeout_checks {
-            return Next::Fault(Fault::ObserverLoss);
-        }
-        Next::Stay
+        Next::caught(foc, driving, cmd_rpm, &mut c.checks, self.timeout_checks)
     }
 }

@@ -167,9 +167,10 @@ pub(super) struct FieldWeakening {
     pub(super) gain_a_per_v: f32,
     /// The speed loop's current limit `i_max` \[A]: `|i_d|` up to it, `|i| ≤ i_max`.
     pub(super) i_max_a: f32,
-    /// The field weakening's minimum-voltage end and the torque's ceiling (`None` on a salient
-    /// motor: there the MTPA's d current comes first, and its end is left at `−i_max`).
-    pub(super) end: Option<VoltageEnd>,
+    /// The field weakening's minimum-voltage end and the torque's ceiling, on a non-salient
+    /// motor (on a salient one, `Settings::mtpa`, the MTPA's d current comes first, and its
+    /// end is left at `−i_max`).
+    pub(super) end: VoltageEnd,
 }
 
 impl FieldWeakening {
@@ -222,19 +223,18 @@ pub(super) struct VoltageEnd {
     pub(super) psi_per_l_a: f32,
     /// `(R/(N L))²` \[rad²/s²]: the square of the mechanical speed where `ω_e L = R`.
     pub(super) corner_rad2_s2: f32,
-    /// The ceiling's step per volt of excess per millisecond \[A/V]: `0.2/|R + j ω_e L|` at
-    /// rated speed, a fifth of the way to the voltage target each millisecond there, as the
-    /// d current's (`FieldWeakening::gain_a_per_v`).
-    pub(super) q_gain_a_per_v: f32,
 }
 
 impl VoltageEnd {
-    /// Holds `s.i_d_fw` at or above the end at `omega_m` \[rad/s] (`s.i_d_end_a`, within
-    /// `−i_max_a`) and moves the ceiling `s.i_q_v` by the voltage's excess `excess_v` \[V].
+    /// Holds `s.i_d_fw` at or above the end at `omega_m` \[rad/s] (within `−i_max` of `fw`) and moves the ceiling `s.i_q_v` by the voltage's excess `excess_v`
+    /// \[V], at the d current's gain (`FieldWeakening::gain_a_per_v`, `0.2/(ω_e L)` at rated
+    /// speed: a fifth of the way each millisecond where `ω_e L` dominates the impedance, less
+    /// where `R` is not small against it, `|∂|v|/∂i_q| ≤ |R + j ω_e L|`).
     /// Run only while the field weakening acts or the ceiling is below `i_max`.
     // Out of line: the running drive's tick below the voltage target pays two compares.
     #[inline(never)]
-    fn apply(&self, s: &mut Sensorless, excess_v: f32, omega_m: f32, i_max_a: f32) {
+    fn apply(&self, s: &mut Sensorless, excess_v: f32, omega_m: f32, fw: &FieldWeakening) {
+        let i_max_a = fw.i_max_a;
         let w2 = omega_m * omega_m;
         let end = max(
             -self.psi_per_l_a * w2 / (self.corner_rad2_s2 + w2),
@@ -242,10 +242,9 @@ impl VoltageEnd {
         );
         let at_end = s.i_d_fw <= end;
         s.i_d_fw = max(s.i_d_fw, end);
-        s.i_d_end_a = end;
         // (False for a NaN excess, as for the d current's.)
         if at_end || excess_v < 0.0 {
-            s.i_q_v = clamp(s.i_q_v - self.q_gain_a_per_v * excess_v, 0.0, i_max_a);
+            s.i_q_v = clamp(s.i_q_v - fw.gain_a_per_v * excess_v, 0.0, i_max_a);
         }
     }
 }
@@ -322,9 +321,6 @@ pub(super) struct Sensorless {
     i_d_fw: f32,
     /// The motoring torque current's ceiling from the voltage \[A] ([`VoltageEnd`]).
     i_q_v: f32,
-    /// The field weakening's end \[A]: `−i_max`, or the minimum-voltage d current
-    /// ([`VoltageEnd`]) at the last update where it acted.
-    i_d_end_a: f32,
     /// The open loop's d current at the hand-over, decaying \[A] (see
     /// [`Settings::enter`]).
     i_d_handover: f32,
@@ -421,7 +417,6 @@ impl Settings {
             i_tau: i_dq.q,
             i_d_fw: 0.0,
             i_q_v: self.field_weakening.i_max_a,
-            i_d_end_a: -self.field_weakening.i_max_a,
             i_d_handover: i_dq.d,
             i_d_ref: i_dq.d,
             out_rot: foc.output_rotation(omega_m),
@@ -609,11 +604,9 @@ impl Settings {
         // The minimum-voltage end and the torque's ceiling (`VoltageEnd`), while the field
         // weakening acts or the ceiling is down. (Laid out of the way: the running drive's
         // tick below the voltage target falls through.)
-        if let Some(end) = &fw.end {
-            if i_d_fw < 0.0 || s.i_q_v < fw.i_max_a {
-                cold_path();
-                end.apply(s, excess_v, omega_m, fw.i_max_a);
-            }
+        if self.mtpa.is_none() && (i_d_fw < 0.0 || s.i_q_v < fw.i_max_a) {
+            cold_path();
+            fw.end.apply(s, excess_v, omega_m, fw);
         }
         s.i_d_ref = s.i_d_fw + s.i_d_handover;
         let mut i_q_max = sqrt_or_zero(fw.i_max_a * fw.i_max_a - s.i_d_ref * s.i_d_ref);
@@ -635,7 +628,9 @@ impl Settings {
         // current, which would need voltage the loop does not have. While the field weakening
         // still has room, it answers the voltage, not the speed loop. Braking current
         // (against the rotation) lowers the voltage and stays free.
-        let exhausted = applied.limited && s.i_d_fw <= s.i_d_end_a;
+        // (At its end: all of i_max on the d axis, or the torque's ceiling down, which only
+        // falls at the minimum-voltage end, `VoltageEnd`.)
+        let exhausted = applied.limited && (s.i_d_fw <= -fw.i_max_a || s.i_q_v < fw.i_max_a);
         let held = match (exhausted, omega_m >= 0.0) {
             (false, _) => Held::No,
             (true, true) => Held::Up,
