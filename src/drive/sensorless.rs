@@ -226,11 +226,12 @@ pub(super) struct VoltageEnd {
 }
 
 impl VoltageEnd {
-    /// Holds `s.i_d_fw` at or above the end at `omega_m` \[rad/s] (within `−i_max` of `fw`) and moves the ceiling `s.i_q_v` by the voltage's excess `excess_v`
-    /// \[V], at the d current's gain (`FieldWeakening::gain_a_per_v`, `0.2/(ω_e L)` at rated
-    /// speed: a fifth of the way each millisecond where `ω_e L` dominates the impedance, less
-    /// where `R` is not small against it, `|∂|v|/∂i_q| ≤ |R + j ω_e L|`).
-    /// Run only while the field weakening acts or the ceiling is below `i_max`.
+    /// Holds `s.i_d_fw` at or above the end at `omega_m` \[rad/s] (within `−i_max` of `fw`)
+    /// and moves the ceiling `s.i_q_v` by the voltage's excess `excess_v` \[V], at the d
+    /// current's gain (`FieldWeakening::gain_a_per_v`, `0.2/(ω_e L)` at rated speed: with
+    /// `|∂|v|/∂i_q| ≤ |R + j ω_e L|`, at most `0.2 |R + j ω_e L|/(ω_e L)` of the way each
+    /// millisecond, 0.27 on the DF45). Run only while the field weakening acts or the ceiling
+    /// is below `i_max`.
     // Out of line: the running drive's tick below the voltage target pays two compares.
     #[inline(never)]
     fn apply(&self, s: &mut Sensorless, excess_v: f32, omega_m: f32, fw: &FieldWeakening) {
