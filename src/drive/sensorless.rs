@@ -320,7 +320,8 @@ pub(super) struct Sensorless {
     i_tau: f32,
     /// The field-weakening i_d \[A] (≤ 0).
     i_d_fw: f32,
-    /// The motoring torque current's ceiling from the voltage \[A] ([`VoltageEnd`]).
+    /// The motoring torque current's ceiling from the voltage \[A] ([`VoltageEnd`]; ∞ until it
+    /// first acts).
     i_q_v: f32,
     /// The open loop's d current at the hand-over, decaying \[A] (see
     /// [`Settings::enter`]).
@@ -417,7 +418,9 @@ impl Settings {
             i_q_ref: i_dq.q,
             i_tau: i_dq.q,
             i_d_fw: 0.0,
-            i_q_v: self.field_weakening.i_max_a,
+            // (Unbounded until `VoltageEnd` first acts, which bounds it by `i_max`: a salient
+            // motor's torque current may exceed `i_max`, `crate::mtpa`.)
+            i_q_v: f32::INFINITY,
             i_d_handover: i_dq.d,
             i_d_ref: i_dq.d,
             out_rot: foc.output_rotation(omega_m),
