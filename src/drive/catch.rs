@@ -15,10 +15,9 @@
 //! switches start is the usual flying-start of sensorless drives (e.g. ST's motor-control
 //! SDK "on-the-fly start-up", VESC's observer on the sensed phase voltages).
 
-use super::mode::{Driving, Entry, Next};
-use super::{Fault, Reason};
+use super::mode::{Driving, Next};
 use crate::foc::Foc;
-use crate::frames::{AlphaBeta, Dq};
+use crate::frames::AlphaBeta;
 use crate::math::{atan2, rsqrt_normal};
 use crate::observer::Rotor;
 use core::f32::consts::FRAC_PI_2;
@@ -135,23 +134,18 @@ impl Settings {
 
     /// Catch's 1 kHz work after the seed, `driving` the driving observer's estimate once one is
     /// usable (the drive's health check ran): closed loop at its speed with the current of
-    /// its load estimate (zero without one), or an observer loss at the time limit.
-    #[inline(never)]
-    pub(super) fn tick(&self, c: &mut Catch, foc: &Foc, driving: Option<Driving>) -> Next {
-        if let Some(d) = driving {
-            let i_q = foc.current_for_torque(d.load_nm.unwrap_or(0.0));
-            let entry = Entry {
-                omega_m: d.omega_m,
-                i_dq: Dq::new(0.0, i_q),
-                load_nm: d.load_nm,
-                ref_omega_m: d.omega_m,
-            };
-            return Next::Sensorless(entry, Reason::Caught);
-        }
-        c.checks = c.checks.saturating_add(1);
-        if c.checks >= self.timeout_checks {
-            return Next::Fault(Fault::ObserverLoss);
-        }
-        Next::Stay
+    /// its load estimate (zero without one), the speed reference from the rotor's speed, or
+    /// from zero for a rotor turning against the command `cmd_rpm` (`Entry::reference`, as
+    /// every other hand-over: braked at the current limit, not carried on in reverse at the
+    /// ramp's pace), or an observer loss at the time limit.
+    #[inline(always)]
+    pub(super) fn tick(
+        &self,
+        c: &mut Catch,
+        foc: &Foc,
+        driving: Option<Driving>,
+        cmd_rpm: f32,
+    ) -> Next {
+        Next::caught(foc, driving, cmd_rpm, &mut c.checks, self.timeout_checks)
     }
 }

@@ -48,8 +48,7 @@
 //! rotor is at rest for practical purposes and the alignment's current holds it: 3.3 V on the
 //! Sinano motor (13.6 % of its rated speed), 4.0 V on Ortega's test motor (8.7 %).
 
-use super::mode::{Driving, Entry, Next};
-use super::{Fault, Reason};
+use super::mode::{Driving, Next};
 use crate::foc::{Foc, Reference, Request};
 use crate::frames::{AlphaBeta, Dq, SinCos};
 use crate::math::{atan2, rsqrt_normal};
@@ -373,24 +372,18 @@ impl Settings {
     }
 
     /// The 1 kHz work after the seed, `driving` the driving observer's estimate once one is usable:
-    /// closed loop at its speed with the current of its load estimate (zero without one), or
-    /// an observer loss at the time limit.
-    #[inline(never)]
-    pub(super) fn tick(&self, c: &mut CatchZero, foc: &Foc, driving: Option<Driving>) -> Next {
-        if let Some(d) = driving {
-            let i_q = foc.current_for_torque(d.load_nm.unwrap_or(0.0));
-            let entry = Entry {
-                omega_m: d.omega_m,
-                i_dq: Dq::new(0.0, i_q),
-                load_nm: d.load_nm,
-                ref_omega_m: d.omega_m,
-            };
-            return Next::Sensorless(entry, Reason::Caught);
-        }
-        c.checks = c.checks.saturating_add(1);
-        if c.checks >= self.timeout_checks {
-            return Next::Fault(Fault::ObserverLoss);
-        }
-        Next::Stay
+    /// closed loop at its speed with the current of its load estimate (zero without one), the
+    /// speed reference from the rotor's speed, or from zero for a rotor turning against the
+    /// command `cmd_rpm` (`Entry::reference`, as every other hand-over), or an observer loss
+    /// at the time limit.
+    #[inline(always)]
+    pub(super) fn tick(
+        &self,
+        c: &mut CatchZero,
+        foc: &Foc,
+        driving: Option<Driving>,
+        cmd_rpm: f32,
+    ) -> Next {
+        Next::caught(foc, driving, cmd_rpm, &mut c.checks, self.timeout_checks)
     }
 }

@@ -528,6 +528,16 @@ impl DriveConfig {
                     margin: FIELD_WEAKENING_MARGIN,
                     gain_a_per_v: 0.2 / (m.n() * self.ratings.speed_rpm * RAD_S_PER_RPM * m.l_h),
                     i_max_a: l.i_max_a,
+                    // The minimum-voltage end `ψ_f/L_d`, `(R/(N L_d))²` (L_d: an inversely
+                    // salient motor has no MTPA either; a salient one does not use it).
+                    end: {
+                        let psi_per_l_a = m.flux_wb / m.l_d_h();
+                        let corner = m.r_ohm / (m.n() * m.flux_wb) * psi_per_l_a;
+                        sensorless::VoltageEnd {
+                            psi_per_l_a,
+                            corner_rad2_s2: corner * corner,
+                        }
+                    },
                 },
                 mtpa,
                 braking_max_a: mtpa.map_or(l.i_max_a, |m| m.torque_current_at_max()),

@@ -354,13 +354,13 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             ModeState::Catch(c) => {
                 self.supervise(obs, i_ab, 0.0);
                 let driving = obs.health.usable().then(|| self.driving_now(obs));
-                self.catch.tick(c, &self.foc, driving)
+                self.catch.tick(c, &self.foc, driving, cmd_rpm)
             }
             ModeState::CatchZero(c) if !c.seeded() => Next::Stay,
             ModeState::CatchZero(c) => {
                 self.supervise(obs, i_ab, 0.0);
                 let driving = obs.health.usable().then(|| self.driving_now(obs));
-                self.catch_zero.tick(c, &self.foc, driving)
+                self.catch_zero.tick(c, &self.foc, driving, cmd_rpm)
             }
             ModeState::OpenLoop(ol) => {
                 let (verdict, _) = self.supervise(obs, i_ab, 0.0);

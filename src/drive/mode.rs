@@ -44,6 +44,47 @@ impl Entry {
     }
 }
 
+impl Next {
+    /// A catch's 1 kHz work after its seed (both catches', `catch.rs`, `catch_zero.rs`),
+    /// `driving` the driving observer's estimate once one is usable: closed loop at its speed
+    /// with the current of its load estimate (zero without one, `foc`'s torque constant), the
+    /// speed reference from the rotor's speed, or from zero for a rotor turning against the
+    /// command `cmd_rpm` ([`Entry::reference`], as every other hand-over: braked at the current
+    /// limit, not carried on in reverse at the ramp's pace); else one more of the `checks`,
+    /// and an observer loss at `timeout_checks`.
+    // Out of line: one copy for both catches.
+    #[inline(never)]
+    pub(super) fn caught(
+        foc: &crate::foc::Foc,
+        driving: Option<Driving>,
+        cmd_rpm: f32,
+        checks: &mut u32,
+        timeout_checks: u32,
+    ) -> Next {
+        if let Some(d) = driving {
+            let back = against(d.omega_m, cmd_rpm);
+            let entry = Entry {
+                omega_m: d.omega_m,
+                i_dq: Dq::new(0.0, foc.current_for_torque(d.load_nm.unwrap_or(0.0))),
+                load_nm: d.load_nm,
+                // (`Entry::reference`.)
+                ref_omega_m: if back { 0.0 } else { d.omega_m },
+            };
+            let reason = if back {
+                Reason::AgainstCommand
+            } else {
+                Reason::Caught
+            };
+            return Next::Sensorless(entry, reason);
+        }
+        *checks = checks.saturating_add(1);
+        if *checks >= timeout_checks {
+            return Next::Fault(Fault::ObserverLoss);
+        }
+        Next::Stay
+    }
+}
+
 /// The rotor at `omega_m` \[rad/s] turns against the command `cmd_rpm` (a zero command has no
 /// direction).
 pub(super) fn against(omega_m: f32, cmd_rpm: f32) -> bool {

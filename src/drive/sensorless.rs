@@ -172,14 +172,18 @@ pub(super) struct FieldWeakening {
     pub(super) gain_a_per_v: f32,
     /// The speed loop's current limit `i_max` \[A]: `|i_d|` up to it, `|i| ≤ i_max`.
     pub(super) i_max_a: f32,
+    /// The field weakening's minimum-voltage end and the torque's ceiling, on a non-salient
+    /// motor (on a salient one, `Settings::mtpa`, the MTPA's d current comes first, and its
+    /// end is left at `−i_max`).
+    pub(super) end: VoltageEnd,
 }
 
 impl FieldWeakening {
     /// The new `i_d` \[A] from `i_d` \[A], the voltage `v_ab` applied \[V] and the current loop's
     /// limit `v_max` \[V]: the excess over `margin·v_max`, linearised from the squares,
-    /// `(|v|² − (m v_max)²)/(2 m v_max)`.
+    /// `(|v|² − (m v_max)²)/(2 m v_max)`; and that excess \[V].
     #[inline(always)]
-    fn i_d(&self, i_d: f32, v_ab: AlphaBeta, v_max: f32) -> f32 {
+    fn i_d(&self, i_d: f32, v_ab: AlphaBeta, v_max: f32) -> (f32, f32) {
         let target = self.margin * v_max;
         let v2 = v_ab.alpha * v_ab.alpha + v_ab.beta * v_ab.beta;
         let excess_v = (v2 - target * target) / (2.0 * target);
@@ -187,9 +191,66 @@ impl FieldWeakening {
         // Within [−i_max, 0]; a bus at zero (the division's NaN, which fails `< 0`) ends the
         // field weakening. (One compare for the upper bound and the NaN.)
         if i_d < 0.0 {
-            max(i_d, -self.i_max_a)
+            (max(i_d, -self.i_max_a), excess_v)
         } else {
-            0.0
+            (0.0, excess_v)
+        }
+    }
+}
+
+/// The field weakening's end where it is inside the current limit, and the torque's ceiling
+/// from the voltage there (a non-salient motor).
+///
+/// The end is the minimum-voltage d current: from the steady-state stator voltage (Ortega
+/// et al. eq (3), Horng & Chin eqs (16)-(17) in the rotor frame), `v_d = R i_d − ω_e L i_q`,
+/// `v_q = R i_q + ω_e (ψ_f + L i_d)`, `∂|v|²/∂i_d = 0` at
+/// `i_d* = −ω_e² L ψ_f/(R² + ω_e² L²) = −(ψ_f/L) ω_m²/((R/(N L))² + ω_m²)`, whatever `i_q`
+/// (the vertex the derating's envelope already takes, `derating.rs`). Beyond it a more
+/// negative d current needs more voltage, not less. The field weakening of the voltage-limit
+/// circle (Morimoto, Takeda, Hirasa, Taniguchi, "Expansion of operating limits for permanent
+/// magnet motor by current vector control considering inverter capacity", IEEE Trans. Ind.
+/// Appl. 26(5), 1990) neglects `R`, where `i_d* = −ψ_f/L`, beyond the current limit of most
+/// motors; where `R` is not small against `ω_e L` (a winding of few turns on a low bus: the
+/// Nanotec DF45 at 2,400 rpm, `ω_e L = 0.4 Ω` against `R = 0.6 Ω`, `i_d* = −5.8 A` of its
+/// 13.6 A limit) the loop, which sees only the voltage above its target, ran past `i_d*` on
+/// to the current limit, the q current lost its voltage and the rotor under rated load
+/// collapsed every 40 ms (`sup-start-brake-100`: 2,650 to 600 rpm in 2 ms).
+///
+/// At that end the voltage above the target is the torque's: the q current is what is left
+/// to take it off, as the current limit does where the d current reaches `−i_max`
+/// (`√(i_max² − i_d²)`). The ceiling falls while the voltage is above the target there and
+/// rises back to `i_max` while it is below; the speed loop's motoring command stays under it.
+/// The drive then holds the load at the speed of the derating's envelope (the same voltage
+/// target and `i_d*`), not at the current loop's saturation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct VoltageEnd {
+    /// `ψ_f/L` \[A].
+    pub(super) psi_per_l_a: f32,
+    /// `(R/(N L))²` \[rad²/s²]: the square of the mechanical speed where `ω_e L = R`.
+    pub(super) corner_rad2_s2: f32,
+}
+
+impl VoltageEnd {
+    /// Holds `s.i_d_fw` at or above the end at `omega_m` \[rad/s] (within `−i_max` of `fw`)
+    /// and moves the ceiling `s.i_q_v` by the voltage's excess `excess_v` \[V], at the d
+    /// current's gain (`FieldWeakening::gain_a_per_v`, `0.2/(ω_e L)` at rated speed: with
+    /// `|∂|v|/∂i_q| ≤ |R + j ω_e L|`, at most `0.2 |R + j ω_e L|/(ω_e L)` of the way each
+    /// millisecond, 0.27 on the DF45). Run only while the field weakening acts or the ceiling
+    /// is below `i_max`.
+    // Out of line: the running drive's tick below the voltage target pays two compares.
+    #[inline(never)]
+    fn apply(&self, s: &mut Sensorless, excess_v: f32, omega_m: f32, fw: &FieldWeakening) {
+        let i_max_a = fw.i_max_a;
+        let w2 = omega_m * omega_m;
+        let end = max(
+            -self.psi_per_l_a * w2 / (self.corner_rad2_s2 + w2),
+            -i_max_a,
+        );
+        let at_end = s.i_d_fw <= end;
+        s.i_d_fw = max(s.i_d_fw, end);
+        // (False for a NaN excess, as for the d current's.)
+        if at_end || excess_v < 0.0 {
+            s.i_q_v = clamp(s.i_q_v - fw.gain_a_per_v * excess_v, 0.0, i_max_a);
         }
     }
 }
@@ -264,6 +325,9 @@ pub(super) struct Sensorless {
     i_tau: f32,
     /// The field-weakening i_d \[A] (≤ 0).
     i_d_fw: f32,
+    /// The motoring torque current's ceiling from the voltage \[A] ([`VoltageEnd`]; ∞ until it
+    /// first acts).
+    i_q_v: f32,
     /// The open loop's d current at the hand-over, decaying \[A] (see
     /// [`Settings::enter`]).
     i_d_handover: f32,
@@ -367,6 +431,9 @@ impl Settings {
             i_q_ref: i_dq.q,
             i_tau: i_dq.q,
             i_d_fw: 0.0,
+            // (Unbounded until `VoltageEnd` first acts, which bounds it by `i_max`: a salient
+            // motor's torque current may exceed `i_max`, `crate::mtpa`.)
+            i_q_v: f32::INFINITY,
             i_d_handover: i_dq.d,
             i_d_ref: i_dq.d,
             out_rot: foc.output_rotation(omega_m),
@@ -410,14 +477,15 @@ impl Settings {
     }
 
     /// Derated by the bus (`derating.rs`): the field weakening acting and the current at the
-    /// limit it shares with the torque (`|i_dq ref| ≥ 0.99 i_max`), the rotor at `omega_m`
+    /// limit it shares with the torque (`|i_dq ref| ≥ 0.99 i_max`) or the torque current under
+    /// the voltage's ceiling ([`VoltageEnd`], below 0.99 i_max), the rotor at `omega_m`
     /// \[rad/s] short of the speed reference: the load's torque does not fit at the reference
     /// on this bus.
     pub(super) fn derated(&self, s: &Sensorless, omega_m: f32) -> bool {
         let i_max = 0.99 * self.field_weakening.i_max_a;
         let i2 = s.i_d_ref * s.i_d_ref + s.i_q_ref * s.i_q_ref;
         let short = (omega_m * RPM_PER_RAD_S).abs() < s.speed_ref_rpm.abs();
-        s.i_d_fw < 0.0 && i2 >= i_max * i_max && short
+        s.i_d_fw < 0.0 && (i2 >= i_max * i_max || s.i_q_v < i_max) && short
     }
 
     /// Sensorless control's 1 kHz work ([`Drive::tick`](super::Drive::tick)), after the
@@ -550,7 +618,15 @@ impl Settings {
         s.ff_nm = ff_nm;
         // The field-weakening i_d, and i_q within what it leaves of the current limit.
         let fw = &self.field_weakening;
-        s.i_d_fw = fw.i_d(s.i_d_fw, applied.v_ab, applied.v_max);
+        let (i_d_fw, excess_v) = fw.i_d(s.i_d_fw, applied.v_ab, applied.v_max);
+        s.i_d_fw = i_d_fw;
+        // The minimum-voltage end and the torque's ceiling (`VoltageEnd`), while the field
+        // weakening acts or the ceiling is down. (Laid out of the way: the running drive's
+        // tick below the voltage target falls through.)
+        if self.mtpa.is_none() && (i_d_fw < 0.0 || s.i_q_v < fw.i_max_a) {
+            cold_path();
+            fw.end.apply(s, excess_v, omega_m, fw);
+        }
         s.i_d_ref = s.i_d_fw + s.i_d_handover;
         let mut i_q_max = sqrt_or_zero(fw.i_max_a * fw.i_max_a - s.i_d_ref * s.i_d_ref);
         // The speed loop's output is a torque current (`crate::mtpa`), the q current itself on
@@ -571,7 +647,9 @@ impl Settings {
         // current, which would need voltage the loop does not have. While the field weakening
         // still has room, it answers the voltage, not the speed loop. Braking current
         // (against the rotation) lowers the voltage and stays free.
-        let exhausted = applied.limited && s.i_d_fw <= -fw.i_max_a;
+        // (At its end: all of i_max on the d axis, or the torque's ceiling down, which only
+        // falls at the minimum-voltage end, `VoltageEnd`.)
+        let exhausted = applied.limited && (s.i_d_fw <= -fw.i_max_a || s.i_q_v < fw.i_max_a);
         let held = match (exhausted, omega_m >= 0.0) {
             (false, _) => Held::No,
             (true, true) => Held::Up,
@@ -585,10 +663,11 @@ impl Settings {
             self.braking_max_a,
             core::mem::replace(&mut s.regen_iq_a, f32::INFINITY),
         );
+        let motoring_max = min(i_tau_max, s.i_q_v);
         let bounds = if omega_m >= 0.0 {
-            (-braking_max, i_tau_max)
+            (-braking_max, motoring_max)
         } else {
-            (-i_tau_max, braking_max)
+            (-motoring_max, braking_max)
         };
         let i_tau = foc.speed_step(
             &mut s.speed_pi,
