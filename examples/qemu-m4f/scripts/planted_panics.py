@@ -40,7 +40,7 @@ PLACES = [
     ("src/drive/catch_zero.rs", "pub(super) fn watch(&self, w: &mut Watch, i_ab: AlphaBeta, v_ab: AlphaBeta) -> AlphaBeta {", 1, "the back-EMF's watch (mode Catch without terminal sensing, mode Align)"),
     ("src/drive/catch_zero.rs", "pub(super) fn probe(", 1, "mode Catch without terminal sensing (the deadbeat zero-current loop)"),
     ("src/drive/mod.rs", "fn caught_probe(", 1, "mode Catch without terminal sensing: the seed, or closed loop at once"),
-    ("src/drive/catch_zero.rs", "pub(super) fn tick(&self, c: &mut CatchZero, foc: &Foc, driving: Option<Driving>) -> Next {", 1, "mode Catch without terminal sensing (1 kHz task)"),
+    ("src/drive/catch_zero.rs", "pub(super) fn tick(", 1, "mode Catch without terminal sensing (1 kHz task)"),
     ("src/drive/open_loop.rs", "pub(super) fn step(&self, ol: &mut OpenLoop) -> Request {", 1, "mode OpenLoop"),
     ("src/drive/open_loop.rs", "pub(super) fn tick(", 1, "mode OpenLoop (1 kHz task)"),
     ("src/drive/open_loop.rs", "fn handover(&self, ol: &OpenLoop, d: Driving) -> Entry {", 1, "OpenLoop: the hand-over"),
