@@ -291,20 +291,37 @@ pub fn wrap_2pi(theta: f32) -> f32 {
 }
 
 /// `1/√x` [same unit as `x`^-½] without a division or a library call: `libm::sqrtf` is a
-/// software routine on thumbv7em (~60 cycles), and `core` has no `f32::sqrt`.
+/// software routine on thumbv7em (~60 cycles, and 480 B of flash with its table), and `core`
+/// has no `f32::sqrt`.
 ///
 /// For a normal positive `x` (≥ `f32::MIN_POSITIVE`, finite): the bit-level first guess
 /// `0x5f37_5a86 − bits/2` (relative error below 3.5e-2), then three Newton steps
 /// `y ← y (3/2 − x y²/2)`, each squaring the error (1.8e-3, 4.9e-6, 4e-11), so the result is
 /// f32 rounding only: max relative error 4e-7 (measured 1.8e-7, `tests/math.rs`). Any other
-/// input takes `1/libm::sqrtf(x)`: +inf for ±0, 0 for +inf, NaN for NaN and negatives.
+/// input takes `1/`[`sqrt_special`]: +inf for ±0, 0 for +inf, NaN for NaN and negatives.
 #[inline(always)]
 pub fn rsqrt(x: f32) -> f32 {
     if is_normal_positive(x) {
         rsqrt_normal(x, 3)
     } else {
         cold_path();
-        1.0 / libm::sqrtf(x)
+        1.0 / sqrt_special(x)
+    }
+}
+
+/// `√x` of what [`is_normal_positive`] leaves out, without `libm`: ±0 and +∞ themselves, a
+/// positive subnormal scaled by 2²⁴ into the normal range (`√(2²⁴ x)/2¹²`, [`sqrt`]'s
+/// relative error), NaN for negatives and NaN.
+#[inline(never)]
+pub fn sqrt_special(x: f32) -> f32 {
+    cold_path();
+    if x == 0.0 || x == f32::INFINITY {
+        x
+    } else if x > 0.0 {
+        let scaled = x * 16_777_216.0;
+        scaled * rsqrt_normal(scaled, 3) * (1.0 / 4096.0)
+    } else {
+        f32::NAN
     }
 }
 
@@ -325,15 +342,21 @@ pub fn rsqrt_normal(x: f32, newton: u32) -> f32 {
 }
 
 /// `√x` as `x · rsqrt(x)` for a normal positive `x` (max relative error 5e-7, measured 2.2e-7
-/// in `tests/math.rs`); ±0 give ±0, any other input `libm::sqrtf(x)` (see [`rsqrt`]).
+/// in `tests/math.rs`); any other input [`sqrt_special`] (see [`rsqrt`]).
 #[inline(always)]
 pub fn sqrt(x: f32) -> f32 {
     if is_normal_positive(x) {
         x * rsqrt_normal(x, 3)
     } else {
-        cold_path();
-        libm::sqrtf(x)
+        sqrt_special(x)
     }
+}
+
+/// [`sqrt`] out of line, for the work off the step (configuration, the measurements'
+/// 1 kHz work): each inlined copy costs about 60 B of flash.
+#[inline(never)]
+pub fn sqrt_call(x: f32) -> f32 {
+    sqrt(x)
 }
 
 /// `√x` for an `x` known not to be negative (a squared length): `x · rsqrt(x)` for a normal

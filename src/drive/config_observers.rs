@@ -71,7 +71,7 @@ pub(super) fn speed_noise_gain(
 pub(super) fn default_speed_bandwidth_hz(m: &MotorParams) -> f32 {
     let gain = speed_noise_gain(m, SPEED_BANDWIDTH_HZ, PLL_BANDWIDTH_HZ);
     if gain > SPEED_NOISE_GAIN_MAX {
-        SPEED_BANDWIDTH_HZ * libm::sqrtf(SPEED_NOISE_GAIN_MAX / gain)
+        SPEED_BANDWIDTH_HZ * crate::math::sqrt_call(SPEED_NOISE_GAIN_MAX / gain)
     } else {
         SPEED_BANDWIDTH_HZ
     }

@@ -29,7 +29,7 @@ fn voltage_min(m: &MotorParams, i_q: f32, i_d_max: f32, omega_e: f32) -> f32 {
     let i_d = (-omega_e * wl * m.flux_wb / (r * r + wl * wl)).max(-i_d_max);
     let v_d = r * i_d - wl * i_q;
     let v_q = r * i_q + wl * i_d + omega_e * m.flux_wb;
-    libm::sqrtf(v_d * v_d + v_q * v_q)
+    crate::math::sqrt_call(v_d * v_d + v_q * v_q)
 }
 
 /// The highest mechanical speed \[rad/s] at which `i_q` \[A] fits within `i_max` \[A] and the
@@ -39,7 +39,7 @@ pub(super) fn speed_limit_rad_s(m: &MotorParams, i_q: f32, i_max: f32, v: f32) -
     if i_q > i_max || voltage_min(m, i_q, 0.0, 0.0) > v {
         return 0.0;
     }
-    let i_d_max = libm::sqrtf(i_max * i_max - i_q * i_q);
+    let i_d_max = crate::math::sqrt_call(i_max * i_max - i_q * i_q);
     // Above it even i_d = −i_max leaves more than v: the back-EMF of ψ_f − L i_max alone,
     // or, where L i_max ≥ ψ_f, the reactance of i_max alone.
     let flux_left = (m.flux_wb - m.l_h * i_d_max)

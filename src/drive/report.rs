@@ -402,5 +402,5 @@ fn voltage(m: &crate::motor::MotorParams, i_q: f32, omega_m: f32) -> f32 {
     let w_e = m.n() * omega_m;
     let v_d = -w_e * m.l_h * i_q;
     let v_q = m.r_ohm * i_q + w_e * m.flux_wb;
-    libm::sqrtf(v_d * v_d + v_q * v_q)
+    crate::math::sqrt_call(v_d * v_d + v_q * v_q)
 }

@@ -94,7 +94,7 @@ impl IiConfig {
         let k2 = delta[0] * delta[0] + delta[1] * delta[1];
         // Left eigenvectors of A* for λ = −p1, −p2 are [p, 1]; unit length rows of T (28).
         let row = |p: f32| {
-            let n = libm::sqrtf(p * p + 1.0);
+            let n = crate::math::sqrt_call(p * p + 1.0);
             [p / n, 1.0 / n]
         };
         let (t1, t2) = (row(p1), row(p2));
@@ -126,8 +126,8 @@ impl IiConfig {
 fn norm2(m: [[f32; 2]; 2]) -> f32 {
     let f2 = m[0][0] * m[0][0] + m[0][1] * m[0][1] + m[1][0] * m[1][0] + m[1][1] * m[1][1];
     let det = m[0][0] * m[1][1] - m[0][1] * m[1][0];
-    let disc = libm::sqrtf((f2 * f2 - 4.0 * det * det).max(0.0));
-    libm::sqrtf(0.5 * (f2 + disc))
+    let disc = crate::math::sqrt_call((f2 * f2 - 4.0 * det * det).max(0.0));
+    crate::math::sqrt_call(0.5 * (f2 + disc))
 }
 
 /// A built I&I observer.

@@ -149,13 +149,9 @@ pub(super) fn halves_agree(
     d_alpha * d_alpha + d_beta * d_beta <= tolerance_sq
 }
 
-/// `√x` out of line: the measurements' 1 kHz work is not the step, and each inlined square
-/// root ([`crate::math::sqrt`]: its check, three Newton steps and the library's fallback)
-/// costs the commissioning image about 60 B of flash.
-#[inline(never)]
-pub(super) fn sqrt(x: f32) -> f32 {
-    crate::math::sqrt(x)
-}
+/// `√x` out of line ([`crate::math::sqrt_call`]): the measurements' 1 kHz work is not the
+/// step.
+pub(super) use crate::math::sqrt_call as sqrt;
 
 /// `|x_dq|` ([`Dq::magnitude`]) out of line, for the same reason.
 #[inline(never)]
