@@ -4,6 +4,7 @@
 
 use super::DriveConfig;
 use crate::bounds::{ks_max_e2, ks_max_t};
+use crate::math::min;
 use crate::motor::MotorParams;
 use crate::observer::flux::FluxConfig;
 use crate::observer::flux_speed::FluxPll;
@@ -83,6 +84,13 @@ pub(super) fn default_speed_bandwidth_hz(m: &MotorParams) -> f32 {
 /// (measured on the zoo with π/4: the two Anaheim motors and the Teknic, 1.4 to 2.3 rad,
 /// lost 17 cells to the feed-forward's noise at 3 % speed).
 pub(super) const PLL_LAG_MAX: f32 = core::f32::consts::PI;
+
+/// The sliding torque observer's lag under the motor's largest acceleration, `α/(λθ λω)`
+/// \[rad], above which its two fast eigenvalues are raised ([`DriveConfig::sliding_config`]):
+/// the paper's own margin, 2.73 rad on its Sinano motor at the drive's current limit (1.5 ×
+/// the rated-torque current, `α` = 64 650 rad/s² electrical) with its λθ = 10 Hz, λω = 60 Hz
+/// (`λθ λω` = 23 687 rad²/s²), rounded up so that the paper's motor keeps the paper's gains.
+pub(super) const SLIDING_LAG_MAX: f32 = 2.75;
 
 /// Why the sliding torque observer was not built ([`DriveConfig::sliding_torque`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -183,14 +191,37 @@ impl DriveConfig {
     /// speed. The paper's `K_s` = 1000π and ε = 1 A where that `K_s` lies inside this motor's
     /// window (Sec 4: below `(K_s,max)_T` and `(K_s,max)_E2` at the rated speed); else both
     /// scaled from the motor as the paper placed them on its own (`scaled_sliding`).
+    ///
+    /// Its eigenvalues are the paper's (Sec 5: λθ = 10, λω = 60, λτ = 2 Hz) where they follow
+    /// the motor's largest acceleration `α` ([`DriveConfig::max_acceleration_e`]) as they
+    /// follow the paper's motor: a torque step the observer does not know yet (a load, before
+    /// λτ takes it up) leaves its speed estimate behind by about `α/λω` and its angle by
+    /// `α/(λθ λω)` \[rad], whatever `K_s`, which sets only the sliding mode's reach (Sec 4).
+    /// Where that lag is above the paper's [`SLIDING_LAG_MAX`], λθ and λω are raised together
+    /// (their ratio kept) by `k = √(α/(SLIDING_LAG_MAX λθ λω))`, up to λω at half the current
+    /// loop's bandwidth (the observer's estimate is the current loop's frame; a faster one
+    /// brings the current-sensor noise into it). Measured on the zoo (issue #26): the Anaheim
+    /// BLY171D (`α` 1.4e5 rad/s², 2.2 × the paper's) lost lock under rated torque applied at
+    /// once at 2,000 rpm, the angle 91° behind 11 ms after the step while the flux monitor
+    /// stayed within 1°; with λθ, λω × 1.48 it holds it (`sup-load-steps-50`). Uncapped, the
+    /// Nanotec DF45's `k` = 7.6 (λω 460 Hz) let the noise through: overcurrent at 3 % speed.
     pub fn sliding_config(&self) -> SlidingConfig {
-        let paper = SlidingConfig {
+        let mut paper = SlidingConfig {
             rate_hz: self.rate_hz,
             emf_advance_periods: ADVANCE_PERIODS,
             output_advance_periods: ADVANCE_PERIODS + self.delay_periods(),
             min_speed_rad_s: self.start.handover_rpm * RAD_S_PER_RPM,
             ..SlidingConfig::torque(self.motor)
         };
+        let lambdas = TAU * TAU * paper.lambda_theta_hz * paper.lambda_omega_hz;
+        let k2 = self.max_acceleration_e() / (SLIDING_LAG_MAX * lambdas);
+        let cap = 0.5 * self.current_bandwidth_hz / paper.lambda_omega_hz;
+        // (False for a NaN: an unusable motor keeps the paper's, which its check names.)
+        if k2 > 1.0 && cap > 1.0 {
+            let k = min(crate::math::sqrt_call(k2), cap);
+            paper.lambda_theta_hz *= k;
+            paper.lambda_omega_hz *= k;
+        }
         match paper.ks {
             SlidingGain::Constant(ks) if ks > self.ks_window(paper.epsilon_a) => {
                 scaled_sliding(paper, self.ratings.current_a, |eps| self.ks_window(eps))
