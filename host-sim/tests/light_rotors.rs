@@ -1,0 +1,69 @@
+//! Issue #26's zoo on its light and slow rotors, board defaults, true motor files:
+//! - Rated torque applied and removed at once (`sup-load-steps-50`) on the Anaheim BLY171D
+//!   (J = 2.4 g·cm²), sliding primary: its eigenvalues raised with the motor's largest
+//!   acceleration (`DriveConfig::sliding_config`). With the paper's, its angle fell 91° behind
+//!   11 ms after the step (lost lock) while the flux monitor stayed within 1°.
+//! - The iPower GM4108H gimbal reversed from +150 to −150 rpm without load
+//!   (`profile-reversal`), sliding primary: its low-speed d current held up to where the
+//!   dead-time voltage is a twentieth of the back-EMF (`DriveConfig::low_speed_hold`). Held to
+//!   a tenth (145 rpm), with currents of 10 mA at 150 rpm the compensation did not know their
+//!   sign and the rotor ran 2.1 to 2.7 % fast (seeds 1 and 2).
+//!
+//! Not asserted: the Nanotec DF45 (J = 1.3 g·cm²), whose rated torque stops its rotor within
+//! a millisecond, faster than the 1 kHz speed loop acts (the zoo's remaining failures).
+
+use pmsm_host_sim::board::SimBoard;
+use pmsm_host_sim::motor_file;
+use pmsm_host_sim::observer::ObserverKind;
+use pmsm_host_sim::report::summary::Summary;
+use pmsm_host_sim::scenario::Spec;
+use pmsm_host_sim::sim::{run, SimConfig};
+use pmsm_sensorless::drive::DriveConfig;
+use pmsm_sensorless::motor::{preset, Motor};
+
+fn zoo(file: &str) -> Motor {
+    let path = format!("{}/motors/zoo/{file}.toml", env!("CARGO_MANIFEST_DIR"));
+    motor_file::load(std::path::Path::new(&path)).unwrap().1
+}
+
+#[test]
+fn a_load_step_and_a_reversal_on_the_lightest_rotors() {
+    let cases = [
+        ("small-anaheim-bly171d-24v-4000", "sup-load-steps-50", 1),
+        ("gimbal-ipower-gm4108h-120t", "profile-reversal", 1),
+        ("gimbal-ipower-gm4108h-120t", "profile-reversal", 2),
+    ];
+    for (file, scenario, seed) in cases {
+        let m = zoo(file);
+        let sc = Spec::built_in(scenario).unwrap().build(file, m).unwrap();
+        let mut board = SimBoard::board_defaults(&m);
+        board.seed = seed;
+        let r = run(SimConfig::on(board, sc, ObserverKind::SlidingTorque)).unwrap();
+        let s = Summary::of(&r);
+        let label = format!("{scenario} {file} seed {seed}");
+        println!("{label}: worst window {:?} %", s.worst_speed_err_pct);
+        assert!(s.pass, "{label}: {:?}", s.reasons);
+    }
+}
+
+/// The paper's eigenvalues (λθ 10 Hz, λω 60 Hz, λτ 2 Hz) on the paper's motor; raised by
+/// `√(α/(2.75 λθ λω))` on the BLY171D; capped at λω = half the current loop's bandwidth on
+/// the DF45.
+#[test]
+fn the_sliding_observer_follows_the_motor_s_acceleration() {
+    let eigen = |m: &Motor| {
+        let c = DriveConfig::new(m).sliding_config();
+        (c.lambda_theta_hz, c.lambda_omega_hz, c.lambda_tau_hz)
+    };
+    assert_eq!(eigen(&preset("sinano").unwrap()), (10.0, 60.0, 2.0));
+    let m = zoo("small-anaheim-bly171d-24v-4000");
+    let tau = std::f32::consts::TAU;
+    let k = (DriveConfig::new(&m).max_acceleration_e() / (2.75 * tau * tau * 600.0)).sqrt();
+    let (th, om, ta) = eigen(&m);
+    assert!(k > 1.4 && k < 1.6, "{k}");
+    assert!((th / 10.0 - k).abs() < 1e-4 && (om / 60.0 - k).abs() < 1e-4 && ta == 2.0);
+    let m = zoo("flat-nanotec-df45l024048-a");
+    let (th, om, _) = eigen(&m);
+    let half = 0.5 * DriveConfig::new(&m).current_bandwidth_hz;
+    assert!((om - half).abs() < 1e-3 && (th - half / 6.0).abs() < 1e-3, "{th} {om}");
+}
