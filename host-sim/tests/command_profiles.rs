@@ -7,13 +7,14 @@
 //! sensorless, every window within 2 %.
 //! The zoo matrix (`host-sim/matrices/zoo.toml`) runs them on every zoo motor and seed.
 
+mod common;
+use common::zoo;
 use pmsm_host_sim::board::SimBoard;
-use pmsm_host_sim::motor_file;
 use pmsm_host_sim::observer::ObserverKind;
 use pmsm_host_sim::report::summary::Summary;
 use pmsm_host_sim::scenario::Spec;
 use pmsm_host_sim::sim::{run, SimConfig};
-use pmsm_sensorless::motor::{preset, Motor};
+use pmsm_sensorless::motor::preset;
 
 /// The low-speed profiles, and the reversal from +50 % to −50 % through zero, the speed
 /// reference below the hand-over speed holding a d current against the dead time's unknown
@@ -21,11 +22,6 @@ use pmsm_sensorless::motor::{preset, Motor};
 /// the Teknic's true file with the sliding primary its reversed window is 2.10 % low (limit
 /// 2 %), not asserted here.
 const PROFILES: [&str; 3] = ["profile-slow-ramp-3", "profile-step-3", "profile-reversal"];
-
-fn zoo(file: &str) -> Motor {
-    let path = format!("{}/motors/zoo/{file}.toml", env!("CARGO_MANIFEST_DIR"));
-    motor_file::load(std::path::Path::new(&path)).unwrap().1
-}
 
 #[test]
 fn every_profile_is_followed_on_four_motors_with_both_primaries() {

@@ -12,19 +12,15 @@
 //! Not asserted: the Nanotec DF45 (J = 1.3 g·cm²), whose rated torque stops its rotor within
 //! a millisecond, faster than the 1 kHz speed loop acts (the zoo's remaining failures).
 
+mod common;
+use common::zoo;
 use pmsm_host_sim::board::SimBoard;
-use pmsm_host_sim::motor_file;
 use pmsm_host_sim::observer::ObserverKind;
 use pmsm_host_sim::report::summary::Summary;
 use pmsm_host_sim::scenario::Spec;
 use pmsm_host_sim::sim::{run, SimConfig};
 use pmsm_sensorless::drive::DriveConfig;
 use pmsm_sensorless::motor::{preset, Motor};
-
-fn zoo(file: &str) -> Motor {
-    let path = format!("{}/motors/zoo/{file}.toml", env!("CARGO_MANIFEST_DIR"));
-    motor_file::load(std::path::Path::new(&path)).unwrap().1
-}
 
 #[test]
 fn a_load_step_and_a_reversal_on_the_lightest_rotors() {
@@ -65,5 +61,8 @@ fn the_sliding_observer_follows_the_motor_s_acceleration() {
     let m = zoo("flat-nanotec-df45l024048-a");
     let (th, om, _) = eigen(&m);
     let half = 0.5 * DriveConfig::new(&m).current_bandwidth_hz;
-    assert!((om - half).abs() < 1e-3 && (th - half / 6.0).abs() < 1e-3, "{th} {om}");
+    assert!(
+        (om - half).abs() < 1e-3 && (th - half / 6.0).abs() < 1e-3,
+        "{th} {om}"
+    );
 }

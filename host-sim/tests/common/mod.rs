@@ -1,8 +1,18 @@
-//! What the command-line tests share.
+//! What the tests share: the command line, the zoo's motor files.
 
 use std::process::{Command, Output};
 
+/// The zoo motor of `host-sim/motors/zoo/FILE.toml`.
+#[allow(dead_code)] // not every test uses it
+pub fn zoo(file: &str) -> pmsm_sensorless::motor::Motor {
+    let path = format!("{}/motors/zoo/{file}.toml", env!("CARGO_MANIFEST_DIR"));
+    pmsm_host_sim::motor_file::load(std::path::Path::new(&path))
+        .unwrap()
+        .1
+}
+
 /// `pmsm-sim ARGS`, run to its end.
+#[allow(dead_code)] // not every test uses it
 pub fn sim(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_pmsm-sim"))
         .args(args)
