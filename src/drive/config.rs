@@ -380,15 +380,11 @@ impl DriveConfig {
     /// current at low speed \[A], and the |speed reference| below which it holds it \[rpm]
     /// (`sensorless::Settings::enter`): twice the dead-time compensation's band, as the
     /// catch holds (`catch_zero::Settings::i_hold_a`); below the speed where the dead-time
-    /// voltage's fundamental `(4/π) t_d f_pwm V_bus` is a twentieth of the back-EMF
-    /// `N ψ_f ω_m` (its fundamental alone an angle error up to tan⁻¹ 0.05 = 3° where the
-    /// compensation does not know the current's sign), and at least below the hand-over
-    /// speed. A tenth (6°) was not enough: the iPower GM4108H gimbal, no load at 150 rpm
-    /// just above that speed (145 rpm), currents of 10 mA, its sliding observer's angle
-    /// wandered ±13° and the rotor ±15 rpm after a reversal (`profile-reversal`, issue #26's
-    /// zoo), the zero-current clamping's voltage more than the fundamental's share.
+    /// voltage's fundamental `(4/π) t_d f_pwm V_bus` is a tenth of the back-EMF `N ψ_f ω_m`
+    /// (an angle error up to tan⁻¹ 0.1 = 6° where the compensation does not know the
+    /// current's sign), and at least below the hand-over speed.
     pub fn low_speed_hold(&self) -> (f32, f32) {
-        let below_rpm = 20.0 * self.dead_time_v() / self.motor.emf_constant() * RPM_PER_RAD_S;
+        let below_rpm = 10.0 * self.dead_time_v() / self.motor.emf_constant() * RPM_PER_RAD_S;
         let hold_a = 2.0 * self.power_stage.dead_time_band_a;
         (hold_a, below_rpm.max(self.start.handover_rpm))
     }

@@ -55,7 +55,7 @@ pub(super) struct Settings {
     pub(super) low_speed_d_a: f32,
     /// Below this |reference| \[rpm], and above the hand-over speed, the d current is held at
     /// `low_speed_d_a` while the q current the speed loop last asked for is smaller: the
-    /// speed where the inverter's dead-time voltage is a twentieth of the back-EMF (see
+    /// speed where the inverter's dead-time voltage is a tenth of the back-EMF (see
     /// [`Settings::enter`]).
     pub(super) dead_time_rpm: f32,
     /// Without a usable observer, below this |speed| and |reference| open loop takes over
@@ -407,7 +407,7 @@ impl Settings {
     /// observer's angle, a spring that shook the Delta servo's rotor by ±70 rpm at 90 rpm with
     /// the whole I/f current held.
     ///
-    /// Above the hand-over speed too, up to where the dead-time voltage is a twentieth of the
+    /// Above the hand-over speed too, up to where the dead-time voltage is a tenth of the
     /// back-EMF (`dead_time_rpm`, [`DriveConfig::low_speed_hold`](super::DriveConfig::low_speed_hold)),
     /// while the speed loop last asked for less q current than the hold: on Ortega's test
     /// motor (2 V of dead-time voltage against 4.6 V of back-EMF at its hand-over speed) a
