@@ -197,8 +197,8 @@ impl DriveConfig {
     /// follow the paper's motor: a torque step the observer does not know yet (a load, before
     /// λτ takes it up) leaves its speed estimate behind by about `α/λω` and its angle by
     /// `α/(λθ λω)` \[rad], whatever `K_s`, which sets only the sliding mode's reach (Sec 4).
-    /// Where that lag is above the paper's [`SLIDING_LAG_MAX`], λθ and λω are raised together
-    /// (their ratio kept) by `k = √(α/(SLIDING_LAG_MAX λθ λω))`, up to λω at half the current
+    /// Where that lag is above the paper's, `SLIDING_LAG_MAX` (2.75 rad), λθ and λω are raised
+    /// together (their ratio kept) by `k = √(α/(SLIDING_LAG_MAX λθ λω))`, up to λω at half the current
     /// loop's bandwidth (the observer's estimate is the current loop's frame; a faster one
     /// brings the current-sensor noise into it). Measured on the zoo (issue #26): the Anaheim
     /// BLY171D (`α` 1.4e5 rad/s², 2.2 × the paper's) lost lock under rated torque applied at
