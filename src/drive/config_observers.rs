@@ -203,7 +203,7 @@ impl DriveConfig {
     /// brings the current-sensor noise into it). Measured on the zoo (issue #26): the Anaheim
     /// BLY171D (`α` 1.4e5 rad/s², 2.2 × the paper's) lost lock under rated torque applied at
     /// once at 2,000 rpm, the angle 91° behind 11 ms after the step while the flux monitor
-    /// stayed within 1°; with λθ, λω × 1.48 it holds it (`sup-load-steps-50`). Uncapped, the
+    /// stayed within 1°; with λθ, λω × 1.47 it holds it (`sup-load-steps-50`). Uncapped, the
     /// Nanotec DF45's `k` = 7.6 (λω 460 Hz) let the noise through: overcurrent at 3 % speed.
     pub fn sliding_config(&self) -> SlidingConfig {
         let mut paper = SlidingConfig {
