@@ -7,7 +7,7 @@ use pmsm_host_sim::sim::{run, wrap_rad, Sim, SimConfig};
 use pmsm_host_sim::RAD_S_PER_RPM;
 use pmsm_sensorless::frames::{Abc, AlphaBeta};
 use pmsm_sensorless::motor::{Motor, ORTEGA_SIM_40KW, ORTEGA_TEST_0P3KW};
-use pmsm_sensorless::observer::flux::{FluxConfig, FluxObserver, FluxState};
+use pmsm_sensorless::observer::flux::{inv_magnitude, FluxConfig, FluxObserver, FluxState};
 
 /// A motor held at `rpm` by the sensored controller, no load.
 fn constant_speed(motor: Motor, rpm: f64, duration_s: f64) -> Scenario {
@@ -87,10 +87,12 @@ fn converges_from_a_wrong_start_at_1000_rpm() {
     type Init<'a> = &'a dyn Fn(&mut FluxState, AlphaBeta, f32);
     let starts: [(&str, Init); 2] = [
         ("x̂ = 0", &|st, i, _| {
+            let rotor_flux = AlphaBeta::new(-m.params.l_h * i.alpha, -m.params.l_h * i.beta);
             *st = FluxState {
                 x_hat: AlphaBeta::default(),
                 i_last: i,
-                rotor_flux: AlphaBeta::new(-m.params.l_h * i.alpha, -m.params.l_h * i.beta),
+                rotor_flux,
+                inv_mag: inv_magnitude(rotor_flux),
                 theta_e: 0.0,
                 started: true,
             }
@@ -219,10 +221,12 @@ fn scaled_error_follows_eq_17_at_constant_speed() {
     let cfg = FluxConfig::new(m.params, 4000.0, rpm as f32);
     let obs = cfg.build().unwrap();
     let s = observe(constant_speed(m, rpm, 0.2), 4000.0, &obs, |st, i, _| {
+        let rotor_flux = AlphaBeta::new(-m.params.l_h * i.alpha, -m.params.l_h * i.beta);
         *st = FluxState {
             x_hat: AlphaBeta::default(),
             i_last: i,
-            rotor_flux: AlphaBeta::new(-m.params.l_h * i.alpha, -m.params.l_h * i.beta),
+            rotor_flux,
+            inv_mag: inv_magnitude(rotor_flux),
             theta_e: 0.0,
             started: true,
         }
@@ -463,6 +467,7 @@ fn sin_cos_is_the_normalised_rotor_flux() {
             let eta = AlphaBeta::new((mag * angle.cos()) as f32, (mag * angle.sin()) as f32);
             let st = FluxState {
                 rotor_flux: eta,
+                inv_mag: inv_magnitude(eta),
                 ..FluxState::default()
             };
             let sc = st.sin_cos();

@@ -177,6 +177,10 @@ pub struct FluxState {
     pub i_last: AlphaBeta,
     /// Rotor-flux estimate `x̂ − L i` at the last sample \[Wb] (its angle is θ̂_e).
     pub rotor_flux: AlphaBeta,
+    /// `1/|rotor_flux|` \[1/Wb], 0 where `|rotor_flux|²` is not a normal f32 (before the first
+    /// sample): [`inv_magnitude`], taken once a sample for [`FluxState::sin_cos`] and the
+    /// next sample's active flux.
+    pub inv_mag: f32,
     /// Electrical angle estimate \[rad], in (−π, π]: the angle of `rotor_flux` as of the last
     /// [`FluxObserver::update`] or [`FluxState::update_angle`].
     pub theta_e: f32,
@@ -194,15 +198,14 @@ impl FluxState {
     }
 
     /// sin/cos of θ̂_e without trigonometry: the rotor-flux estimate `x̂ − L i` normalised
-    /// (its angle is θ̂_e, Ortega Sec V), or of `theta_e` when that vector is too small to
-    /// normalise (before the first sample).
+    /// (its angle is θ̂_e, Ortega Sec V) by the inverse length its sample kept (`inv_mag`:
+    /// one square root a sample serves this and the next sample's active flux), or of
+    /// `theta_e` when that vector is too small to normalise (before the first sample).
     // Inlined: the 4 kHz step compiles to one function (see `drive`).
     #[inline(always)]
     pub fn sin_cos(&self) -> SinCos {
-        let eta = self.rotor_flux;
-        let mag2 = eta.alpha * eta.alpha + eta.beta * eta.beta;
-        if is_normal_positive(mag2) {
-            let inv = rsqrt_normal(mag2, 3);
+        let (eta, inv) = (self.rotor_flux, self.inv_mag);
+        if inv > 0.0 {
             SinCos {
                 sin: eta.beta * inv,
                 cos: eta.alpha * inv,
@@ -246,7 +249,7 @@ impl FluxObserver {
             let mag2 = eta.alpha * eta.alpha + eta.beta * eta.beta;
             // Φ², or ψ̂_a² of a salient motor at sample k−1 (module doc).
             let psi2 = if self.salient {
-                self.active_flux2(eta, mag2, st.i_last)
+                self.active_flux2(eta, st.inv_mag, st.i_last)
             } else {
                 self.phi2
             };
@@ -269,24 +272,19 @@ impl FluxObserver {
             x_hat: x,
             i_last: i_ab,
             rotor_flux: eta,
+            inv_mag: inv_magnitude(eta),
             started: true,
             ..*st
         };
         true
     }
 
-    /// `ψ̂_a² = (ψ_f + (L_d − L_q) î_d)²` \[Wb²] for the active-flux estimate `eta` (of squared
-    /// length `mag2`) and the current `i_ab` of the same sample, `î_d = i·η̂/|η̂|` (module doc).
-    ///
-    /// `1/|η̂|` by one Newton step from the bit-level guess ([`rsqrt_normal`]): at most 1.7e-3
-    /// low, which moves `ψ̂_a` by 1.7e-3 of the reluctance flux `(L_d − L_q) î_d`, not the angle.
-    /// No test of `mag2` (the salient step's budget): any finite `η̂` gives a bounded `î_d`: a
-    /// zero or subnormal `|η̂|²` (below 1.2e-38 Wb², before the first sample) makes the guess
-    /// at most 2e19 with `|i·η̂|` below `1.1e-19 |i|`, so `|î_d| < 2.2 |i|`; a `|η̂|²` overflowing
-    /// to ∞ gives a non-finite `x̂`, which [`FluxObserver::integrate`] refuses.
+    /// `ψ̂_a² = (ψ_f + (L_d − L_q) î_d)²` \[Wb²] for the active-flux estimate `eta` (`inv_mag`
+    /// its [`inv_magnitude`]) and the current `i_ab` of the same sample, `î_d = i·η̂/|η̂|`
+    /// (module doc); `î_d = 0` where `η̂` is too short to normalise.
     #[inline(always)]
-    fn active_flux2(&self, eta: AlphaBeta, mag2: f32, i_ab: AlphaBeta) -> f32 {
-        let i_d = (i_ab.alpha * eta.alpha + i_ab.beta * eta.beta) * rsqrt_normal(mag2, 1);
+    fn active_flux2(&self, eta: AlphaBeta, inv_mag: f32, i_ab: AlphaBeta) -> f32 {
+        let i_d = (i_ab.alpha * eta.alpha + i_ab.beta * eta.beta) * inv_mag;
         let psi_a = self.phi + self.l_d_minus_l_q * i_d;
         psi_a * psi_a
     }
@@ -304,7 +302,10 @@ impl FluxObserver {
         let eta = st.rotor_flux;
         let mag2 = eta.alpha * eta.alpha + eta.beta * eta.beta;
         if self.salient {
-            let psi_a2 = max(self.active_flux2(eta, mag2, st.i_last), self.psi_a2_min);
+            let psi_a2 = max(
+                self.active_flux2(eta, st.inv_mag, st.i_last),
+                self.psi_a2_min,
+            );
             (mag2 / psi_a2 - 1.0).abs()
         } else {
             (mag2 * self.inv_phi2 - 1.0).abs()
@@ -329,8 +330,22 @@ impl FluxObserver {
             ),
             i_last: i_ab,
             rotor_flux: eta,
+            inv_mag: inv_magnitude(eta),
             theta_e: crate::math::wrap_pi(theta_e),
             started: true,
         };
+    }
+}
+
+/// `1/|eta|` \[1/Wb] by three Newton steps from the bit-level guess ([`rsqrt_normal`]: f32
+/// rounding), or 0 where `|eta|²` is not a normal f32 (zero, subnormal, ∞ or NaN).
+#[inline(always)]
+pub fn inv_magnitude(eta: AlphaBeta) -> f32 {
+    let mag2 = eta.alpha * eta.alpha + eta.beta * eta.beta;
+    if is_normal_positive(mag2) {
+        rsqrt_normal(mag2, 3)
+    } else {
+        cold_path();
+        0.0
     }
 }
