@@ -182,7 +182,7 @@ fn current_loop_matches_the_f32_loop() {
         let mut rng = Lcg(0xc0ffee);
         let (mut worst_in, mut worst_cut, mut worst_int, mut ratio_in, mut ratio_cut) =
             (0.0f32, 0.0f32, 0.0f32, 0.0f32, 0.0f32);
-        let (mut n_cut, mut n_disagree) = (0, 0);
+        let (mut n_cut, mut n_disagree, mut n_released) = (0, 0, 0);
         let int_scale = (1u64 << (15 + q.integrator_bits())) as f32;
         for _ in 0..200_000 {
             let i = DqQ15 {
@@ -205,6 +205,7 @@ fn current_loop_matches_the_f32_loop() {
                 integral_d: st.integral_d as f32 / int_scale * pu.v_base_v,
                 integral_q: st.integral_q as f32 / int_scale * pu.v_base_v,
             };
+            let (int_q0, int_q0_f) = (st.integral_q, st_f.integral_q);
             let out = q.update(&mut st, i, r, w, v_max);
             let i_f = Dq::new(f(i.d) * pu.i_base_a, f(i.q) * pu.i_base_a);
             let r_f = Dq::new(f(r.d) * pu.i_base_a, f(r.q) * pu.i_base_a);
@@ -232,6 +233,18 @@ fn current_loop_matches_the_f32_loop() {
             }
             if out.saturated {
                 n_cut += 1;
+                // On the circle the q integrator moves only under a braking command where
+                // its step shortens v_q (`foc/current.rs`): both loops decide alike but where
+                // v_q, whose sign the cut keeps, is within the bound of zero.
+                let (moved, moved_f) = (st.integral_q != int_q0, st_f.integral_q != int_q0_f);
+                n_released += usize::from(moved);
+                if moved != moved_f {
+                    let v_q_lsb = out_f.v_dq.q.abs() / pu.v_base_v * LSB;
+                    assert!(
+                        v_q_lsb <= bound + 10.0,
+                        "{name}: the q integrator moved {moved} (f32 {moved_f}) at v_q {v_q_lsb} LSB"
+                    );
+                }
                 worst_cut = worst_cut.max(err);
                 ratio_cut = ratio_cut.max(err / (bound + 10.0));
                 let (d, qq) = (i32::from(out.v_dq.d), i32::from(out.v_dq.q));
@@ -265,12 +278,13 @@ fn current_loop_matches_the_f32_loop() {
             }
         }
         println!(
-            "{name}: inside the circle worst {worst_in:.2} LSB ({:.0} % of its bound), cut {worst_cut:.2} LSB ({:.0} %, {n_cut} samples), integrators {worst_int:.4} LSB, saturation differs on {n_disagree} samples at the circle",
+            "{name}: inside the circle worst {worst_in:.2} LSB ({:.0} % of its bound), cut {worst_cut:.2} LSB ({:.0} %, {n_cut} samples, the q integrator released on {n_released}), integrators {worst_int:.4} LSB, saturation differs on {n_disagree} samples at the circle",
             100.0 * ratio_in,
             100.0 * ratio_cut
         );
         assert!(ratio_in <= 1.0, "{name}: {ratio_in}");
         assert!(ratio_cut <= 1.0, "{name}: {ratio_cut}");
+        assert!(n_released > 0, "{name}: no braking sample on the circle");
     }
 }
 

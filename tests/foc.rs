@@ -215,3 +215,48 @@ fn a_negative_bus_gives_zero_volts_and_holds_the_integrators() {
     let fresh = step(&mut CurrentLoopState::default(), input(24.0));
     assert_eq!(after, fresh);
 }
+
+/// On the voltage circle the current loop holds its integrators (anti-windup), but the q one
+/// under a braking command (`i_q*` against the rotation), where it moves to shorten `v_q`
+/// (`CurrentLoop::update`): a rotor its load let go of is braked, not held by a motoring
+/// `R i_q`.
+#[test]
+fn on_the_circle_only_a_braking_command_releases_the_q_integrator() {
+    use pmsm_sensorless::foc::CurrentLoopState;
+    use pmsm_sensorless::frames::Dq;
+    let foc = config().build().unwrap();
+    let current = foc.current_loop();
+    // The Sinano motor at 200 rad/s: 46 V of back-EMF against 3 V of limit.
+    let (omega_e, v_max) = (4.0 * 200.0, 3.0);
+    let before = CurrentLoopState {
+        integral_d: 1.0,
+        integral_q: 5.0,
+    };
+    let i = Dq::new(0.0, 1.0);
+    for (i_q_ref, released) in [(3.0, false), (-3.0, true)] {
+        let mut st = before;
+        let out = current.update(&mut st, i, Dq::new(0.0, i_q_ref), omega_e, v_max);
+        assert!(out.saturated && out.v_dq.q > 0.0, "{i_q_ref}: {out:?}");
+        assert_eq!(st.integral_d, before.integral_d, "{i_q_ref}");
+        if released {
+            assert!(st.integral_q < before.integral_q, "{i_q_ref}: {st:?}");
+        } else {
+            assert_eq!(st, before, "{i_q_ref}");
+        }
+    }
+    // Rotating backwards, everything mirrored: a positive command brakes.
+    let mirrored = CurrentLoopState {
+        integral_d: -before.integral_d,
+        integral_q: -before.integral_q,
+    };
+    let mut st = mirrored;
+    let out = current.update(
+        &mut st,
+        Dq::new(0.0, -1.0),
+        Dq::new(0.0, 3.0),
+        -omega_e,
+        v_max,
+    );
+    assert!(out.saturated && out.v_dq.q < 0.0, "{out:?}");
+    assert!(st.integral_q > mirrored.integral_q, "{st:?}");
+}

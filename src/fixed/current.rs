@@ -61,7 +61,8 @@ pub struct CurrentLoopStateQ {
 pub struct CurrentLoopOutputQ {
     /// Voltage command, Q15 of `V_b`, `|v_dq| ≤ v_max`.
     pub v_dq: DqQ15,
-    /// The command was cut to the circle; the integrators were held.
+    /// The command was cut to the circle; the integrators were held (but the q one under a
+    /// braking command, as the f32 loop's).
     pub saturated: bool,
     /// `v_max` was positive, so `v_dq` is the loop's command; false: zero volts.
     pub valid: bool,
@@ -126,7 +127,9 @@ impl CurrentLoopQ {
 
     /// One update (module doc): `i_dq`, `i_dq_ref` in Q15 of `I_b`; `omega_e` the electrical
     /// speed in Q15 of `ω_b`; `v_max` the largest voltage magnitude, Q15 of `V_b`. Anti-windup:
-    /// when the vector is cut, neither integrator moves. `v_max ≤ 0` gives zero volts.
+    /// when the vector is cut, neither integrator moves, but the q one under a braking
+    /// command where its step shortens `v_q` (the f32 loop's rule, `foc/current.rs`).
+    /// `v_max ≤ 0` gives zero volts.
     #[inline(always)]
     pub fn update(
         &self,
@@ -164,9 +167,15 @@ impl CurrentLoopQ {
             .saturating_add(self.l_d.apply(w_i_d))
             .saturating_add(w);
         let out = limit(v_d, v_q, v_max);
-        // Anti-windup: the integrators move only while the vector is inside the circle.
+        // Anti-windup (`foc/current.rs`): inside the circle both integrators move; on it the
+        // q one only under a braking command (`i_q*` and `ω_e` of opposite signs) where its
+        // error is against `v_q`: the f32 loop's `a·b < 0` as the sign bit of `a ^ b` with
+        // neither zero (no product to overflow; an `e_q` of zero does not move it).
+        let opposite = |a: i32, b: i32| (a ^ b) < 0 && a != 0 && b != 0;
         if !out.saturated {
             st.integral_d = int_d;
+            st.integral_q = int_q;
+        } else if opposite(i32::from(i_dq_ref.q), w) && opposite(e_q, v_q) {
             st.integral_q = int_q;
         }
         out

@@ -37,7 +37,8 @@ pub struct CurrentLoopOutput {
     /// Voltage command in the rotor frame \[V], `|v_dq| ≤ v_max` (a cut vector is between
     /// 1 − 1e-5 and 1 − 2⁻¹⁸ of `v_max` long, to f32 rounding).
     pub v_dq: Dq,
-    /// The command was cut to (just inside) `v_max`; the integrators were held.
+    /// The command was cut to (just inside) `v_max`; the integrators were held (but the q
+    /// one under a braking command, [`CurrentLoop::update`]).
     pub saturated: bool,
     /// The inputs were usable (finite, `v_max` in range), so `v_dq` is the loop's command;
     /// false: zero volts.
@@ -48,7 +49,8 @@ impl CurrentLoop {
     /// One update at the current-loop rate.
     /// `i_dq`, `i_dq_ref` \[A]; `omega_e` electrical speed \[rad/s]; `v_max` the largest
     /// voltage magnitude the inverter can apply \[V], positive, 1.1e-19..1.8e19 (its square a
-    /// normal f32). Anti-windup: when the vector is cut to `v_max`, neither integrator moves.
+    /// normal f32). Anti-windup: when the vector is cut to `v_max`, neither integrator moves,
+    /// but the q one under a braking command where its step shortens `v_q`.
     /// Non-finite inputs, or a `v_max` outside that range, give zero volts (`saturated`).
     // Inlined: the 4 kHz step compiles to one function (see `drive`).
     #[inline(always)]
@@ -70,9 +72,27 @@ impl CurrentLoop {
         let v_d = self.kp_d * e_d + int_d - omega_e * self.l_q_h * i_dq.q;
         let v_q = self.kp_q * e_q + int_q + omega_e * (self.l_d_h * i_dq.d + self.flux_wb);
         let out = limit(Dq::new(v_d, v_q), v_max);
-        // Anti-windup: the integrators move only while the vector is inside the circle.
+        // Anti-windup: the integrators move only while the vector is inside the circle, but
+        // the q one under a braking command (`i_q*` against the rotation, `i_q* ω_e < 0`)
+        // where its step shortens `v_q` (`e_q v_q < 0`): conditional integration (Åström &
+        // Hägglund, "Advanced PID Control", ISA 2006, Sec 3.5) where the command brakes.
+        // Braking needs less voltage than motoring, `4 R |ω_e| ψ_f |i_q|` less of `|v|²`
+        // (`drive/sensorless.rs`, `braking_first`), so the vector stays on the circle then
+        // only because the q integrator still holds a motoring voltage: held, it kept the
+        // `R i_q` of rated motoring current (5.4 V of the Nanotec DF45's 13.6 V) in the
+        // command while the back-EMF of a rotor its load had let go of took the rest, no
+        // braking current flowed, and the rotor ran to 5,900 rpm against a 1,590 rpm command
+        // until the observers lost it and the drive turned it backwards (issue #26's zoo,
+        // `sup-load-steps-*`). While motoring both stay held: the field weakening answers the
+        // voltage there, and a q integrator let down on the circle took the torque the load
+        // needed (the DF45 under its rated brake at the bus's limit, `sup-start-brake-100`).
+        // (Two stores under two conditions, not an `else if`: the compiler selects, where a
+        // third branch cost the step 9 cycles of register spills.)
+        let release = i_dq_ref.q * omega_e < 0.0 && e_q * v_q < 0.0;
         if !out.saturated {
             state.integral_d = int_d;
+        }
+        if !out.saturated || release {
             state.integral_q = int_q;
         }
         out
