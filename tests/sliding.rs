@@ -378,3 +378,65 @@ fn torque_observer_load_removal_limit() {
     assert!(horng(ObserverKind::SlidingTorque, 0.2, 0.0).lost_lock);
     assert!(!horng(ObserverKind::SlidingTorque, 0.2, 0.3).lost_lock);
 }
+
+/// Horng & Chin's experiment (Figs 5-12) with the sliding observers in fixed point (issue
+/// #30: `pmsm_sensorless::fixed::sliding`, the currents and voltage rounded to Q15 of the
+/// drive's bases, `pmsm-sim run horng-ramp-brake --fixed-point`), each beside its f32 run:
+/// in every window up to the end of the brake, the two estimated angles within 0.5°
+/// electrical in every sample and the two rotors' mean speeds within 0.5 % of the rated
+/// speed; and the paper's claim of Figs 11, 12 in fixed point as in f32 (the torque
+/// observer's brake-window angle error within 0.5°, the velocity observer's at least five
+/// times it, τ̂_L within 2 % of the brake). Both, as the f32 torque observer, lose lock when
+/// the brake is released at once at 5 s (`torque_observer_load_removal_limit`).
+#[test]
+fn horng_experiment_in_fixed_point() {
+    let run_of = |kind: ObserverKind, fixed_point: bool| {
+        let mut cfg = SimConfig::new(scenario::horng_ramp_brake(), kind);
+        cfg.fixed_point = fixed_point;
+        run(cfg).unwrap()
+    };
+    let rated_rpm = f64::from(HORNG_SINANO.ratings.speed_rpm);
+    let mut brake = Vec::new();
+    for kind in [ObserverKind::SlidingTorque, ObserverKind::SlidingVelocity] {
+        let (f32_run, fixed_run) = (run_of(kind, false), run_of(kind, true));
+        let (s32, sq) = (Summary::of(&f32_run), Summary::of(&fixed_run));
+        for w in ["ramp", "pre_brake", "brake"] {
+            let (a, b) = (s32.window(w).unwrap(), sq.window(w).unwrap());
+            let mut angle_deg = 0.0f64;
+            let mut speeds = (0.0, 0.0, 0usize);
+            for (r32, rq) in f32_run.rows.iter().zip(&fixed_run.rows) {
+                if r32.t >= a.t0 && r32.t <= a.t1 {
+                    let d = (rq.theta_e_hat_deg - r32.theta_e_hat_deg + 540.0).rem_euclid(360.0);
+                    angle_deg = angle_deg.max((d - 180.0).abs());
+                    speeds = (
+                        speeds.0 + r32.speed_rpm,
+                        speeds.1 + rq.speed_rpm,
+                        speeds.2 + 1,
+                    );
+                }
+            }
+            let speed_pct = 100.0 * (speeds.1 - speeds.0).abs() / speeds.2 as f64 / rated_rpm;
+            println!(
+                "{} {w}: mean |θ err| f32 {:.4}°, fixed {:.4}°; angles apart at most {angle_deg:.4}°; mean speeds {speed_pct:.4} % of rated apart",
+                kind.name(),
+                a.theta_err_mean_abs_deg_e,
+                b.theta_err_mean_abs_deg_e
+            );
+            assert!(angle_deg <= 0.5, "{} {w}: {angle_deg}°", kind.name());
+            assert!(speed_pct <= 0.5, "{} {w}: {speed_pct} %", kind.name());
+        }
+        assert!(
+            sq.lost_lock_at_s.is_some_and(|t| t > 5.0)
+                == s32.lost_lock_at_s.is_some_and(|t| t > 5.0),
+            "{}: f32 {:?}, fixed {:?}",
+            kind.name(),
+            s32.lost_lock_at_s,
+            sq.lost_lock_at_s
+        );
+        brake.push(sq.window("brake").unwrap().clone());
+    }
+    let (t, v) = (&brake[0], &brake[1]);
+    assert!(t.theta_err_mean_abs_deg_e <= 0.5);
+    assert!(v.theta_err_mean_abs_deg_e >= 5.0 * t.theta_err_mean_abs_deg_e);
+    assert!((t.torque_hat_mean_nm.unwrap() - 0.2).abs() <= 0.02 * 0.2);
+}

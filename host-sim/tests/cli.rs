@@ -254,6 +254,21 @@ fn bad_arguments_get_one_line_errors() {
         &sim(&["run", "horng-ramp-brake", "--load-nm", "inf"]),
         "load",
     );
+    // Fixed point: the bare sliding observers only.
+    assert_one_line_error(
+        &sim(&[
+            "run",
+            "horng-ramp-brake",
+            "--observer",
+            "flux",
+            "--fixed-point",
+        ]),
+        "fixed point: the sliding observers only",
+    );
+    assert_one_line_error(
+        &sim(&["run", "start-stop-reverse", "--fixed-point"]),
+        "fixed point: the papers' bare-observer experiments only",
+    );
     assert_usage_error(
         &sim(&["run", "horng-ramp-brake", "--seed", "x"]),
         "invalid value",

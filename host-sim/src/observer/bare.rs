@@ -3,6 +3,7 @@
 //! sensorless, no drive modes around it.
 
 use super::encoder::{Diagnostics, Encoder};
+use super::fixed::SlidingQ;
 use super::{Estimate, ObserverKind, ObserverSetup, PLL_BANDWIDTH_HZ, PLL_DAMPING};
 use pmsm_sensorless::foc::{Foc, FocInput, FocState};
 use pmsm_sensorless::frames::{Abc, AlphaBeta, SinCos};
@@ -24,6 +25,15 @@ impl ObserverKind {
                 .build()
                 .map_err(|e| err("flux observer", e))
         };
+        let sliding = matches!(
+            self,
+            ObserverKind::SlidingVelocity | ObserverKind::SlidingTorque
+        );
+        anyhow::ensure!(
+            sliding || setup.fixed_point.is_none(),
+            "fixed point: the sliding observers only (sliding-torque, sliding-velocity), not {}",
+            self.name()
+        );
         Ok(match self {
             ObserverKind::Encoder => Bare::Encoder(BareLoop::new(Encoder, foc)),
             ObserverKind::SlidingVelocity | ObserverKind::SlidingTorque => {
@@ -31,9 +41,19 @@ impl ObserverKind {
                     .sliding
                     .or_else(|| self.sliding_config(setup.motor, setup.rate_hz))
                     .ok_or_else(|| anyhow::anyhow!("no sliding settings"))?;
-                let obs = cfg.build().map_err(|e| err("sliding observer", e))?;
-                Bare::Sliding(BareLoop::new(obs, foc))
+                match setup.fixed_point {
+                    Some(pu) => {
+                        let obs = SlidingQ::build(&cfg, pu)
+                            .map_err(|e| err("fixed-point sliding observer", e))?;
+                        Bare::SlidingQ(BareLoop::new(obs, foc))
+                    }
+                    None => {
+                        let obs = cfg.build().map_err(|e| err("sliding observer", e))?;
+                        Bare::Sliding(BareLoop::new(obs, foc))
+                    }
+                }
             }
+
             ObserverKind::Flux => {
                 let pll = PllConfig {
                     rate_hz: setup.rate_hz,
@@ -152,6 +172,8 @@ pub enum Bare {
     Encoder(BareLoop<Encoder>),
     /// A Horng & Chin sliding observer.
     Sliding(BareLoop<SlidingObserver>),
+    /// A Horng & Chin sliding observer in fixed point.
+    SlidingQ(BareLoop<SlidingQ>),
     /// The flux observer with the PLL.
     FluxPll(BareLoop<FluxPll>),
     /// The flux observer with the I&I observer.
@@ -165,6 +187,7 @@ impl Bare {
         match self {
             Bare::Encoder(_) => {}
             Bare::Sliding(b) => b.sensorless = true,
+            Bare::SlidingQ(b) => b.sensorless = true,
             Bare::FluxPll(b) => b.sensorless = true,
             Bare::FluxIi(b) => b.sensorless = true,
         }
@@ -179,6 +202,7 @@ impl Bare {
                 b.step(input)
             }
             Bare::Sliding(b) => b.step(input),
+            Bare::SlidingQ(b) => b.step(input),
             Bare::FluxPll(b) => b.step(input),
             Bare::FluxIi(b) => b.step(input),
         }

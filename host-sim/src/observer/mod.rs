@@ -6,10 +6,12 @@
 
 pub mod bare;
 pub mod encoder;
+pub mod fixed;
 
 pub use bare::{Bare, BareInput, BareLoop};
 pub use encoder::{Diagnostics, Encoder, EncoderState};
 
+use pmsm_sensorless::fixed::pu::PerUnit;
 use pmsm_sensorless::frames::AlphaBeta;
 use pmsm_sensorless::motor::MotorParams;
 use pmsm_sensorless::observer::flux::FluxConfig;
@@ -68,6 +70,8 @@ pub struct ObserverSetup {
     pub min_speed_rpm: f32,
     /// γ replacing the recommended one.
     pub gamma: Option<f32>,
+    /// A sliding observer in fixed point in these bases (`fixed`); `None`: f32.
+    pub fixed_point: Option<PerUnit>,
 }
 
 /// PLL natural frequency \[Hz] and damping for the `flux` observer's speed.

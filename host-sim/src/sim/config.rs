@@ -114,6 +114,9 @@ pub struct SimConfig {
     /// The drive starts a rotor at rest through high-frequency injection on a salient motor
     /// (`DriveConfig::injection`; false).
     pub injection: bool,
+    /// A bare run's sliding observer in fixed point (`crate::observer::fixed`, issue #30;
+    /// false: f32). The drive's runs and the other observers refuse it.
+    pub fixed_point: bool,
 }
 
 impl SimConfig {
@@ -149,6 +152,7 @@ impl SimConfig {
             plant_inductances: None,
             mtpa: true,
             injection: false,
+            fixed_point: false,
         }
     }
 }

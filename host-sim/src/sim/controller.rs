@@ -11,6 +11,7 @@ use crate::RAD_S_PER_RPM;
 use pmsm_sensorless::control::{Commands, Control, Ticked};
 use pmsm_sensorless::dead_time::DeadTimeConfig;
 use pmsm_sensorless::drive::{Drive, DriveConfig, DriveInput, Limits, Mode, Telemetry, Transition};
+use pmsm_sensorless::fixed::pu::PerUnit;
 use pmsm_sensorless::foc::FocConfig;
 use pmsm_sensorless::frames::{Abc, AlphaBeta};
 use pmsm_sensorless::motor::{Motor, MotorParams};
@@ -176,6 +177,11 @@ impl Controller {
             .apply(&sc.motor.params)
             .map_err(|e| anyhow::anyhow!("controller motor parameters: {e}"))?;
         if sc.drive.is_some() {
+            anyhow::ensure!(
+                !config.fixed_point,
+                "fixed point: the papers' bare-observer experiments only (the drive's step in \
+                 fixed point runs beside the f32 drive in `tests/fixed_step.rs`)"
+            );
             Self::drive(config, controller_motor)
         } else {
             Self::bare(config, controller_motor)
@@ -246,6 +252,17 @@ impl Controller {
         let foc = foc_cfg
             .build()
             .map_err(|e| anyhow::anyhow!("controller configuration: {e}"))?;
+        // A fixed-point observer's bases: the drive's sensing range and highest bus over √3
+        // for this motor (`PerUnit::of_drive`), at the run's rate.
+        let fixed_point = if config.fixed_point {
+            let limits = DriveConfig::new(&sc.motor).limits;
+            let v_base = limits.bus_max_v / 3f32.sqrt();
+            let pu = PerUnit::new(&params, limits.i_sense_max_a, v_base, config.rate_hz as f32)
+                .map_err(|e| anyhow::anyhow!("fixed-point bases: {e}"))?;
+            Some(pu)
+        } else {
+            None
+        };
         let mut bare = config.observer.bare(
             &ObserverSetup {
                 motor: params,
@@ -253,6 +270,7 @@ impl Controller {
                 sliding: config.sliding,
                 min_speed_rpm: sc.min_speed_rpm as f32,
                 gamma: config.gamma,
+                fixed_point,
             },
             foc,
         )?;

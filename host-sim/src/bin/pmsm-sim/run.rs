@@ -83,6 +83,11 @@ pub struct RunArgs {
     /// sequence; default: sensorless from t = 0).
     #[arg(long)]
     sensorless_from_rpm: Option<f64>,
+    /// The sliding observer in fixed point (`pmsm_sensorless::fixed::sliding`, the Cortex-M0's
+    /// arithmetic; its currents and voltage rounded to Q15): bare-observer scenarios with
+    /// `sliding-torque` or `sliding-velocity` only.
+    #[arg(long)]
+    fixed_point: bool,
     /// Write run.csv and run.png into this directory (nothing is written without it).
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -186,6 +191,7 @@ pub fn prepare(args: &RunArgs) -> anyhow::Result<SimConfig> {
         );
         cfg.board.update_delay_s = 1e-6 * us;
     }
+    cfg.fixed_point = args.fixed_point;
     if let Some(x) = args.sensorless_from_rpm {
         anyhow::ensure!(
             cfg.scenario.drive.is_none(),

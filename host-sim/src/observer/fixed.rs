@@ -1,0 +1,172 @@
+//! Horng & Chin's sliding observers in fixed point (`pmsm_sensorless::fixed::sliding`, issue
+//! #30) behind the core's [`Observer`] trait, for the papers' bare-observer experiments
+//! (`pmsm-sim run horng-ramp-brake --observer sliding-torque --fixed-point`): each sample's
+//! currents and voltage rounded to Q15 of the bases (as the ADC and the fixed-point step give
+//! them), the fixed-point observer run on them, its estimates read back in SI units for the
+//! controller and the figures. The controller (the bare loop's FOC) stays f32: what is
+//! compared is the observer.
+//!
+//! Bases ([`PerUnit`]): `I_b` the drive's sensing range and `V_b` its highest bus over √3
+//! ([`PerUnit::of_drive`] of the motor's default configuration), at the run's rate.
+
+use super::encoder::Diagnostics;
+use super::SlidingDiag;
+use pmsm_sensorless::fixed::pu::{to_q15, PerUnit};
+use pmsm_sensorless::fixed::sliding::{SlidingObserverQ, SlidingStateQ};
+use pmsm_sensorless::fixed::{AlphaBetaQ15, Angle};
+use pmsm_sensorless::frames::{AlphaBeta, SinCos};
+use pmsm_sensorless::observer::sliding::{SlidingConfig, SlidingGain};
+use pmsm_sensorless::observer::{Observer, Rotor};
+use pmsm_sensorless::param::ParamError;
+
+/// 2³¹: Q31's one.
+const Q31: f32 = 2_147_483_648.0;
+/// 2¹⁵: Q15's one.
+const Q15: f32 = 32_768.0;
+
+/// The fixed-point sliding observer (torque or velocity, as its [`SlidingConfig`]) with its
+/// bases and the factors that turn its per-unit state into SI units.
+#[derive(Clone, Copy, Debug)]
+pub struct SlidingQ {
+    obs: SlidingObserverQ,
+    pu: PerUnit,
+    /// Pole pairs.
+    n: f32,
+    /// `τ_b = K N I_b` of the paper's model \[N·m], times the motor's torque convention's
+    /// factor (the f32 observer's `torque_factor`): the load state's base in the user's N·m.
+    tau_b_nm: f32,
+    /// The torque observer (λτ > 0): it has a load estimate.
+    torque: bool,
+    /// `K_s` \[A/s] (constant: the fixed-point observer takes no other).
+    ks: f32,
+    /// `1/ε` \[1/A].
+    inv_epsilon: f32,
+    /// The f32 observer's residual scale, `L/(K N · 2 sin(22.5°))` (`Observer::residual`).
+    emf_residual_scale: f32,
+    /// `ω̂_low` \[rad/s, mechanical].
+    omega_low: f32,
+    /// The lowest speed it drives at \[rad/s, mechanical] (`SlidingConfig::min_speed_rad_s`).
+    min_speed: f32,
+}
+
+impl SlidingQ {
+    /// The fixed-point observer of `cfg` in the bases `pu`; errors name the setting the
+    /// fixed-point observer refuses (a `K_s` per speed, a coefficient beyond its format).
+    pub fn build(cfg: &SlidingConfig, pu: PerUnit) -> Result<Self, ParamError> {
+        let obs = SlidingObserverQ::build(cfg, &pu)?;
+        let m = cfg.motor;
+        let paper = m.papers_model();
+        let ks = match cfg.ks {
+            SlidingGain::Constant(k) => k,
+            // Refused by `SlidingObserverQ::build` above.
+            SlidingGain::PerSpeed { min, .. } => min,
+        };
+        let kn = paper.flux_wb * paper.n();
+        Ok(Self {
+            obs,
+            pu,
+            n: m.n(),
+            tau_b_nm: kn * pu.i_base_a * m.torque.factor(),
+            torque: cfg.lambda_tau_hz > 0.0,
+            ks,
+            inv_epsilon: 1.0 / cfg.epsilon_a,
+            emf_residual_scale: paper.l_h / (kn * 2.0 * (core::f32::consts::PI / 8.0).sin()),
+            omega_low: cfg.omega_low_rad_s,
+            min_speed: cfg.min_speed_rad_s,
+        })
+    }
+
+    /// `i_ab` \[A] in Q15 of `I_b`, rounded and saturated as an ADC reads it.
+    fn currents(&self, i_ab: AlphaBeta) -> AlphaBetaQ15 {
+        AlphaBetaQ15 {
+            alpha: self.pu.current(i_ab.alpha),
+            beta: self.pu.current(i_ab.beta),
+        }
+    }
+}
+
+impl Observer for SlidingQ {
+    type State = SlidingStateQ;
+
+    /// The fixed-point sample on the Q15-rounded current and voltage; always accepted (the
+    /// rounding saturates: no input is refused in fixed point).
+    fn update(&self, st: &mut SlidingStateQ, i_ab: AlphaBeta, v_ab: AlphaBeta) -> bool {
+        let v = AlphaBetaQ15 {
+            alpha: self.pu.voltage(v_ab.alpha),
+            beta: self.pu.voltage(v_ab.beta),
+        };
+        self.obs.update(st, self.currents(i_ab), v);
+        true
+    }
+
+    fn theta_e(&self, st: &SlidingStateQ) -> f32 {
+        st.theta_e.to_rad()
+    }
+
+    fn sin_cos(&self, st: &SlidingStateQ) -> SinCos {
+        SinCos {
+            sin: f32::from(st.sc.0) / Q15,
+            cos: f32::from(st.sc.1) / Q15,
+        }
+    }
+
+    /// `Ω ω_b / N` \[rad/s, mechanical].
+    fn omega_m(&self, st: &SlidingStateQ) -> f32 {
+        st.omega as f32 / Q31 * self.pu.omega_base_e / self.n
+    }
+
+    fn load_nm(&self, st: &SlidingStateQ) -> Option<f32> {
+        self.torque.then(|| st.load as f32 / Q31 * self.tau_b_nm)
+    }
+
+    fn seed(&self, st: &mut SlidingStateQ, i_ab: AlphaBeta, rotor: Rotor) {
+        let load = if self.torque {
+            to_q15(rotor.load_nm / self.tau_b_nm)
+        } else {
+            0
+        };
+        self.obs.reset(
+            st,
+            self.currents(i_ab),
+            Angle::from_rad(rotor.theta_e),
+            self.pu.speed(rotor.omega_m * self.n),
+            load,
+        );
+    }
+
+    /// The f32 observer's residual on the fixed-point state: the equivalent injection
+    /// `K_s σ` against the back-EMF at `|ω̂|` (floored at `ω̂_low`), and the boundary layer's
+    /// `max |S_i|/ε`.
+    fn residual(&self, st: &SlidingStateQ) -> f32 {
+        let sigma = (
+            f32::from(st.sigma.alpha) / Q15,
+            f32::from(st.sigma.beta) / Q15,
+        );
+        let w = self.ks * sigma.0.hypot(sigma.1);
+        let omega = self.omega_m(st).abs().max(self.omega_low);
+        let s = self.s_ab(st);
+        let layer = s.alpha.abs().max(s.beta.abs()) * self.inv_epsilon;
+        (w * self.emf_residual_scale / omega).max(layer)
+    }
+
+    fn min_speed_m(&self) -> f32 {
+        self.min_speed
+    }
+}
+
+impl SlidingQ {
+    /// `S = î − i` \[A].
+    fn s_ab(&self, st: &SlidingStateQ) -> AlphaBeta {
+        let a = |x: i32| x as f32 / Q31 * self.pu.i_base_a;
+        AlphaBeta::new(a(st.s.alpha), a(st.s.beta))
+    }
+}
+
+impl Diagnostics for SlidingQ {
+    fn sliding_diag(&self, st: &SlidingStateQ) -> Option<SlidingDiag> {
+        Some(SlidingDiag {
+            s_ab: self.s_ab(st),
+            ks: self.ks,
+        })
+    }
+}
