@@ -380,13 +380,35 @@ impl DriveConfig {
     /// current at low speed \[A], and the |speed reference| below which it holds it \[rpm]
     /// (`sensorless::Settings::enter`): twice the dead-time compensation's band, as the
     /// catch holds (`catch_zero::Settings::i_hold_a`); below the speed where the dead-time
-    /// voltage's fundamental `(4/π) t_d f_pwm V_bus` is a tenth of the back-EMF `N ψ_f ω_m`
-    /// (an angle error up to tan⁻¹ 0.1 = 6° where the compensation does not know the
-    /// current's sign), and at least below the hand-over speed.
+    /// voltage's fundamental `(4/π) t_d f_pwm V_bus` is a twentieth of the back-EMF
+    /// `N ψ_f ω_m` (its fundamental alone an angle error up to tan⁻¹ 0.05 = 3° where the
+    /// compensation does not know the current's sign), and at least below the hand-over
+    /// speed. A tenth (6°) was not enough: the iPower GM4108H gimbal without load at 150 rpm,
+    /// just above that speed (145 rpm), currents of 10 mA, its sliding observer's angle
+    /// wandered ±13° and the rotor 2.16 % off its command after a reversal
+    /// (`profile-reversal`, issue #26's zoo). A stop holds it below half that speed
+    /// ([`DriveConfig::low_speed_hold_stopping_rpm`]).
     pub fn low_speed_hold(&self) -> (f32, f32) {
-        let below_rpm = 10.0 * self.dead_time_v() / self.motor.emf_constant() * RPM_PER_RAD_S;
         let hold_a = 2.0 * self.power_stage.dead_time_band_a;
-        (hold_a, below_rpm.max(self.start.handover_rpm))
+        (hold_a, self.dead_time_speed_rpm(20.0))
+    }
+
+    /// The |speed reference| below which a stop (a zero command) holds the low-speed d
+    /// current \[rpm]: where the dead-time voltage's fundamental is a tenth of the back-EMF
+    /// (6°), at least the hand-over speed. On a stop's way down the held d current dissipates
+    /// the rotor's energy in the winding instead of braking it into the bus; held from the
+    /// twentieth on, a stop into a supply that cannot sink raised the bus by 8.5 % instead of
+    /// the 15.5 % of the stop from the tenth on (`host-sim/tests/dc_link.rs`, the Sinano
+    /// motor, sliding primary), slower braking than the command asks for.
+    pub fn low_speed_hold_stopping_rpm(&self) -> f32 {
+        self.dead_time_speed_rpm(10.0)
+    }
+
+    /// The speed where the back-EMF is `ratio` times the dead-time voltage's fundamental, at
+    /// least the hand-over speed \[rpm].
+    fn dead_time_speed_rpm(&self, ratio: f32) -> f32 {
+        let rpm = ratio * self.dead_time_v() / self.motor.emf_constant() * RPM_PER_RAD_S;
+        rpm.max(self.start.handover_rpm)
     }
 
     /// The inverter's dead-time voltage at the rated bus, the fundamental of its square wave,
@@ -548,6 +570,7 @@ impl DriveConfig {
                 handback_rpm: s.handback_rpm,
                 through_zero_rpm: s.handover_rpm,
                 dead_time_rpm: hold_below_rpm,
+                dead_time_stop_rpm: self.low_speed_hold_stopping_rpm(),
                 stop_rpm: s.stop_rpm,
                 // `FIELD_WEAKENING_MARGIN v_bus/(√3 N (ψ_f − L i_max))` per volt (`sensorless.rs`).
                 overspeed_rpm_per_v: FIELD_WEAKENING_MARGIN * m.bus_limited_rpm(1.0) * m.flux_wb

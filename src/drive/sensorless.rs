@@ -55,9 +55,12 @@ pub(super) struct Settings {
     pub(super) low_speed_d_a: f32,
     /// Below this |reference| \[rpm], and above the hand-over speed, the d current is held at
     /// `low_speed_d_a` while the q current the speed loop last asked for is smaller: the
-    /// speed where the inverter's dead-time voltage is a tenth of the back-EMF (see
+    /// speed where the inverter's dead-time voltage is a twentieth of the back-EMF (see
     /// [`Settings::enter`]).
     pub(super) dead_time_rpm: f32,
+    /// The same under a zero command (a stop): where it is a tenth
+    /// ([`DriveConfig::low_speed_hold_stopping_rpm`](super::DriveConfig::low_speed_hold_stopping_rpm)).
+    pub(super) dead_time_stop_rpm: f32,
     /// Without a usable observer, below this |speed| and |reference| open loop takes over
     /// again \[rpm].
     pub(super) handback_rpm: f32,
@@ -407,8 +410,9 @@ impl Settings {
     /// observer's angle, a spring that shook the Delta servo's rotor by ±70 rpm at 90 rpm with
     /// the whole I/f current held.
     ///
-    /// Above the hand-over speed too, up to where the dead-time voltage is a tenth of the
-    /// back-EMF (`dead_time_rpm`, [`DriveConfig::low_speed_hold`](super::DriveConfig::low_speed_hold)),
+    /// Above the hand-over speed too, up to where the dead-time voltage is a twentieth of the
+    /// back-EMF (a tenth under a zero command: `dead_time_rpm`, `dead_time_stop_rpm`,
+    /// [`DriveConfig::low_speed_hold`](super::DriveConfig::low_speed_hold)),
     /// while the speed loop last asked for less q current than the hold: on Ortega's test
     /// motor (2 V of dead-time voltage against 4.6 V of back-EMF at its hand-over speed) a
     /// stop's way down from 300 to 140 rpm, the speed loop asking for almost no current,
@@ -595,8 +599,13 @@ impl Settings {
         // observers off (issue #26's zoo: 21 through-zero cells of 8 motors that pass on an
         // inverter without dead time).)
         let ref_abs = s.speed_ref_rpm.abs();
+        let dead_time_rpm = if cmd_rpm == 0.0 {
+            self.dead_time_stop_rpm
+        } else {
+            self.dead_time_rpm
+        };
         let low = ref_abs < self.through_zero_rpm
-            || (ref_abs < self.dead_time_rpm && s.i_q_ref.abs() < self.low_speed_d_a);
+            || (ref_abs < dead_time_rpm && s.i_q_ref.abs() < self.low_speed_d_a);
         s.i_d_handover = if low {
             // (Laid out of the way: the running drive's tick falls through.)
             cold_path();
