@@ -1,10 +1,10 @@
 //! Issue #26's zoo on its light rotors, board defaults, true motor files: rated torque
-//! applied and removed at once (`sup-load-steps-50`) on the Anaheim BLY171D (J = 2.4 g·cm²),
+//! applied and removed at once (`sup-load-steps-50`) on the Anaheim BLY171D (J = 24 g·cm²),
 //! sliding primary, its eigenvalues raised with the motor's largest acceleration
 //! (`DriveConfig::sliding_config`). With the paper's, its angle fell 91° behind 11 ms after
 //! the step (lost lock) while the flux monitor stayed within 1°.
 //!
-//! And the Nanotec DF45 (J = 1.3 g·cm²: its rated torque moves it by 3,000 rpm per
+//! And the Nanotec DF45 (J = 13 g·cm²: its rated torque moves it by 3,000 rpm per
 //! millisecond) under its rated torque let go of at the voltage limit (`sup-load-steps-100`,
 //! flux primary): the current loop's q integrator is released on the voltage circle under a
 //! braking command (`src/foc/current.rs`). Held, it kept the `R i_q` of motoring current, no
