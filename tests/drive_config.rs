@@ -144,3 +144,32 @@ fn ratings_the_bus_cannot_drive_are_refused() {
     c.motor.flux_wb *= 0.85;
     assert!(c.build_flux_primary().is_ok());
 }
+
+/// The low-speed d current's bands (`DriveConfig::low_speed_hold`): held below the speed where
+/// the dead-time voltage's fundamental `(4/π) t_d f_pwm V_bus` is a twentieth of the back-EMF
+/// `N ψ_f ω_m` while the command holds a speed, a tenth on a stop; both at least the hand-over
+/// speed. On the board's 0.5 µs at 20 kHz both are above it on the Sinano and on Ortega's
+/// 300 W test motor: the running band twice the stop's.
+#[test]
+fn the_low_speed_hold_bands_follow_the_dead_time_voltage() {
+    use pmsm_sensorless::motor::ORTEGA_TEST_0P3KW;
+    use std::f32::consts::PI;
+    for m in [HORNG_SINANO, ORTEGA_TEST_0P3KW] {
+        let mut c = DriveConfig::new(&m);
+        c.power_stage.dead_time_s = 0.5e-6;
+        c.power_stage.pwm_hz = 20_000.0;
+        let v_dt = 4.0 / PI * 0.5e-6 * 20_000.0 * m.ratings.bus_v;
+        let rpm_of = |ratio: f32| ratio * v_dt / m.params.emf_constant() * 30.0 / PI;
+        let handover = c.start.handover_rpm;
+        let (hold_a, running) = c.low_speed_hold();
+        let stopping = c.low_speed_hold_stopping_rpm();
+        println!(
+            "{}: running {running} rpm, stopping {stopping} rpm, hand-over {handover} rpm",
+            m.name
+        );
+        assert_eq!(hold_a, 2.0 * c.power_stage.dead_time_band_a);
+        assert!((running - rpm_of(20.0).max(handover)).abs() <= 1e-4 * running);
+        assert!((stopping - rpm_of(10.0).max(handover)).abs() <= 1e-4 * stopping);
+        assert!(stopping > handover && (running - 2.0 * stopping).abs() <= 1e-4 * running);
+    }
+}
