@@ -259,4 +259,10 @@ fn on_the_circle_only_a_braking_command_releases_the_q_integrator() {
     );
     assert!(out.saturated && out.v_dq.q < 0.0, "{out:?}");
     assert!(st.integral_q > mirrored.integral_q, "{st:?}");
+    // An unusable limit (a negative bus reading): zero volts, both held under a braking
+    // command too.
+    let mut st = before;
+    let out = current.update(&mut st, i, Dq::new(0.0, -3.0), omega_e, -v_max);
+    assert!(!out.valid && out.v_dq == Dq::default(), "{out:?}");
+    assert_eq!(st, before);
 }

@@ -170,12 +170,13 @@ impl CurrentLoopQ {
         // Anti-windup (`foc/current.rs`): inside the circle both integrators move; on it the
         // q one only under a braking command (`i_q*` and `ω_e` of opposite signs) where its
         // error is against `v_q`: the f32 loop's `a·b < 0` as the sign bit of `a ^ b` with
-        // neither zero (no product to overflow; an `e_q` of zero does not move it).
+        // neither zero (no product to overflow; an `e_q` of zero does not move it); `v_q` as
+        // cut, of the same sign (a `v_max ≤ 0`'s zero volts holds both).
         let opposite = |a: i32, b: i32| (a ^ b) < 0 && a != 0 && b != 0;
         if !out.saturated {
             st.integral_d = int_d;
             st.integral_q = int_q;
-        } else if opposite(i32::from(i_dq_ref.q), w) && opposite(e_q, v_q) {
+        } else if opposite(i32::from(i_dq_ref.q), w) && opposite(e_q, i32::from(out.v_dq.q)) {
             st.integral_q = int_q;
         }
         out

@@ -88,7 +88,8 @@ impl CurrentLoop {
         // needed (the DF45 under its rated brake at the bus's limit, `sup-start-brake-100`).
         // (Two stores under two conditions, not an `else if`: the compiler selects, where a
         // third branch cost the step 9 cycles of register spills.)
-        let release = i_dq_ref.q * omega_e < 0.0 && e_q * v_q < 0.0;
+        // (`v_q` as cut, of the same sign: an unusable input's zero volts holds both.)
+        let release = i_dq_ref.q * omega_e < 0.0 && e_q * out.v_dq.q < 0.0;
         if !out.saturated {
             state.integral_d = int_d;
         }
