@@ -217,9 +217,13 @@ pub struct SlidingStateQ {
 
 impl SlidingObserverQ {
     /// The observer `cfg` (validated as [`SlidingConfig::build`] does) in the bases `pu`;
-    /// refused: a `K_s` per speed.
+    /// refused: a `K_s` per speed, a salient motor (the f32 observer's active-flux terms are
+    /// not in fixed point; its `L` would be the mean of `L_d`, `L_q`).
     pub fn build(cfg: &SlidingConfig, pu: &PerUnit) -> Result<Self, ParamError> {
         cfg.build()?;
+        Allowed::between(1.0, 1.0)
+            .because("the fixed-point sliding observer is for non-salient motors (L_d = L_q)")
+            .check("motor.saliency", cfg.motor.saliency)?;
         let ks = match cfg.ks {
             SlidingGain::Constant(k) => k,
             // Refused: a slope is never inside the empty range [0, 0] of slopes allowed.

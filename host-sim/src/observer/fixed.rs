@@ -7,7 +7,8 @@
 //! compared is the observer.
 //!
 //! Bases ([`PerUnit`]): `I_b` the drive's sensing range and `V_b` its highest bus over √3
-//! ([`PerUnit::of_drive`] of the motor's default configuration), at the run's rate.
+//! ([`PerUnit::of_drive`] of the motor's default configuration), at the run's rate. A salient
+//! motor is refused (`SlidingObserverQ::build`).
 
 use super::encoder::Diagnostics;
 use super::SlidingDiag;

@@ -252,13 +252,16 @@ impl Controller {
         let foc = foc_cfg
             .build()
             .map_err(|e| anyhow::anyhow!("controller configuration: {e}"))?;
-        // A fixed-point observer's bases: the drive's sensing range and highest bus over √3
-        // for this motor (`PerUnit::of_drive`), at the run's rate.
+        // A fixed-point observer's bases: the drive's for the controller's motor at the run's
+        // rate (its sensing range, its highest bus over √3).
         let fixed_point = if config.fixed_point {
-            let limits = DriveConfig::new(&sc.motor).limits;
-            let v_base = limits.bus_max_v / 3f32.sqrt();
-            let pu = PerUnit::new(&params, limits.i_sense_max_a, v_base, config.rate_hz as f32)
-                .map_err(|e| anyhow::anyhow!("fixed-point bases: {e}"))?;
+            let motor = Motor { params, ..sc.motor };
+            let drive = DriveConfig {
+                rate_hz: config.rate_hz as f32,
+                ..DriveConfig::new(&motor)
+            };
+            let pu =
+                PerUnit::of_drive(&drive).map_err(|e| anyhow::anyhow!("fixed-point bases: {e}"))?;
             Some(pu)
         } else {
             None
