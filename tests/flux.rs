@@ -485,3 +485,31 @@ fn sin_cos_is_the_normalised_rotor_flux() {
     let sc = st.sin_cos();
     assert!((sc.sin - 1.0f32.sin()).abs() < 2e-7 && (sc.cos - 1.0f32.cos()).abs() < 2e-7);
 }
+
+/// The inverse length `FluxState::inv_mag` is the one of the rotor flux the state holds, as
+/// `integrate` and `reset` leave it, on a non-salient and a salient motor (the active flux's
+/// `î_d` and the frame both read it): over a turn of samples, and at a reset.
+#[test]
+fn inv_mag_is_the_rotor_flux_s_after_every_sample_and_reset() {
+    use pmsm_sensorless::observer::flux::inv_magnitude;
+    let m = ORTEGA_TEST_0P3KW;
+    let salient = m
+        .params
+        .with_inductances(0.6 * m.params.l_h, 1.4 * m.params.l_h)
+        .unwrap();
+    for params in [m.params, salient] {
+        let obs = FluxConfig::new(params, 4000.0, 200.0).build().unwrap();
+        let mut st = FluxState::default();
+        assert_eq!(st.inv_mag, 0.0);
+        for k in 0..400 {
+            let th = k as f32 * 0.05;
+            let i = AlphaBeta::new(2.0 * th.cos(), 2.0 * th.sin());
+            let v = AlphaBeta::new(-30.0 * th.sin(), 30.0 * th.cos());
+            assert!(obs.update(&mut st, i, v));
+            assert_eq!(st.inv_mag.to_bits(), inv_magnitude(st.rotor_flux).to_bits());
+            assert!(st.inv_mag > 0.0);
+        }
+        obs.reset(&mut st, AlphaBeta::new(1.0, -0.5), 2.0);
+        assert_eq!(st.inv_mag.to_bits(), inv_magnitude(st.rotor_flux).to_bits());
+    }
+}
