@@ -388,6 +388,16 @@ impl SlidingObserver {
         }
     }
 
+    /// [`Observer::residual`] of an innovation `w` \[A/s] and a sliding variable `s` \[A] at the
+    /// speed estimate `omega_m` \[rad/s] (any state's: the fixed-point observer's too).
+    #[inline(always)]
+    pub fn residual_of(&self, w: AlphaBeta, s: AlphaBeta, omega_m: f32) -> f32 {
+        let w_norm = crate::math::sqrt_or_zero(w.alpha * w.alpha + w.beta * w.beta);
+        let relative = w_norm * self.emf_residual_scale / self.gain_speed(omega_m).abs();
+        let layer = crate::math::max(s.alpha.abs(), s.beta.abs()) * self.inv_epsilon;
+        crate::math::max(relative, layer)
+    }
+
     /// Sliding gain `K_s` \[A/s] at speed estimate `omega_m`.
     pub fn sliding_gain(&self, omega_m: f32) -> f32 {
         match self.ks {
@@ -547,11 +557,7 @@ impl Observer for SlidingObserver {
     /// whatever the angle: the residual is at least 1. Below `ω̂_low` the speed is floored there.
     #[inline(always)]
     fn residual(&self, st: &SlidingState) -> f32 {
-        let w = st.w;
-        let w_norm = crate::math::sqrt_or_zero(w.alpha * w.alpha + w.beta * w.beta);
-        let relative = w_norm * self.emf_residual_scale / self.gain_speed(st.omega_m).abs();
-        let layer = crate::math::max(st.s.alpha.abs(), st.s.beta.abs()) * self.inv_epsilon;
-        crate::math::max(relative, layer)
+        self.residual_of(st.w, st.s, st.omega_m)
     }
 
     #[inline(always)]

@@ -53,7 +53,6 @@ impl ObserverKind {
                     }
                 }
             }
-
             ObserverKind::Flux => {
                 let pll = PllConfig {
                     rate_hz: setup.rate_hz,

@@ -16,7 +16,7 @@ use pmsm_sensorless::fixed::pu::{to_q15, PerUnit};
 use pmsm_sensorless::fixed::sliding::{SlidingObserverQ, SlidingStateQ};
 use pmsm_sensorless::fixed::{AlphaBetaQ15, Angle};
 use pmsm_sensorless::frames::{AlphaBeta, SinCos};
-use pmsm_sensorless::observer::sliding::{SlidingConfig, SlidingGain};
+use pmsm_sensorless::observer::sliding::{SlidingConfig, SlidingObserver};
 use pmsm_sensorless::observer::{Observer, Rotor};
 use pmsm_sensorless::param::ParamError;
 
@@ -26,10 +26,12 @@ const Q31: f32 = 2_147_483_648.0;
 const Q15: f32 = 32_768.0;
 
 /// The fixed-point sliding observer (torque or velocity, as its [`SlidingConfig`]) with its
-/// bases and the factors that turn its per-unit state into SI units.
+/// bases and the factors that turn its per-unit state into SI units; and the f32 observer of
+/// the same settings, whose residual and gain formulas it reads its state with.
 #[derive(Clone, Copy, Debug)]
 pub struct SlidingQ {
     obs: SlidingObserverQ,
+    f32_obs: SlidingObserver,
     pu: PerUnit,
     /// Pole pairs.
     n: f32,
@@ -38,16 +40,6 @@ pub struct SlidingQ {
     tau_b_nm: f32,
     /// The torque observer (λτ > 0): it has a load estimate.
     torque: bool,
-    /// `K_s` \[A/s] (constant: the fixed-point observer takes no other).
-    ks: f32,
-    /// `1/ε` \[1/A].
-    inv_epsilon: f32,
-    /// The f32 observer's residual scale, `L/(K N · 2 sin(22.5°))` (`Observer::residual`).
-    emf_residual_scale: f32,
-    /// `ω̂_low` \[rad/s, mechanical].
-    omega_low: f32,
-    /// The lowest speed it drives at \[rad/s, mechanical] (`SlidingConfig::min_speed_rad_s`).
-    min_speed: f32,
 }
 
 impl SlidingQ {
@@ -57,23 +49,13 @@ impl SlidingQ {
         let obs = SlidingObserverQ::build(cfg, &pu)?;
         let m = cfg.motor;
         let paper = m.papers_model();
-        let ks = match cfg.ks {
-            SlidingGain::Constant(k) => k,
-            // Refused by `SlidingObserverQ::build` above.
-            SlidingGain::PerSpeed { min, .. } => min,
-        };
-        let kn = paper.flux_wb * paper.n();
         Ok(Self {
             obs,
+            f32_obs: cfg.build()?,
             pu,
             n: m.n(),
-            tau_b_nm: kn * pu.i_base_a * m.torque.factor(),
+            tau_b_nm: paper.flux_wb * paper.n() * pu.i_base_a * m.torque.factor(),
             torque: cfg.lambda_tau_hz > 0.0,
-            ks,
-            inv_epsilon: 1.0 / cfg.epsilon_a,
-            emf_residual_scale: paper.l_h / (kn * 2.0 * (core::f32::consts::PI / 8.0).sin()),
-            omega_low: cfg.omega_low_rad_s,
-            min_speed: cfg.min_speed_rad_s,
         })
     }
 
@@ -135,23 +117,20 @@ impl Observer for SlidingQ {
         );
     }
 
-    /// The f32 observer's residual on the fixed-point state: the equivalent injection
-    /// `K_s σ` against the back-EMF at `|ω̂|` (floored at `ω̂_low`), and the boundary layer's
-    /// `max |S_i|/ε`.
+    /// The f32 observer's residual ([`SlidingObserver::residual_of`]) of the fixed-point
+    /// state: its innovation `K_s σ`, its `S` and its speed.
     fn residual(&self, st: &SlidingStateQ) -> f32 {
-        let sigma = (
-            f32::from(st.sigma.alpha) / Q15,
-            f32::from(st.sigma.beta) / Q15,
+        let omega_m = self.omega_m(st);
+        let ks = self.f32_obs.sliding_gain(omega_m);
+        let w = AlphaBeta::new(
+            ks * f32::from(st.sigma.alpha) / Q15,
+            ks * f32::from(st.sigma.beta) / Q15,
         );
-        let w = self.ks * sigma.0.hypot(sigma.1);
-        let omega = self.omega_m(st).abs().max(self.omega_low);
-        let s = self.s_ab(st);
-        let layer = s.alpha.abs().max(s.beta.abs()) * self.inv_epsilon;
-        (w * self.emf_residual_scale / omega).max(layer)
+        self.f32_obs.residual_of(w, self.s_ab(st), omega_m)
     }
 
     fn min_speed_m(&self) -> f32 {
-        self.min_speed
+        self.f32_obs.min_speed_m()
     }
 }
 
@@ -167,7 +146,7 @@ impl Diagnostics for SlidingQ {
     fn sliding_diag(&self, st: &SlidingStateQ) -> Option<SlidingDiag> {
         Some(SlidingDiag {
             s_ab: self.s_ab(st),
-            ks: self.ks,
+            ks: self.f32_obs.sliding_gain(self.omega_m(st)),
         })
     }
 }
