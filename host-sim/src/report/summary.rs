@@ -373,20 +373,28 @@ impl Windows {
 }
 
 /// Drive runs: the adapted motor model at the end (the last row with an adapted resistance),
-/// against the plant's.
+/// against the plant's at that row (after a plant injection's factors, `Injection::Plant`).
 fn adapted(run: &Run) -> Option<Adapted> {
     let plant = &run.config.scenario.motor.params;
-    let h = run
+    let (t, h) = run
         .rows
         .iter()
         .rev()
-        .filter_map(|r| r.health)
-        .find(|h| h.r_ohm > 0.0)?;
-    let err = |x: f64, truth: f32| 100.0 * (x / truth as f64 - 1.0);
+        .filter_map(|r| r.health.map(|h| (r.t, h)))
+        .find(|(_, h)| h.r_ohm > 0.0)?;
+    let (r_factor, flux_factor) = run
+        .config
+        .scenario
+        .drive
+        .as_ref()
+        .and_then(|d| d.injection)
+        .and_then(|i| i.plant_factors_at(t))
+        .unwrap_or((1.0, 1.0));
+    let err = |x: f64, truth: f64| 100.0 * (x / truth - 1.0);
     Some(Adapted {
         r_ohm: h.r_ohm,
         flux_wb: h.flux_wb,
-        r_err_pct: err(h.r_ohm, plant.r_ohm),
-        flux_err_pct: err(h.flux_wb, plant.flux_wb),
+        r_err_pct: err(h.r_ohm, plant.r_ohm as f64 * r_factor),
+        flux_err_pct: err(h.flux_wb, plant.flux_wb as f64 * flux_factor),
     })
 }

@@ -319,12 +319,24 @@ fn injection(i: &InjectFile, motor: &Motor, duration_s: f64) -> anyhow::Result<I
     };
     Ok(match i.kind.as_str() {
         "plant" => {
-            only(&["r", "l", "flux"])?;
+            only(&["r", "l", "flux", "until"])?;
+            if let Some(u) = i.until {
+                ensure!(
+                    u.is_finite() && i.t < u && u <= duration_s,
+                    "inject.until = {u}: must be after inject.t ({}) and within the run",
+                    i.t
+                );
+                ensure!(
+                    i.l.is_none(),
+                    "inject.l: a step only (with inject.until, r and flux change gradually)"
+                );
+            }
             Injection::Plant {
                 t: i.t,
                 r: factor("r", i.r)?,
                 l: factor("l", i.l)?,
                 flux: factor("flux", i.flux)?,
+                until: i.until,
             }
         }
         "bus" => {

@@ -22,7 +22,8 @@
 //! clear_fault = [2.0]             # a latched fault cleared in the period at each time
 //! terminal_sensing = false        # the board senses no terminal voltage (default: it does)
 //! expect_fault = "stall"          # the run passes only if the drive faults so
-//! [inject]                        # a fault cause: kind = "plant" (factors r, l, flux),
+//! [inject]                        # a fault cause: kind = "plant" (factors r, l, flux; with
+//!                                 # `until`, r and flux reached linearly from t to it),
 //! t = 1.8                         # "bus" (bus, a fraction of the rated bus, and `until`, the
 //! kind = "plant"                  # time it recovers: a sag), "nan_current", "task_stall",
 //! r = 0.1                         # or a phase current sensor failed (`phase` = "a" (default),
@@ -205,7 +206,8 @@ impl DriveScript {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Injection {
     /// The plant's R, L and flux are multiplied by these factors at `t` (a winding short, a
-    /// demagnetisation).
+    /// demagnetisation), or R and flux reach theirs linearly from `t` to `until` (a winding
+    /// warming).
     Plant {
         /// Time \[s].
         t: f64,
@@ -215,6 +217,8 @@ pub enum Injection {
         l: f64,
         /// Factor on the flux linkage.
         flux: f64,
+        /// When the factors are reached \[s] (`None`: at `t`, a step).
+        until: Option<f64>,
     },
     /// The DC bus (a DC link's supply) steps to `v` at `t`, and back to the board's at
     /// `until` if given (a sag and its recovery).
@@ -250,6 +254,27 @@ pub enum Injection {
 }
 
 impl Injection {
+    /// A plant injection's factors on R and on the flux linkage at time `t` \[s] (1 before it
+    /// happens; `None`: not a plant injection).
+    pub fn plant_factors_at(&self, t: f64) -> Option<(f64, f64)> {
+        let Injection::Plant {
+            t: t0,
+            r,
+            flux,
+            until,
+            ..
+        } = *self
+        else {
+            return None;
+        };
+        let k = match until {
+            Some(u) => ((t - t0) / (u - t0)).clamp(0.0, 1.0),
+            None if t >= t0 => 1.0,
+            None => 0.0,
+        };
+        Some((1.0 + (r - 1.0) * k, 1.0 + (flux - 1.0) * k))
+    }
+
     /// When it happens \[s].
     pub fn t(&self) -> f64 {
         match *self {

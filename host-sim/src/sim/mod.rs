@@ -74,6 +74,8 @@ pub struct Sim {
     ts: f64,
     transitions: Vec<(f64, Transition)>,
     causes: Causes,
+    /// A gradual plant injection's R and flux at its start (`Injection::Plant::until`).
+    plant_base: Option<(f64, f64)>,
 }
 
 impl Sim {
@@ -101,6 +103,7 @@ impl Sim {
             ts: 1.0 / config.rate_hz,
             transitions: Vec::new(),
             causes: Causes::default(),
+            plant_base: None,
             config,
         })
     }
@@ -137,6 +140,15 @@ impl Sim {
         let half = 0.5 * self.ts;
         let plant = self.stage.plant_mut();
         match inj {
+            Injection::Plant { until: Some(_), .. } => {
+                // Gradually, from the plant's values at its start (kept at the first step).
+                let base = *self
+                    .plant_base
+                    .get_or_insert((plant.params.r, plant.params.flux));
+                let (r, flux) = inj.plant_factors_at(t).unwrap_or((1.0, 1.0));
+                plant.params.r = base.0 * r;
+                plant.params.flux = base.1 * flux;
+            }
             Injection::Plant { r, l, flux, .. } if first => {
                 let p = &mut plant.params;
                 p.r *= r;
