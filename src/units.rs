@@ -18,8 +18,8 @@ pub const ALPHA_CU_PER_K: f32 = 1.0 / (234.5 + 20.0);
 
 /// The winding's temperature rise \[K] that turns its resistance `r_ref_ohm` (the
 /// configured one, measured or read at the temperature the user configured it at) into
-/// `r_ohm` (the drive's, measured at each start, `adaptation.rs`): `(R/R_ref − 1)/α_Cu`,
-/// linear in the copper's resistance. NaN for a non-positive `r_ref_ohm`.
+/// `r_ohm` (the drive's, measured at each start and tracked while running, `adaptation.rs`):
+/// `(R/R_ref − 1)/α_Cu`, linear in the copper's resistance. NaN for a non-positive `r_ref_ohm`.
 pub fn winding_rise_k(r_ohm: f32, r_ref_ohm: f32) -> f32 {
     if r_ref_ohm > 0.0 {
         (r_ohm / r_ref_ohm - 1.0) / ALPHA_CU_PER_K

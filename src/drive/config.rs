@@ -34,8 +34,8 @@ const ADAPT_RANGE: f32 = 3.0;
 /// The adapted flux linkage stays within ψ₀/1.5..1.5 ψ₀: NdFeB loses about 12 % per 100 K;
 /// a back-EMF constant read as peak for RMS is √2 off.
 const FLUX_ADAPT_RANGE: f32 = 1.5;
-/// ψ_f's low-pass time constant \[s].
-const FLUX_ADAPT_TIME_S: f32 = 0.25;
+/// ψ_f's and R's low-pass time constant \[s] (a winding's thermal time constant is minutes).
+const ADAPT_TIME_S: f32 = 0.25;
 /// ψ_f is measured above this fraction of the rated speed (the hand-over's: a flux linkage
 /// 15 % off must be corrected while the rotor is still slow, or both observers' residuals
 /// reach their limit there, measured on Ortega's test motor) ...
@@ -473,10 +473,9 @@ impl DriveConfig {
                 l_h: m.l_h,
                 pole_pairs: m.n(),
                 half_ts: 0.5 * ts,
-                flux_gain: slots * ts / FLUX_ADAPT_TIME_S,
+                gain: slots * ts / ADAPT_TIME_S,
                 // A fifth of its time constant (50 ms): an electrical period down to 20 Hz.
-                steady_checks: slot_cycles(FLUX_ADAPT_TIME_S / 5.0).clamp(1, u16::MAX.into())
-                    as u16,
+                steady_checks: slot_cycles(ADAPT_TIME_S / 5.0).clamp(1, u16::MAX.into()) as u16,
                 flux_min_omega_e: m.n()
                     * FLUX_ADAPT_MIN_SPEED
                     * self.ratings.speed_rpm

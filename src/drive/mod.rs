@@ -374,10 +374,10 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 let health = self.supervise(obs, i_ab, torque);
                 let d = self.driving_now(obs);
                 if health.0 == Verdict::Drive {
-                    // The flux linkage from the back-EMF while the driving observer is locked
-                    // (`adaptation.rs`).
+                    // The flux linkage or the resistance from the back-EMF while the driving
+                    // observer is locked (`adaptation.rs`).
                     let sample = (i_ab, applied.v_ab);
-                    (self.adaptation).track_flux(&mut obs.model, sample, d.omega_m, s.i_q_ref());
+                    (self.adaptation).track(&mut obs.model, sample, d.omega_m, s.i_q_ref());
                 }
                 let [r_primary, r_monitor] = obs.health.residuals();
                 let residual = match obs.health.driving {

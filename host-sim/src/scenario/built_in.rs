@@ -6,7 +6,7 @@ use super::Scenario;
 use anyhow::Context;
 
 /// The built-in scenario files, in listing order.
-const BUILT_IN: [(&str, &str); 47] = [
+const BUILT_IN: [(&str, &str); 48] = [
     (
         "horng-ramp-brake",
         include_str!("../../scenarios/horng-ramp-brake.toml"),
@@ -110,6 +110,10 @@ const BUILT_IN: [(&str, &str); 47] = [
     (
         "warm-winding-150",
         include_str!("../../scenarios/warm-winding-150.toml"),
+    ),
+    (
+        "warm-winding-loaded",
+        include_str!("../../scenarios/warm-winding-loaded.toml"),
     ),
     (
         "profile-slow-ramp-3",
