@@ -15,23 +15,25 @@
 //!   little, the split of Piippo, Hinkkanen & Luomi, "Adaptation of motor parameters in
 //!   sensorless PMSM drives", IEEE Trans. Ind. Appl. 45(1), 2009 (ψ_f at high speed, R at low
 //!   speed), both low-pass filtered:
-//!   - ψ_f where `R₀ |i_q|` is at most [`Settings::flux_max_r_share`] of the back-EMF (fast
-//!     and lightly loaded): an `R` error `δR` moves it by `δR |i_q|/ω_e`, that share of `δR/R`.
-//!   - R where `R₀ |i|` is at least the back-EMF `ψ₀ ω_e` (share `k` = [`R_MIN_SHARE`]; slow
-//!     and loaded), at or above ψ_f's lowest speed (the hand-over's, where the observers'
-//!     speed is sound): the root of `|u − R i| = |ω_e| ψ_f`, `u = v − jω_e L i`, nearest the
+//!   - ψ_f where `R |i_q|` is at most [`Settings::flux_max_r_share`] of the back-EMF
+//!     `ψ_f ω_e` (the model's R and ψ_f, the commanded torque current: fast and lightly
+//!     loaded): an `R` error `δR` moves it by `δR |i_q|/ω_e`, that share of `δR/R`.
+//!   - R where `R |i_q|` is at least the back-EMF (share `k` = [`R_MIN_SHARE`]: slow and
+//!     loaded), above ψ_f's lowest speed (a tenth of rated, the default hand-over speed:
+//!     below it the observers' speed, and with it `|ω_e| ψ_f`, is not sound): the root of `|u − R i| = |ω_e| ψ_f`, `u = v − jω_e L i`, nearest the
 //!     model's, by one Newton step from it, `R + (|e| − |ω_e| ψ_f) |e|/(e·i)`, where the
-//!     current's angle φ to `e` has `cos φ ≥ ½`.
+//!     current's angle φ to `e` has `|cos φ| ≥ ½` (braking too: `e·i < 0`).
 //!
-//!     **Its margin.** A flux linkage off by `δψ/ψ` moves it by `(ψ ω_e/(R |i| cos φ)) δψ/ψ`,
+//!     **Its margin.** A flux linkage off by `δψ/ψ` moves it by `(ψ ω_e/(R |i| |cos φ|)) δψ/ψ`,
 //!     at most `2 δψ/ψ / k`; a speed estimate off by `δω/ω` likewise. A voltage error `δv`
-//!     along the current (the dead-time compensation's residual, up to the dead-time voltage
-//!     `V_dt` where a phase current crosses zero inside its band) by `δv/|i|`, at most
-//!     `V_dt/(k ψ₀ ω_e)` of R in one sample: at the hand-over speed (a tenth of rated) the
-//!     back-EMF is about a twentieth of the bus and `V_dt = (4/π) t_d f_pwm V_bus` an
-//!     eightieth at the board's 0.5 µs and 20 kHz, a quarter of R at the instant a phase
-//!     crosses zero; its mean over the electrical period, which the 0.25 s filter takes, is
-//!     far less (as measured below, with the board's dead time).
+//!     along the current by `δv/|i|`: the dead-time compensation's residual, up to the
+//!     dead-time voltage `V_dt` where a phase current crosses zero inside its band, at most
+//!     `V_dt/(k ψ ω_e)` of R in one sample (at a tenth of rated speed the back-EMF is about a
+//!     twentieth of the bus and `V_dt = (4/π) t_d f_pwm V_bus` an eightieth at the board's
+//!     0.5 µs and 20 kHz: a quarter of R at the instant a phase crosses zero; its mean over
+//!     the electrical period, which the 0.25 s filter takes, is far less, as measured below
+//!     with the board's dead time); the applied voltage's timing error ε (rad) by
+//!     `ε ω_e L |i|/|i|`, `ε ω_e L`, small against R at these speeds.
 //!
 //!     Measured on the simulated board, R × 1.5 over 2 s under 90 % of the rated torque at
 //!     15 % of rated speed (`host-sim/tests/warm_winding.rs`): R̂ within 0.6 % of the plant's
@@ -101,9 +103,9 @@ use super::io::ResistanceRefused;
 use crate::frames::AlphaBeta;
 use crate::math::{clamp, sqrt_or_zero};
 
-/// R is measured while running where `R₀ |i|` is at least this share `k` of the back-EMF
-/// (module doc): a flux linkage off by `δ` moves it by `2δ/k` at most (ψ_f adapted within
-/// 1–3 % on the zoo's motors).
+/// R is measured while running where `R |i_q|` is at least this share `k` of the back-EMF
+/// `ψ_f ω_e` (the model's R and ψ_f; module doc): a flux linkage off by `δ` moves it by `2δ/k` at most
+/// (ψ_f adapted within 1–3 % on the zoo's motors).
 pub(super) const R_MIN_SHARE: f32 = 1.0;
 
 /// The adaptation's settings (from the configured motor).
@@ -127,8 +129,8 @@ pub(super) struct Settings {
     pub(super) steady_checks: u16,
     /// ψ_f is measured above this electrical speed \[rad/s] ...
     pub(super) flux_min_omega_e: f32,
-    /// ... where `R₀ |i_q|` (R's first-order part of `|e|`) is at most this fraction of the
-    /// back-EMF `ψ₀ ω_e` ...
+    /// ... where `R |i_q|` (R's first-order part of `|e|`, the model's R) is at most this
+    /// fraction of the back-EMF `ψ_f ω_e` ...
     pub(super) flux_max_r_share: f32,
     /// ... and `|i_q|` at most this \[A]: `ω_e L_q |i_q|` the same fraction of it (the same
     /// share of `ψ₀ ω_e`: `flux_max_r_share ψ₀/L_q`). That term is at right angles to the
@@ -144,15 +146,16 @@ pub(super) struct Settings {
     /// ([`DriveConfig::low_speed_hold`](super::DriveConfig::low_speed_hold), twice the
     /// compensation's band). There a measurement is `ψ_f` within
     /// `± dead_time_v/ω_e` only, and moves the model only as far as it proves it wrong by more
-    /// ([`Settings::track_flux`]).
+    /// ([`Settings::track`]).
     pub(super) flux_dead_time_v: f32,
     pub(super) flux_dead_time_i_a: f32,
 }
 
 /// Which parameter a 1 kHz check's operating point measures (module doc).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 enum Measures {
     /// Neither: below ψ_f's lowest speed, or between the two ranges.
+    #[default]
     None,
     /// ψ_f: fast and lightly loaded.
     Flux,
@@ -172,8 +175,10 @@ pub(super) struct Model {
     scale: f32,
     /// `s (R − R₀)` \[Ω].
     scaled_dr_ohm: f32,
-    /// Consecutive 1 kHz checks inside an operating range where ψ_f or R is measured.
+    /// Consecutive 1 kHz checks inside `range`.
     steady_checks: u16,
+    /// The operating range of the last check.
+    range: Measures,
 }
 
 impl Model {
@@ -269,28 +274,29 @@ impl Settings {
     ) {
         let omega_e = self.pole_pairs * omega_m;
         let w = omega_e.abs();
-        let r_share = self.r0_ohm * i_q_ref_a.abs();
-        let emf = self.flux0_wb * w;
-        let r_emf = R_MIN_SHARE * emf;
-        let i2 = i_ab.alpha * i_ab.alpha + i_ab.beta * i_ab.beta;
+        let i_q = i_q_ref_a.abs();
+        let (r_drop, emf) = (m.r_ohm * i_q, m.flux_wb * w);
         let measures = if w < self.flux_min_omega_e {
             Measures::None
-        } else if r_share <= self.flux_max_r_share * emf && i_q_ref_a.abs() <= self.flux_max_i_q_a {
+        } else if r_drop <= self.flux_max_r_share * emf && i_q <= self.flux_max_i_q_a {
             Measures::Flux
-        } else if self.r0_ohm * self.r0_ohm * i2 >= r_emf * r_emf {
+        } else if r_drop >= R_MIN_SHARE * emf {
             Measures::Resistance
         } else {
             Measures::None
         };
-        // (One count for both ranges: between them, a gap of R's share, the count restarts.)
-        m.steady_checks = if measures == Measures::None {
-            0
-        } else {
-            m.steady_checks.saturating_add(1)
+        // (A change of range restarts the count: from R's to ψ_f's, the current may still be
+        // settling.)
+        m.steady_checks = match measures {
+            Measures::None => 0,
+            _ if measures == m.range => m.steady_checks.saturating_add(1),
+            _ => 1,
         };
+        m.range = measures;
         if m.steady_checks < self.steady_checks {
             return;
         }
+        let i2 = i_ab.alpha * i_ab.alpha + i_ab.beta * i_ab.beta;
         // The period's mean voltage at the sample: the period's middle is half a period
         // after the sample, and a vector turning at ω_e averages over a period to
         // sinc x = sin x/x of its length at the middle, x = ω_e T/2. Under steady sinusoidal

@@ -234,8 +234,8 @@ pub struct Telemetry {
     pub disagreement_deg: f32,
     /// Health: |ω̂_primary − ω̂_monitor| \[rpm].
     pub speed_disagreement_rpm: f32,
-    /// The drive's stator resistance \[Ω]: measured at each start, bounded
-    /// (`adaptation.rs`); 0 before the first enable.
+    /// The drive's stator resistance \[Ω]: measured at each start and while running where its
+    /// drop is larger than the back-EMF, bounded (`adaptation.rs`); 0 before the first enable.
     pub r_ohm: f32,
     /// The drive's magnet flux linkage \[Wb]: adapted while running fast, bounded.
     pub flux_wb: f32,

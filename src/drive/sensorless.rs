@@ -541,15 +541,18 @@ impl Settings {
         // already at zero (a hand-over at a zero command) stops below the stop speed. Below the
         // hand-over speed a model error is no longer small against the back-EMF: a resistance
         // off by ΔR moves the back-EMF the observers see by ΔR |i|, a share
-        // ΔR |i|/(ψ_f ω_e) of it that grows as 1/ω_e, and the drive measures R at a start and
-        // while running only above the hand-over speed (`adaptation.rs`). The residual does not show it (the observer fits the model it is
-        // given). Issue #26's warm winding (R × 1.5 after the start) on the identified Teknic
-        // M-2310P under its brake, flux primary: ΔR |i| = 0.18 Ω × 2 A = 0.36 V, 22 % of the
-        // back-EMF at 600 rpm (angle error 7°), the angle 28° off at 270 rpm and 90° (lost) at
-        // 3.95 s, the rotor at 30 rpm, while the residual stayed at most 0.40; handed to the
-        // I/f at 400 rpm, the stop keeps the rotor (the 60 mm servo and the gimbal alike). The
-        // I/f current holds the rotor whatever R: the current loop drives it, and its torque
-        // needs no model. (One test on the running path, `cmd · ref ≤ 0`, for both.)
+        // ΔR |i|/(ψ_f ω_e) of it that grows as 1/ω_e, and the drive measures R at a start and,
+        // while running, only above a tenth of rated speed where R |i| is at least the
+        // back-EMF (`adaptation.rs`). The residual does not show it (the observer fits the
+        // model it is given). Issue #26's warm winding (R × 1.5 after the start) on the
+        // identified Teknic M-2310P under its brake, flux primary (measured before R was
+        // tracked while running; unloaded at rated speed it still is not): ΔR |i| = 0.18 Ω ×
+        // 2 A = 0.36 V, 22 % of the back-EMF at 600 rpm (angle error 7°), the angle 28° off at
+        // 270 rpm and 90° (lost) at 3.95 s, the rotor at 30 rpm, while the residual stayed at
+        // most 0.40; handed to the I/f at 400 rpm, the stop keeps the rotor (the 60 mm servo
+        // and the gimbal alike). The I/f current holds the rotor whatever R: the current loop
+        // drives it, and its torque needs no model. (One test on the running path,
+        // `cmd · ref ≤ 0`, for both.)
         let along = cmd_rpm * s.speed_ref_rpm;
         if along <= 0.0 {
             let stopping = cmd_rpm == 0.0;

@@ -32,7 +32,7 @@ PLACES = [
     ("src/drive/align.rs", "pub(super) fn resistance(&self, a: &Align) -> Measured {", 1, "Align: the measured resistance"),
     ("src/drive/adaptation.rs", "pub(super) fn observer_input(", 1, "adaptation: the observers' inputs through the model"),
     ("src/drive/adaptation.rs", "pub(super) fn take_resistance(", 1, "adaptation: R taken"),
-    ("src/drive/adaptation.rs", "pub(super) fn track_flux(", 1, "adaptation: psi_f tracked"),
+    ("src/drive/adaptation.rs", "pub(super) fn track(", 1, "adaptation: psi_f or R tracked"),
     ("src/pi.rs", "pub fn update_within(", 1, "PI within moving limits (the speed loop's anti-windup)"),
     ("src/drive/catch.rs", "pub(super) fn step(&self, c: &mut Catch, v_ab: AlphaBeta) -> Seen {", 1, "mode Catch (the back-EMF)"),
     ("src/drive/observers.rs", "pub(super) fn seed_caught(", 1, "mode Catch: the seed"),
