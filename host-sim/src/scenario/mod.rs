@@ -255,7 +255,8 @@ pub enum Injection {
 
 impl Injection {
     /// A plant injection's factors on R and on the flux linkage at time `t` \[s] (1 before it
-    /// happens; `None`: not a plant injection).
+    /// happens; `None`: not a plant injection). The simulator asks at the middle of a period
+    /// (`t + T/2`), as it decides whether an injection's time has come.
     pub fn plant_factors_at(&self, t: f64) -> Option<(f64, f64)> {
         let Injection::Plant {
             t: t0,

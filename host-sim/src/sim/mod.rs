@@ -140,12 +140,18 @@ impl Sim {
         let half = 0.5 * self.ts;
         let plant = self.stage.plant_mut();
         match inj {
-            Injection::Plant { until: Some(_), .. } => {
-                // Gradually, from the plant's values at its start (kept at the first step).
+            Injection::Plant {
+                l, until: Some(_), ..
+            } => {
+                // Gradually, from the plant's values at its start (kept at the first step); L
+                // (which a scenario file refuses with `until`) at once.
+                if first {
+                    plant.params.scale_l(l);
+                }
                 let base = *self
                     .plant_base
                     .get_or_insert((plant.params.r, plant.params.flux));
-                let (r, flux) = inj.plant_factors_at(t).unwrap_or((1.0, 1.0));
+                let (r, flux) = inj.plant_factors_at(t + half).unwrap_or((1.0, 1.0));
                 plant.params.r = base.0 * r;
                 plant.params.flux = base.1 * flux;
             }
