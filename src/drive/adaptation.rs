@@ -41,7 +41,7 @@
 //!     R, every one of those runs lost its observers. Below the hand-over
 //!     speed the speed estimate, and with it `|ω_e| ψ_f`, is not sound: taken down to
 //!     standstill (and from half the back-EMF), R walked 4 % off on the zoo's 60 mm servo at
-//!     3 % of rated speed and its observers lost the rotor; 66 of the zoo matrix's 960 cells,
+//!     3 % of rated speed and its observers lost the rotor; 64 of the zoo matrix's 960 cells,
 //!     the low-speed profiles, failed so. Between the two ranges neither moves. The copper's
 //!     temperature follows from R (`units::winding_rise_k`, from the telemetry's `r_ohm`).
 //!
