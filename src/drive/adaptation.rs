@@ -39,9 +39,9 @@
 //!     rated speed (`host-sim/tests/warm_winding.rs`): R̂ within 0.6 % of the plant's on the Sinano
 //!     motor, 2.0 % on four identified zoo motors; the model keeping the start's R, every one of
 //!     those runs lost its observers. Below the hand-over speed the speed estimate, and with it
-//!     `|ω_e| ψ_f`, is not sound: taken down to standstill (and from half the back-EMF), R walked 4
-//!     % off on the zoo's 60 mm servo at 3 % of rated speed and its observers lost the rotor; 64 of
-//!     the zoo matrix's 960 cells, the low-speed profiles, failed so. Between the two ranges
+//!     `|ω_e| ψ_f`, is not sound: taken down to standstill (and from half the back-EMF), R walked
+//!     4 % off on the zoo's 60 mm servo at 3 % of rated speed and its observers lost the rotor; 64
+//!     of the zoo matrix's 960 cells, the low-speed profiles, failed so. Between the two ranges
 //!     neither moves. The copper's temperature follows from R (`units::winding_rise_k`, from the
 //!     telemetry's `r_ohm`).
 //!
