@@ -20,9 +20,10 @@
 //!     loaded): an `R` error `δR` moves it by `δR |i_q|/ω_e`, that share of `δR/R`.
 //!   - R where `R |i_q|` is at least the back-EMF (share `k` = [`R_MIN_SHARE`]: slow and
 //!     loaded), above ψ_f's lowest speed (a tenth of rated, the default hand-over speed:
-//!     below it the observers' speed, and with it `|ω_e| ψ_f`, is not sound): the root of `|u − R i| = |ω_e| ψ_f`, `u = v − jω_e L i`, nearest the
-//!     model's, by one Newton step from it, `R + (|e| − |ω_e| ψ_f) |e|/(e·i)`, where the
-//!     current's angle φ to `e` has `|cos φ| ≥ ½` (braking too: `e·i < 0`).
+//!     below it the observers' speed, and with it `|ω_e| ψ_f`, is not sound): the root of
+//!     `|u − R i| = |ω_e| ψ_f`, `u = v − jω_e L i`, nearest the model's, by one Newton step
+//!     from it, `R + (|e| − |ω_e| ψ_f) |e|/(e·i)`, where the current's angle φ to `e` has
+//!     `|cos φ| ≥ ½` (braking too: `e·i < 0`).
 //!
 //!     **Its margin.** A flux linkage off by `δψ/ψ` moves it by `(ψ ω_e/(R |i| |cos φ|)) δψ/ψ`,
 //!     at most `2 δψ/ψ / k`; a speed estimate off by `δω/ω` likewise. A voltage error `δv`
@@ -104,8 +105,8 @@ use crate::frames::AlphaBeta;
 use crate::math::{clamp, sqrt_or_zero};
 
 /// R is measured while running where `R |i_q|` is at least this share `k` of the back-EMF
-/// `ψ_f ω_e` (the model's R and ψ_f; module doc): a flux linkage off by `δ` moves it by `2δ/k` at most
-/// (ψ_f adapted within 1–3 % on the zoo's motors).
+/// `ψ_f ω_e` (the model's R and ψ_f; module doc): a flux linkage off by `δ` moves it by `2δ/k`
+/// at most (ψ_f adapted within 1–3 % on most of the zoo's motors).
 pub(super) const R_MIN_SHARE: f32 = 1.0;
 
 /// The adaptation's settings (from the configured motor).
