@@ -1,13 +1,14 @@
 //! Issue #26's resistance tracked while running (`src/drive/adaptation.rs`): the winding warms
 //! under load (`warm-winding-loaded`: R rising to 1.5× from 2 s to 4 s at 15 % of rated speed
 //! under 90 % of the rated torque, the board's defaults), both primaries. The run must pass its
-//! verdict, and R̂ must end within 5 % of the plant's warm resistance: the stated margin,
-//! `2 δψ/ψ` with ψ_f adapted within 2.5 %.
+//! verdict, and R̂ must end within 5 % of the plant's warm resistance: well inside what the
+//! observers lost the rotor at without tracking (13 % and more); the stated margin,
+//! `2.5 δψ/ψ`, allows up to 11 % with the 4.3 % ψ_f error of one of these runs.
 //!
-//! Measured: R̂ within 0.6 % (the Sinano motor) and 2.0 % (the zoo's four) of the plant's.
+//! Measured: R̂ within 0.6 % (the Sinano motor) and 2.0 % (the zoo's seven) of the plant's.
 //! Without R tracked while running (the model keeping the start's R), every one of these runs
-//! faults `observer_loss` between 2.5 and 3.3 s, R 1.24–1.4 × the model's.
-//! The zoo's motors here are those whose resistive drop at that point is larger than the
+//! faults `observer_loss` between 2.5 and 3.7 s, the plant's R then 1.13–1.42 × the model's.
+//! The zoo's motors here are those whose resistive drop at that point is at least 0.8 of the
 //! back-EMF (the range where R is measured); on the others R stays at the start's.
 
 mod common;
@@ -50,9 +51,12 @@ fn the_resistance_is_tracked_on_identified_zoo_motors() {
     let dir = env!("CARGO_MANIFEST_DIR");
     for motor in [
         "gimbal-ipower-gm4108h-120t",
+        "hoverboard-6.5in-hub-odrive",
         "nema23-teknic-m2310p",
         "servo-maxon-645106",
         "servo60-d60m-r6430",
+        "small-anaheim-bly171d-24v-4000",
+        "small-anaheim-bly172s-24v-4000",
     ] {
         let file = format!("{dir}/motors/zoo/{motor}.toml");
         for observer in ["flux", "sliding-torque"] {
