@@ -329,7 +329,7 @@ impl Settings {
         let e_len = sqrt_or_zero(e2);
         if measures == Measures::Resistance {
             // The root of |u − R i| = |ω_e| ψ_f nearest the model's R, one Newton step from
-            // it: d|e|/dR = −(e·i)/|e|. Only where the current has a part along e (cos ≥ ½):
+            // it: d|e|/dR = −(e·i)/|e|. Only where the current has a part along e (|cos| ≥ ½):
             // at right angles, R does not move |e| to first order.
             let e_dot_i = e.alpha * i_ab.alpha + e.beta * i_ab.beta;
             let measured = m.r_ohm + (e_len - w * m.flux_wb) * e_len / e_dot_i;
