@@ -207,6 +207,14 @@ fn bad_scenario_files_name_the_key() {
             "inject.bus",
         ),
         (
+            format!("{ok}[inject]\nt = 1.0\nuntil = 0.5\nkind = \"plant\"\nr = 1.5\n"),
+            "inject.until",
+        ),
+        (
+            format!("{ok}[inject]\nt = 1.0\nuntil = 1.5\nkind = \"plant\"\nl = 0.9\n"),
+            "inject.l",
+        ),
+        (
             format!("{ok}drive = false\nenable = [[0.0, true]]\n"),
             "enable",
         ),
