@@ -335,9 +335,8 @@ impl Settings {
             let measured = m.r_ohm + (e_len - w * m.flux_wb) * e_len / e_dot_i;
             let (lo, hi) = self.r_range;
             if e_dot_i * e_dot_i >= 0.25 * e2 * i2 && measured >= lo && measured <= hi {
-                // (ψ_f unchanged: so is the transform's scale.)
-                m.r_ohm += self.gain * (measured - m.r_ohm);
-                m.scaled_dr_ohm = m.scale * (m.r_ohm - self.r0_ohm);
+                let r = m.r_ohm + self.gain * (measured - m.r_ohm);
+                self.set(m, r, m.flux_wb);
             }
             return;
         }
