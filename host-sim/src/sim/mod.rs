@@ -74,7 +74,7 @@ pub struct Sim {
     ts: f64,
     transitions: Vec<(f64, Transition)>,
     causes: Causes,
-    /// A gradual plant injection's R and flux at its start (`Injection::Plant::until`).
+    /// A plant injection's R and flux at its start (`Injection::Plant`).
     plant_base: Option<(f64, f64)>,
 }
 
@@ -140,26 +140,18 @@ impl Sim {
         let half = 0.5 * self.ts;
         let plant = self.stage.plant_mut();
         match inj {
-            Injection::Plant {
-                l, until: Some(_), ..
-            } => {
-                // Gradually, from the plant's values at its start (kept at the first step); L
-                // (which a scenario file refuses with `until`) at once.
-                if first {
-                    plant.params.scale_l(l);
-                }
+            Injection::Plant { l, .. } => {
+                // R and flux from the plant's values at its start (kept at the first step),
+                // stepped or gradually (`until`); L at once.
                 let base = *self
                     .plant_base
                     .get_or_insert((plant.params.r, plant.params.flux));
+                if first {
+                    plant.params.scale_l(l);
+                }
                 let (r, flux) = inj.plant_factors_at(t + half).unwrap_or((1.0, 1.0));
                 plant.params.r = base.0 * r;
                 plant.params.flux = base.1 * flux;
-            }
-            Injection::Plant { r, l, flux, .. } if first => {
-                let p = &mut plant.params;
-                p.r *= r;
-                p.scale_l(l);
-                p.flux *= flux;
             }
             Injection::Bus { v, until, .. } => {
                 let recovered = until.is_some_and(|u| t + half >= u);
@@ -170,9 +162,7 @@ impl Sim {
                 self.stage.fail_current_sensor(phase, fault);
             }
             // The controller stops ticking (`Sim::step`).
-            Injection::Plant { .. }
-            | Injection::TaskStall { .. }
-            | Injection::CurrentSensor { .. } => {}
+            Injection::TaskStall { .. } | Injection::CurrentSensor { .. } => {}
         }
     }
 
