@@ -173,3 +173,25 @@ fn the_low_speed_hold_bands_follow_the_dead_time_voltage() {
         assert!(stopping > handover && (running - 2.0 * stopping).abs() <= 1e-4 * running);
     }
 }
+
+/// The speed below which a command is held in the I/f (`DriveConfig::if_held_below_rpm`):
+/// where a resistance 5 % off at the I/f current moves the back-EMF by tan 30° of itself,
+/// `ψ_f N ω_m tan 30° = 0.05 R I_ol`. Below the 3 % of rated that issue #17 runs in closed
+/// loop on both drive motors; proportional to R.
+#[test]
+fn a_command_is_held_in_the_i_f_where_a_resistance_error_would_turn_the_angle_30_degrees() {
+    use pmsm_sensorless::motor::ORTEGA_TEST_0P3KW;
+    use std::f32::consts::PI;
+    for m in [HORNG_SINANO, ORTEGA_TEST_0P3KW] {
+        let c = DriveConfig::new(&m);
+        let held = c.if_held_below_rpm();
+        let delta_v = 0.05 * m.params.r_ohm * c.start.open_loop_current_a;
+        let omega_m = delta_v / ((PI / 6.0).tan() * m.params.emf_constant());
+        println!("{}: held below {held} rpm", m.name);
+        assert!((held - omega_m * 30.0 / PI).abs() <= 1e-4 * held);
+        assert!(held < 0.03 * m.ratings.speed_rpm);
+        let mut warm = c;
+        warm.motor.r_ohm *= 2.0;
+        assert!((warm.if_held_below_rpm() - 2.0 * held).abs() <= 1e-4 * held);
+    }
+}

@@ -70,3 +70,41 @@ fn a_gimbal_reverses_without_load_just_above_the_dead_time_speed() {
         assert!(s.pass, "seed {seed}: {:?}", s.reasons);
     }
 }
+
+/// A command below `DriveConfig::if_held_below_rpm` is held in the I/f, supervised (issue #26,
+/// `src/drive/open_loop.rs`): on the Nanotec DF45 (identified, as the zoo matrix drives it;
+/// the speed held in the I/f is 4.7 % of rated there) the low-speed profiles at 3 % of rated
+/// pass, the rotor carried by the I/f throughout their window, both primaries, seeds 1 and 2;
+/// and a blocked rotor at 2 % of rated still ends in `stall` within 1 s (`sup-locked-slow`'s
+/// verdict). Handed over at the command, as before, 3 of these 8 profile runs failed (2
+/// tripping `overcurrent`, the driving observer's angle drifting while its residual stayed
+/// healthy), and 15 of the 20 on seeds 1 to 5 (`host-sim/matrices/zoo-profiles.toml`).
+#[test]
+fn a_low_command_is_held_in_the_i_f_where_the_model_is_not_trusted() {
+    use pmsm_sensorless::drive::Mode;
+    let m = zoo("flat-nanotec-df45l024048-a");
+    for scenario in ["profile-slow-ramp-3", "profile-step-3", "sup-locked-slow"] {
+        for observer in [ObserverKind::SlidingTorque, ObserverKind::Flux] {
+            for seed in [1, 2] {
+                let sc = Spec::built_in(scenario).unwrap().build("df45", m).unwrap();
+                let windows = sc.windows.clone();
+                let mut board = SimBoard::board_defaults(&m);
+                board.seed = seed;
+                let mut cfg = SimConfig::on(board, sc, observer);
+                cfg.identify_first = true;
+                let r = run(cfg).unwrap();
+                let s = Summary::of(&r);
+                let label = format!("{scenario} {} seed {seed}", observer.name());
+                assert!(s.pass, "{label}: {:?}", s.reasons);
+                for w in &windows {
+                    let held = r
+                        .rows
+                        .iter()
+                        .filter(|row| row.t >= w.t0 && row.t < w.t1)
+                        .all(|row| row.mode == Some(Mode::OpenLoop));
+                    assert!(held, "{label}: not in the I/f throughout window {}", w.name);
+                }
+            }
+        }
+    }
+}

@@ -44,6 +44,13 @@ const FLUX_ADAPT_MIN_SPEED: f32 = 0.1;
 /// measured (within 1.2 % in the robustness matrix) moves ψ_f by 0.4 % at most; a winding
 /// warmed 30 % since, by 9 % (`adaptation.rs` for the inductive part).
 const FLUX_ADAPT_MAX_R_SHARE: f32 = 0.3;
+/// The share of R the drive may be off by at low speed, for `DriveConfig::if_held_below_rpm`:
+/// the identification's error (at most 1.8 % on the zoo's motors) and a copper winding
+/// warmed 8 K since (3 %), the tracking seeing R only above a tenth of rated speed
+/// (`adaptation.rs`).
+const R_UNCERTAINTY: f32 = 0.05;
+/// tan 30°: the health check's default largest disagreement between the observers.
+const TAN_30_DEG: f32 = 0.577_350_3;
 
 /// The time constant of the measured bus's low-pass filter for the over-speed bound \[s]: half
 /// the over-speed's persistence (`loss_time_s`, 20 ms), long against the PWM's and the
@@ -79,8 +86,9 @@ pub struct StartConfig {
     /// Speed-reference slew rate, also the open-loop frequency ramp \[rpm/s].
     pub accel_rpm_per_s: f32,
     /// The open loop hands over to a healthy observer once its ramp has reached this |speed|
-    /// (or the command, if lower; at once when the observer sees the rotor pulled out of the
-    /// ramp) \[rpm]; the sliding observer drives only above it.
+    /// (or the command, if lower but at least [`DriveConfig::if_held_below_rpm`]; at once when
+    /// the observer sees the rotor pulled out of the ramp) \[rpm]; the sliding observer drives
+    /// only above it.
     pub handover_rpm: f32,
     /// Back to open loop only when no observer is healthy and both |speed reference| and
     /// |ω̂| are below this \[rpm]; the slowest rotor a flying start catches.
@@ -404,6 +412,18 @@ impl DriveConfig {
         self.dead_time_speed_rpm(10.0)
     }
 
+    /// A nonzero |command| below this is held in the I/f, supervised, instead of handed over
+    /// (`open_loop.rs`) \[rpm]: where a resistance off by `R_UNCERTAINTY` at the I/f current
+    /// moves the back-EMF the observers see by the health check's default largest
+    /// disagreement, `ψ_f N ω_m tan 30° = ΔR I_ol`.
+    // Out of line: the configuration's, not the step's (flash, `examples/README.md`).
+    #[inline(never)]
+    pub fn if_held_below_rpm(&self) -> f32 {
+        const RPM_PER_V_S: f32 = R_UNCERTAINTY / TAN_30_DEG * RPM_PER_RAD_S;
+        let r_i = self.motor.r_ohm * self.start.open_loop_current_a;
+        RPM_PER_V_S * r_i / self.motor.emf_constant()
+    }
+
     /// The speed where the back-EMF is `ratio` times the dead-time voltage's fundamental, at
     /// least the hand-over speed \[rpm].
     fn dead_time_speed_rpm(&self, ratio: f32) -> f32 {
@@ -540,6 +560,7 @@ impl DriveConfig {
                 turn_rpm_checks: RPM_PER_RAD_S * TAU * rate / (m.n() * slots),
                 reverse_checks: slot_cycles(h.failover_time_s).max(1),
                 handback_rpm: s.handback_rpm,
+                held_below_rpm: self.if_held_below_rpm(),
                 ramp,
             },
             sensorless: sensorless::Settings {

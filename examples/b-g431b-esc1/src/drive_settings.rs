@@ -33,8 +33,8 @@ pub const MOTOR: Motor = Motor {
 
 /// The observer feeding the controller (Ortega et al.'s flux observer with its PLL) and the
 /// one watching it (Horng & Chin's sliding torque observer). To swap them, swap these two
-/// and call `DriveConfig::build_sliding_primary` in the firmware's `settings::build_drive`
-/// (for a motor whose sliding gain window is not empty).
+/// and call `DriveConfig::build_sliding_primary` in the firmware's `settings::build_drive`,
+/// whose log line names the primary (for a motor whose sliding gain window is not empty).
 pub type Primary = FluxPll;
 /// See [`Primary`].
 pub type Monitor = SlidingObserver;
