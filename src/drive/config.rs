@@ -415,13 +415,13 @@ impl DriveConfig {
     /// A nonzero |command| below this is held in the I/f, supervised, instead of handed over
     /// (`open_loop.rs`) \[rpm]: where a resistance off by `R_UNCERTAINTY` at the I/f current
     /// moves the back-EMF the observers see by the health check's default largest
-    /// disagreement, `ψ_f N ω_m tan 30° = ΔR I_ol`.
+    /// disagreement, `ψ_f N ω_m tan 30° = ΔR I_ol`, at most the hand-over speed.
     // Out of line: the configuration's, not the step's (flash, `examples/README.md`).
     #[inline(never)]
     pub fn if_held_below_rpm(&self) -> f32 {
         const RPM_PER_V_S: f32 = R_UNCERTAINTY / TAN_30_DEG * RPM_PER_RAD_S;
         let r_i = self.motor.r_ohm * self.start.open_loop_current_a;
-        RPM_PER_V_S * r_i / self.motor.emf_constant()
+        (RPM_PER_V_S * r_i / self.motor.emf_constant()).min(self.start.handover_rpm)
     }
 
     /// The speed where the back-EMF is `ratio` times the dead-time voltage's fundamental, at
@@ -464,6 +464,7 @@ impl DriveConfig {
         let slots = schedule.steps_per_tick() as f32;
         let (l, s, h) = (self.limits, self.start, self.health);
         let (hold_a, hold_below_rpm) = self.low_speed_hold();
+        let if_held_below_rpm = self.if_held_below_rpm();
         let foc = self.foc_config().build()?;
         let ts = 1.0 / rate;
         let steps = |t: f32| (t * rate) as u32;
@@ -560,7 +561,7 @@ impl DriveConfig {
                 turn_rpm_checks: RPM_PER_RAD_S * TAU * rate / (m.n() * slots),
                 reverse_checks: slot_cycles(h.failover_time_s).max(1),
                 handback_rpm: s.handback_rpm,
-                held_below_rpm: self.if_held_below_rpm(),
+                held_below_rpm: if_held_below_rpm,
                 ramp,
             },
             sensorless: sensorless::Settings {
@@ -588,6 +589,7 @@ impl DriveConfig {
                 handover_decay: 1.0 - slots * ts * TAU * self.speed_bandwidth_hz / 5.0,
                 low_speed_d_a: hold_a,
                 handback_rpm: s.handback_rpm,
+                held_below_rpm: if_held_below_rpm,
                 through_zero_rpm: s.handover_rpm,
                 dead_time_rpm: hold_below_rpm,
                 dead_time_stop_rpm: self.low_speed_hold_stopping_rpm(),

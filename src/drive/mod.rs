@@ -404,8 +404,13 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                 st.mode = ModeState::Sensorless(self.sensorless.enter(&self.foc, entry));
                 reason
             }
-            Next::OpenLoop { frame, omega_m } => {
-                st.mode = ModeState::OpenLoop(self.open_loop.at(&self.foc, frame, omega_m));
+            Next::OpenLoop {
+                frame,
+                omega_m,
+                i_q_a,
+            } => {
+                let ol = self.open_loop.at(&self.foc, frame, omega_m, i_q_a);
+                st.mode = ModeState::OpenLoop(ol);
                 Reason::HandBack
             }
             Next::Fault(f) => enter_fault(st, f),

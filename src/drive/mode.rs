@@ -106,6 +106,9 @@ pub(super) enum Next {
         frame: SinCos,
         /// ω̂_m [rad/s, mechanical].
         omega_m: f32,
+        /// The torque current the I/f carries on from the start \[A] (its frame ahead of θ̂
+        /// by `asin(i_q/I_ol)`): 0 but for a command held in the I/f (`sensorless.rs`).
+        i_q_a: f32,
     },
     /// Stop switching: a fault.
     Fault(Fault),

@@ -18,19 +18,20 @@
 //! A nonzero command below `held_below_rpm` is held in the I/f, supervised (issue #26's
 //! low-speed profiles): the rotor seen following restarts the time limit, so a rotor that is
 //! blocked or left behind ends in `Stall` within it; a command raised above that speed hands
-//! over as a start does. That speed (`DriveConfig::if_held_below_rpm`) is where a resistance
-//! 5 % off at the I/f current moves the back-EMF the observers see by the health check's
-//! largest disagreement (30°): below it a model error is no longer small against the
-//! back-EMF, and the observers fit the model they are given, so their residual does not show
-//! it. It is 4.7 % of rated on the Nanotec DF45 and on the made-up `gimbal-high-r`, 3.7 % on
-//! the iPower gimbal, 2.7 % on the Sinano motor and 0.06–2.4 % on the other zoo motors and
-//! presets, whose 3 % runs stay in closed loop (issue #17). Measured on the DF45 (identified,
-//! board defaults, `profile-slow-ramp-3`, 3 % of rated under a 50 % active load): at 95 rpm
-//! its back-EMF is 0.30 V against R|i| = 2.7 V and the dead-time voltage's 0.61 V. Handed
-//! over at the command, the driving flux observer's angle drifted to −70° within 0.6 s while
-//! its residual stayed healthy (R within 0.3 %), i_d rose to 13 A and the drive tripped
-//! `Overcurrent`. Held in the I/f, the command is reached and held on every zoo motor, both
-//! primaries, five seeds (`host-sim/matrices/zoo-profiles.toml`).
+//! over as a start does, and sensorless control hands a command lowered below it back to the
+//! I/f (`sensorless.rs`). That speed (`DriveConfig::if_held_below_rpm`, at most the hand-over
+//! speed) is where a resistance 5 % off at the I/f current moves the back-EMF the observers
+//! see by the health check's largest disagreement (30°): below it a model error is no longer
+//! small against the back-EMF, and the observers fit the model they are given, so their
+//! residual does not show it. It is 4.7 % of rated on the Nanotec DF45 and on the made-up
+//! `gimbal-high-r`, 3.7 % on the iPower gimbal, 2.7 % on the Sinano motor and 0.06–2.4 % on
+//! the other zoo motors and presets, whose 3 % runs stay in closed loop (issue #17). Measured
+//! on the DF45 (identified, board defaults, `profile-slow-ramp-3`, 3 % of rated under a 50 %
+//! active load): at 95 rpm its back-EMF is 0.30 V against R|i| = 2.7 V and the dead-time
+//! voltage's 0.61 V. Handed over at the command, the driving flux observer's angle drifted
+//! to −70° within 0.6 s while its residual stayed healthy (R within 0.3 %), i_d rose to 13 A
+//! and the drive tripped `Overcurrent`. Held in the I/f, the command is reached and held on
+//! every zoo motor, both primaries, five seeds (`host-sim/matrices/zoo-profiles.toml`).
 //!
 //! The stop: sensorless control hands a rotor stopping on a zero command back below the
 //! hand-over speed (`sensorless.rs`: there a model error, a winding warmer than the start
@@ -52,6 +53,7 @@ use super::supervision::{consecutive, Verdict};
 use super::{Fault, Reason};
 use crate::foc::{Foc, Reference, Request};
 use crate::frames::{Dq, SinCos};
+use crate::math::{clamp, sqrt_or_zero};
 use crate::units::{RAD_S_PER_RPM, RPM_PER_RAD_S};
 
 /// Open loop's per-step coefficients.
@@ -138,10 +140,21 @@ impl OpenLoop {
 }
 
 impl Settings {
-    /// The open loop at θ_ol = angle of `frame` and ω_ol = `omega_m` \[rad/s] (the hand-back).
+    /// The open loop at θ_ol = angle of `frame` and ω_ol = `omega_m` \[rad/s] (the hand-back),
+    /// θ_ol ahead by `asin(i_q_a/I_ol)` so that its current carries the torque current
+    /// `i_q_a` \[A] at once.
     // Out of line, like the other mode changes: rare, kept off the every-step path.
     #[inline(never)]
-    pub(super) fn at(&self, foc: &Foc, frame: SinCos, omega_m: f32) -> OpenLoop {
+    pub(super) fn at(&self, foc: &Foc, frame: SinCos, omega_m: f32, i_q_a: f32) -> OpenLoop {
+        let frame = if i_q_a == 0.0 {
+            frame
+        } else {
+            let sin = clamp(i_q_a / self.current_a, -1.0, 1.0);
+            frame.rotated(SinCos {
+                sin,
+                cos: sqrt_or_zero(1.0 - sin * sin),
+            })
+        };
         let mut ol = OpenLoop {
             frame,
             speed_rpm: omega_m * RPM_PER_RAD_S,

@@ -64,6 +64,9 @@ pub(super) struct Settings {
     /// Without a usable observer, below this |speed| and |reference| open loop takes over
     /// again \[rpm].
     pub(super) handback_rpm: f32,
+    /// A nonzero |command| below this is carried by the I/f, supervised, once |reference| and
+    /// |speed| are below it too \[rpm] (`DriveConfig::if_held_below_rpm`, `open_loop.rs`).
+    pub(super) held_below_rpm: f32,
     /// On the way through zero speed, below this |speed| and |reference| open loop takes
     /// over \[rpm]: the hand-over speed, where the observers were trusted to take over at the
     /// start (the hand-back speed is where they are already failing).
@@ -522,6 +525,7 @@ impl Settings {
                 return Next::OpenLoop {
                     frame: d.frame,
                     omega_m,
+                    i_q_a: 0.0,
                 };
             }
             Verdict::NoLock | Verdict::Contradiction => return Next::Fault(Fault::ObserverLoss),
@@ -566,6 +570,7 @@ impl Settings {
                 return Next::OpenLoop {
                     frame: d.frame,
                     omega_m,
+                    i_q_a: 0.0,
                 };
             }
         }
@@ -612,6 +617,21 @@ impl Settings {
         s.i_d_handover = if low {
             // (Laid out of the way: the running drive's tick falls through.)
             cold_path();
+            // A command lowered below the speed held in the I/f (`open_loop.rs`: there a model
+            // error is no longer small against the back-EMF; at most the hand-over speed,
+            // so within `low`): once the reference and the rotor are there too, the I/f
+            // carries the rotor on at the speed reference (smooth, where the estimate is
+            // noisy) with the torque current asked for (its frame ahead of the observer's
+            // angle: a load does not pull the rotor back while the load angle builds), as a
+            // start to that command does.
+            let held = self.held_below_rpm;
+            if cmd_rpm != 0.0 && max(cmd_rpm.abs(), max(ref_abs, speed_rpm.abs())) < held {
+                return Next::OpenLoop {
+                    frame: d.frame,
+                    omega_m: s.speed_ref_rpm * RAD_S_PER_RPM,
+                    i_q_a: s.i_q_ref,
+                };
+            }
             max(decayed, self.low_speed_d_a)
         } else {
             decayed

@@ -31,7 +31,8 @@ pub enum Wait {
     IwdgUpdated,
 }
 
-/// An init function could not finish: the firmware stops with this in the log.
+/// An init function could not finish: the firmware stops with it in the log (its texts are
+/// the firmware's `ok`, in defmt's table rather than in flash).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum InitError {
     /// A flag did not come within its bound.
@@ -41,32 +42,6 @@ pub enum InitError {
     /// An over-current comparator's output is high with no current (its threshold is
     /// below its input: a wrong scale or a broken path); 0, 1, 2 = U, V, W.
     ComparatorHigh(usize),
-}
-
-impl InitError {
-    /// What failed, for the log.
-    pub const fn name(&self) -> &'static str {
-        match self {
-            Self::Timeout(Wait::FlashLatency) => "flash latency not taken",
-            Self::Timeout(Wait::HseReady) => "HSE not ready",
-            Self::Timeout(Wait::PllReady) => "PLL not locked",
-            Self::Timeout(Wait::SysclkPll) => "SYSCLK not switched to the PLL",
-            Self::Timeout(Wait::Tim1Update) => "TIM1 produces no update event",
-            Self::Timeout(Wait::AdcCalibrated) => "ADC calibration did not end",
-            Self::Timeout(Wait::AdcReady) => "ADC not ready",
-            Self::Timeout(Wait::AdcRegularEnd) => "no regular conversion",
-            Self::Timeout(Wait::AdcInjectedEnd) => {
-                "no injected conversion: check TIM1 TRGO / ADC setup"
-            }
-            Self::Timeout(Wait::IwdgUpdated) => "IWDG registers not updated",
-            Self::CurrentOffset(_) => {
-                "current-sense offset outside the plausible window: check the amplifiers"
-            }
-            Self::ComparatorHigh(_) => {
-                "an over-current comparator trips with no current: check its threshold"
-            }
-        }
-    }
 }
 
 /// The CPU's part of an init function.

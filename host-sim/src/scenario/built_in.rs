@@ -6,7 +6,7 @@ use super::Scenario;
 use anyhow::Context;
 
 /// The built-in scenario files, in listing order.
-const BUILT_IN: [(&str, &str); 48] = [
+const BUILT_IN: [(&str, &str); 49] = [
     (
         "horng-ramp-brake",
         include_str!("../../scenarios/horng-ramp-brake.toml"),
@@ -122,6 +122,10 @@ const BUILT_IN: [(&str, &str); 48] = [
     (
         "profile-step-3",
         include_str!("../../scenarios/profile-step-3.toml"),
+    ),
+    (
+        "profile-down-3",
+        include_str!("../../scenarios/profile-down-3.toml"),
     ),
     (
         "profile-catch-neg50-pos30",

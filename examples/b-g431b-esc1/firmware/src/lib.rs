@@ -164,23 +164,46 @@ mod firmware {
         Some(full_rpm)
     }
 
-    /// The value of an init function, or the firmware stops with its error in the log.
+    /// The value of an init function, or the firmware stops with what failed in the log (its
+    /// text in defmt's table, not in flash).
     fn ok<T>(r: Result<T, InitError>) -> T {
-        match r {
-            Ok(v) => v,
-            Err(InitError::CurrentOffset(lsb)) => {
-                defmt::panic!(
-                    "start-up: {=str}: {=f32} LSB",
-                    InitError::CurrentOffset(lsb).name(),
-                    lsb
-                )
+        let e = match r {
+            Ok(v) => return v,
+            Err(e) => e,
+        };
+        match e {
+            InitError::Timeout(Wait::FlashLatency) => {
+                defmt::panic!("start-up: flash latency not taken")
             }
-            Err(InitError::ComparatorHigh(phase)) => defmt::panic!(
-                "start-up: {=str}: phase {=usize} (0 = U)",
-                InitError::ComparatorHigh(phase).name(),
+            InitError::Timeout(Wait::HseReady) => defmt::panic!("start-up: HSE not ready"),
+            InitError::Timeout(Wait::PllReady) => defmt::panic!("start-up: PLL not locked"),
+            InitError::Timeout(Wait::SysclkPll) => {
+                defmt::panic!("start-up: SYSCLK not switched to the PLL")
+            }
+            InitError::Timeout(Wait::Tim1Update) => {
+                defmt::panic!("start-up: TIM1 produces no update event")
+            }
+            InitError::Timeout(Wait::AdcCalibrated) => {
+                defmt::panic!("start-up: ADC calibration did not end")
+            }
+            InitError::Timeout(Wait::AdcReady) => defmt::panic!("start-up: ADC not ready"),
+            InitError::Timeout(Wait::AdcRegularEnd) => {
+                defmt::panic!("start-up: no regular conversion")
+            }
+            InitError::Timeout(Wait::AdcInjectedEnd) => {
+                defmt::panic!("start-up: no injected conversion: check TIM1 TRGO / ADC setup")
+            }
+            InitError::Timeout(Wait::IwdgUpdated) => {
+                defmt::panic!("start-up: IWDG registers not updated")
+            }
+            InitError::CurrentOffset(lsb) => defmt::panic!(
+                "start-up: current-sense offset outside the plausible window: check the amplifiers: {=f32} LSB",
+                lsb
+            ),
+            InitError::ComparatorHigh(phase) => defmt::panic!(
+                "start-up: an over-current comparator trips with no current: check its threshold: phase {=usize} (0 = U)",
                 phase
             ),
-            Err(e) => defmt::panic!("start-up: {=str}", e.name()),
         }
     }
 
