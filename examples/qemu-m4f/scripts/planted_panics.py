@@ -44,7 +44,7 @@ PLACES = [
     ("src/drive/open_loop.rs", "pub(super) fn step(&self, ol: &mut OpenLoop) -> Request {", 1, "mode OpenLoop"),
     ("src/drive/open_loop.rs", "pub(super) fn tick(", 1, "mode OpenLoop (1 kHz task)"),
     ("src/drive/open_loop.rs", "fn handover(&self, ol: &OpenLoop, d: Driving) -> Entry {", 1, "OpenLoop: the hand-over"),
-    ("src/drive/open_loop.rs", "pub(super) fn at(&self, foc: &Foc, frame: SinCos, omega_m: f32) -> OpenLoop {", 1, "OpenLoop: entered at the hand-back"),
+    ("src/drive/open_loop.rs", "pub(super) fn at(&self, foc: &Foc, frame: SinCos, omega_m: f32, i_q_a: f32) -> OpenLoop {", 1, "OpenLoop: entered at the hand-back"),
     ("src/drive/sensorless.rs", "pub(super) fn enter(&self, foc: &Foc, e: Entry) -> Sensorless {", 1, "Sensorless: entered"),
     ("src/drive/sensorless.rs", "pub(super) fn step(", 1, "mode Sensorless"),
     ("src/drive/sensorless.rs", "pub(super) fn tick(", 1, "mode Sensorless (1 kHz task)"),
