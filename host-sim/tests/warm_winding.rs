@@ -3,12 +3,13 @@
 //! under 90 % of the rated torque, the board's defaults), both primaries. The run must pass its
 //! verdict, and R̂ must end within 5 % of the plant's warm resistance: well inside what the
 //! observers lost the rotor at without tracking (13 % and more); the stated margin,
-//! `2.5 δψ/ψ`, allows up to 11 % with the 4.3 % ψ_f error of one of these runs.
+//! `3.3 δψ/ψ`, allows up to 14 % with the 4.3 % ψ_f error of one of these runs.
 //!
-//! Measured: R̂ within 0.6 % (the Sinano motor) and 2.0 % (the zoo's seven) of the plant's.
+//! Measured: R̂ within 0.6 % (the Sinano motor) and 3.5 % (the zoo's eight: the drone motor's
+//! −3.5 % with its ψ_f +3.3 %, the others within 2.0 %) of the plant's.
 //! Without R tracked while running (the model keeping the start's R), every one of these runs
 //! faults `observer_loss` between 2.5 and 3.7 s, the plant's R then 1.13–1.42 × the model's.
-//! The zoo's motors here are those whose resistive drop at that point is at least 0.8 of the
+//! The zoo's motors here are those whose resistive drop at that point is at least 0.6 of the
 //! back-EMF (the range where R is measured); on the others R stays at the start's.
 
 mod common;
@@ -50,6 +51,7 @@ fn the_resistance_is_tracked_on_the_sinano_motor() {
 fn the_resistance_is_tracked_on_identified_zoo_motors() {
     let dir = env!("CARGO_MANIFEST_DIR");
     for motor in [
+        "drone-tmotor-f60pro-v-2550kv",
         "gimbal-ipower-gm4108h-120t",
         "hoverboard-6.5in-hub-odrive",
         "nema23-teknic-m2310p",

@@ -235,7 +235,7 @@ pub struct Telemetry {
     /// Health: |ω̂_primary − ω̂_monitor| \[rpm].
     pub speed_disagreement_rpm: f32,
     /// The drive's stator resistance \[Ω]: measured at each start and while running where its
-    /// drop is at least 0.8 of the back-EMF, bounded (`adaptation.rs`); 0 before the first enable.
+    /// drop is at least 0.6 of the back-EMF, bounded (`adaptation.rs`); 0 before the first enable.
     pub r_ohm: f32,
     /// The drive's magnet flux linkage \[Wb]: adapted while running fast, bounded.
     pub flux_wb: f32,
