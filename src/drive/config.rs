@@ -415,13 +415,15 @@ impl DriveConfig {
     /// A nonzero |command| below this is held in the I/f, supervised, instead of handed over
     /// (`open_loop.rs`) \[rpm]: where a resistance off by `R_UNCERTAINTY` at the I/f current
     /// moves the back-EMF the observers see by the health check's default largest
-    /// disagreement, `ψ_f N ω_m tan 30° = ΔR I_ol`, at most the hand-over speed.
+    /// disagreement, `ψ_f N ω_m tan 30° = ΔR I_ol`, at most the hand-back speed (above it the
+    /// open loop's pull-out and reverse tests would hand a held command over, and sensorless
+    /// control hand it back, in turn).
     // Out of line: the configuration's, not the step's (flash, `examples/README.md`).
     #[inline(never)]
     pub fn if_held_below_rpm(&self) -> f32 {
         const RPM_PER_V_S: f32 = R_UNCERTAINTY / TAN_30_DEG * RPM_PER_RAD_S;
         let r_i = self.motor.r_ohm * self.start.open_loop_current_a;
-        (RPM_PER_V_S * r_i / self.motor.emf_constant()).min(self.start.handover_rpm)
+        (RPM_PER_V_S * r_i / self.motor.emf_constant()).min(self.start.handback_rpm)
     }
 
     /// The speed where the back-EMF is `ratio` times the dead-time voltage's fundamental, at

@@ -19,7 +19,7 @@
 //! low-speed profiles): the rotor seen following restarts the time limit, so a rotor that is
 //! blocked or left behind ends in `Stall` within it; a command raised above that speed hands
 //! over as a start does, and sensorless control hands a command lowered below it back to the
-//! I/f (`sensorless.rs`). That speed (`DriveConfig::if_held_below_rpm`, at most the hand-over
+//! I/f (`sensorless.rs`). That speed (`DriveConfig::if_held_below_rpm`, at most the hand-back
 //! speed) is where a resistance 5 % off at the I/f current moves the back-EMF the observers
 //! see by the health check's largest disagreement (30°): below it a model error is no longer
 //! small against the back-EMF, and the observers fit the model they are given, so their
@@ -146,14 +146,15 @@ impl Settings {
     // Out of line, like the other mode changes: rare, kept off the every-step path.
     #[inline(never)]
     pub(super) fn at(&self, foc: &Foc, frame: SinCos, omega_m: f32, i_q_a: f32) -> OpenLoop {
-        let frame = if i_q_a == 0.0 {
-            frame
-        } else {
+        // (A zero or NaN torque current leaves the frame as it is.)
+        let frame = if i_q_a.abs() > 0.0 {
             let sin = clamp(i_q_a / self.current_a, -1.0, 1.0);
             frame.rotated(SinCos {
                 sin,
                 cos: sqrt_or_zero(1.0 - sin * sin),
             })
+        } else {
+            frame
         };
         let mut ol = OpenLoop {
             frame,

@@ -618,8 +618,8 @@ impl Settings {
             // (Laid out of the way: the running drive's tick falls through.)
             cold_path();
             // A command lowered below the speed held in the I/f (`open_loop.rs`: there a model
-            // error is no longer small against the back-EMF; at most the hand-over speed,
-            // so within `low`): once the reference and the rotor are there too, the I/f
+            // error is no longer small against the back-EMF; at most the hand-back speed, below
+            // the hand-over speed, so within `low`): once the reference and the rotor are there too, the I/f
             // carries the rotor on at the speed reference (smooth, where the estimate is
             // noisy) with the torque current asked for (its frame ahead of the observer's
             // angle: a load does not pull the rotor back while the load angle builds), as a
