@@ -9,6 +9,7 @@ use super::identify;
 use super::identify::IdentifyConfig;
 use super::open_loop;
 use super::ramp::Ramp;
+use super::speed_gain;
 use super::supervision;
 use super::{
     adaptation, align, catch, catch_zero, plausibility, regen, safe_state, sensorless, Drive,
@@ -608,6 +609,10 @@ impl DriveConfig {
                     i_limit_a: 0.99 * mtpa.map_or(l.i_max_a, |m| m.torque_current_at_max()),
                     gain_rpm: s.handback_rpm,
                 },
+                speed_gain: speed_gain::Settings::new(
+                    self.ratings.speed_rpm,
+                    self.speed_bandwidth_hz,
+                ),
                 regen: regen::Settings::new(
                     self.ratings.bus_v,
                     l.bus_max_v,

@@ -59,6 +59,7 @@ mod regen;
 mod report;
 mod safe_state;
 mod sensorless;
+mod speed_gain;
 mod state;
 mod supervision;
 mod telemetry;
@@ -378,14 +379,24 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                     // observer is locked (`adaptation.rs`).
                     let sample = (i_ab, applied.v_ab);
                     (self.adaptation).track(&mut obs.model, sample, d.omega_m, s.i_q_ref());
+                } else {
+                    st.speed_gain.restart();
                 }
                 let [r_primary, r_monitor] = obs.health.residuals();
                 let residual = match obs.health.driving {
                     Role::Primary => r_primary,
                     Role::Monitor => r_monitor,
                 };
-                self.sensorless
-                    .tick(s, &self.foc, (health, residual), d, cmd_rpm, applied, i_ab)
+                (self.sensorless).tick(
+                    s,
+                    &self.foc,
+                    (health, residual),
+                    d,
+                    cmd_rpm,
+                    applied,
+                    i_ab,
+                    &mut st.speed_gain,
+                )
             }
             // Returned above.
             ModeState::Idle
@@ -402,6 +413,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             Next::Note(reason) => reason,
             Next::Sensorless(entry, reason) => {
                 st.mode = ModeState::Sensorless(self.sensorless.enter(&self.foc, entry));
+                st.speed_gain.restart();
                 reason
             }
             Next::OpenLoop {

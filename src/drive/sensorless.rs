@@ -8,6 +8,7 @@ use super::applied::Applied;
 use super::mode::{Driving, Entry, Next};
 use super::ramp::Ramp;
 use super::regen;
+use super::speed_gain;
 use super::supervision::{consecutive, Verdict};
 use super::{Fault, Reason};
 use crate::foc::{Foc, Reference, Request};
@@ -102,6 +103,8 @@ pub(super) struct Settings {
     pub(super) stall: Stall,
     /// The regeneration's limit from the bus (`regen.rs`).
     pub(super) regen: regen::Settings,
+    /// The speed loop's oscillation check (`speed_gain.rs`).
+    pub(super) speed_gain: speed_gain::Settings,
 }
 
 /// Sensorless stall: the driving observer's speed below half the slewed reference (or turning
@@ -501,7 +504,8 @@ impl Settings {
     /// speed or where the reference passes through zero, observer loss, over-speed, the stop at zero, the output lead at the new speed,
     /// the speed loop toward the user's `cmd_rpm` with the load torque fed forward, the stall
     /// check.
-    /// `applied`: what the current loop applied over the last millisecond.
+    /// `applied`: what the current loop applied over the last millisecond; `speed_gain` the
+    /// speed loop's gain and its oscillation check (`speed_gain.rs`).
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     pub(super) fn tick(
@@ -513,6 +517,7 @@ impl Settings {
         cmd_rpm: f32,
         applied: Applied,
         i_ab: AlphaBeta,
+        speed_gain: &mut speed_gain::State,
     ) -> Next {
         let cmd_rpm = self.ramp.command(cmd_rpm);
         let (omega_m, load_nm) = (d.omega_m, d.load_nm);
@@ -701,9 +706,10 @@ impl Settings {
         } else {
             (-motoring_max, braking_max)
         };
-        let i_tau = foc.speed_step(
+        let i_tau = foc.speed_step_scaled(
             &mut s.speed_pi,
             (omega_m_ref, omega_m),
+            speed_gain.gain(),
             ff_nm,
             Some((bounds, held)),
         );
@@ -734,6 +740,12 @@ impl Settings {
                 None => s.i_q_ref,
                 Some(m) => m.torque_current(Dq::new(s.i_d_ref - s.i_d_handover, s.i_q_ref)),
             };
+        }
+        // The speed loop's oscillation (`speed_gain.rs`); not on a salient motor, whose task
+        // has no room for it (`DEVELOPERS.md`).
+        if self.mtpa.is_none() {
+            let at_limit = s.i_tau.abs() >= self.stall.i_limit_a;
+            (self.speed_gain).check(speed_gain, omega_m_ref - omega_m, at_limit);
         }
         if (self.stall).stalled(&mut s.stall, omega_m, s.speed_ref_rpm, s.i_tau) {
             return Next::Fault(Fault::Stall);

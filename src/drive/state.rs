@@ -17,6 +17,7 @@ use super::observers::ObserverStates;
 use super::open_loop::OpenLoop;
 use super::protection::Arming;
 use super::sensorless::Sensorless;
+use super::speed_gain;
 use crate::foc::CurrentLoopState;
 use crate::frames::{AlphaBeta, SinCos};
 use crate::observer::Observer;
@@ -65,6 +66,10 @@ pub struct DriveState<PS, MS> {
     /// The last alignment's resistance measurement, if refused (`adaptation.rs`), for the
     /// log; kept across restarts like the model. After everything the step reads.
     pub(super) resistance_refused: Option<ResistanceRefused>,
+    /// The speed loop's gain, kept across restarts, and sensorless control's check of its
+    /// oscillation (`speed_gain.rs`); after everything the step reads, so that it moves none
+    /// of those fields (a measurement's state in the mode's took the step 20 cycles).
+    pub(super) speed_gain: speed_gain::State,
     /// The injection start's state (`inject.rs`), in mode `ModeState::Inject`; last.
     #[cfg(feature = "injection")]
     pub(super) inject: Inject,
@@ -88,6 +93,7 @@ impl<PS: Default, MS: Default> Default for DriveState<PS, MS> {
             identify: Identify::new(),
             watch: Watch::default(),
             resistance_refused: None,
+            speed_gain: speed_gain::State::default(),
             #[cfg(feature = "injection")]
             inject: Inject::default(),
         }
@@ -100,7 +106,7 @@ impl<PS: Default, MS: Default> DriveState<PS, MS> {
     // Out of line: a mode change (enable, disable, stop, clear), one copy for all of them.
     #[inline(never)]
     pub(super) fn restart(&mut self, mode: ModeState) {
-        let model = self.obs.model;
+        let (model, gain) = (self.obs.model, self.speed_gain.gain);
         *self = DriveState {
             mode,
             offsets: self.offsets.kept(),
@@ -108,6 +114,7 @@ impl<PS: Default, MS: Default> DriveState<PS, MS> {
             ..DriveState::default()
         };
         self.obs.model = model;
+        self.speed_gain.gain = gain;
     }
 }
 

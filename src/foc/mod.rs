@@ -295,12 +295,28 @@ impl Foc {
     pub fn speed_step(
         &self,
         speed: &mut PiState,
+        speeds: (f32, f32),
+        torque_ff_nm: f32,
+        bounds: Option<((f32, f32), Held)>,
+    ) -> f32 {
+        self.speed_step_scaled(speed, speeds, 1.0, torque_ff_nm, bounds)
+    }
+
+    /// [`Foc::speed_step`] with both PI gains scaled by `gain` (an inertia measured at `gain`
+    /// times the configured one: `kp = J ω_s/K_t`, `ki = kp ω_s/4`), as the error scaled: the
+    /// integrator holds a current, so a new gain does not step the command.
+    // Inlined: the 4 kHz step compiles to one function (see `drive`).
+    #[inline(always)]
+    pub fn speed_step_scaled(
+        &self,
+        speed: &mut PiState,
         (omega_m_ref, omega_m): (f32, f32),
+        gain: f32,
         torque_ff_nm: f32,
         bounds: Option<((f32, f32), Held)>,
     ) -> f32 {
         let ff_a = torque_ff_nm * self.inv_kt;
-        let error = omega_m_ref - omega_m;
+        let error = gain * (omega_m_ref - omega_m);
         match bounds {
             None => self.speed.update(speed, error, ff_a),
             Some((limits, held)) => (self.speed).update_within(speed, error, ff_a, limits, held),
