@@ -741,8 +741,9 @@ impl Settings {
                 Some(m) => m.torque_current(Dq::new(s.i_d_ref - s.i_d_handover, s.i_q_ref)),
             };
         }
-        // The speed loop's oscillation (`speed_gain.rs`); not on a salient motor, whose task
-        // has no room for it (`DEVELOPERS.md`).
+        // The speed loop's oscillation (`speed_gain.rs`; `Drive::tick` restarts its interval
+        // where the driving observer is not locked, and this run's counts toward the next);
+        // not on a salient motor, whose task has no room for it (`DEVELOPERS.md`).
         if self.mtpa.is_none() {
             let at_limit = s.i_tau.abs() >= self.stall.i_limit_a;
             (self.speed_gain).check(speed_gain, omega_m_ref - omega_m, at_limit);

@@ -15,8 +15,9 @@
 //! `ω_ref − ω̂` crossing from beyond `+b` to beyond `−b` or back at least
 //! [`Settings::crossings`] times (`b` = 2 % of rated speed, the verdict's tolerance;
 //! `crossings` = an oscillation at twice the speed loop's bandwidth or faster, at least 8
-//! crossings, 40 Hz), with the torque command at its limit (the stall check's, 0.99 of it) in
-//! at least as many of the runs beyond the band: a limit cycle (the speed estimate's noise alone does not take
+//! crossings, 40 Hz), with the torque command at 0.99 of the current limit (the stall check's
+//! test; a limit cycle against a lower bound, the field weakening's, the voltage's or the
+//! regeneration's, is not counted) in at least as many of the runs beyond the band: a limit cycle (the speed estimate's noise alone does not take
 //! the command to its limit; a step's overshoot crosses once or twice), in two intervals in a
 //! row. Then the gain is halved, down to [`GAIN_MIN`] (an inertia configured 16 times too high). Commercial servo
 //! drives detect such vibration and lower their gain or raise an alarm (e.g. Yaskawa Σ-7's
@@ -71,11 +72,13 @@ impl Settings {
                 crossings: 0,
             };
         }
-        // 4 f_s crossings a second, over an interval of `INTERVAL` ms.
+        // 4 f_s crossings a second, over an interval of `INTERVAL` ms; at most half the
+        // interval's runs (a speed loop above 125 Hz: an oscillation at the task's rate over
+        // four).
         let crossings = (speed_bandwidth_hz * (4e-3 * INTERVAL as f32)) as u16;
         Self {
             band: 0.02 * rated_rpm * RAD_S_PER_RPM,
-            crossings: crossings.max(CROSSINGS_MIN),
+            crossings: crossings.clamp(CROSSINGS_MIN, INTERVAL / 2),
         }
     }
 }
@@ -87,8 +90,8 @@ pub(super) struct State {
     pub(super) gain: f32,
     /// Checks into this interval.
     count: u16,
-    /// The speed error was last beyond the band on the positive side.
-    positive: bool,
+    /// The side of the band the speed error was last beyond: +1, −1, 0 (none yet this run).
+    side: i8,
     /// Crossings of the band in this interval.
     crossings: u16,
     /// Checks beyond the band with the command at the limit in this interval.
@@ -102,7 +105,7 @@ impl Default for State {
         Self {
             gain: 1.0,
             count: 0,
-            positive: false,
+            side: 0,
             crossings: 0,
             at_limit: 0,
             oscillating: 0,
@@ -121,13 +124,14 @@ impl State {
         }
     }
 
-    /// Sensorless control entered, or a check not taken (the driving observer not locked):
-    /// the interval begins again.
+    /// Sensorless control entered, or the driving observer not locked (or just switched): the
+    /// interval begins again (that run's check is its first).
     pub(super) fn restart(&mut self) {
         if !cfg!(feature = "speed-gain") {
             return;
         }
         self.count = 0;
+        self.side = 0;
         self.crossings = 0;
         self.at_limit = 0;
         self.oscillating = 0;
@@ -135,18 +139,18 @@ impl State {
 }
 
 impl Settings {
-    /// One check in sensorless control with the driving observer locked: `error_rad_s` the
+    /// One run of the speed loop in sensorless control: `error_rad_s` the
     /// speed error `ω_ref − ω̂` \[rad/s], `at_limit` the speed loop's torque current command
-    /// at its limit (the stall check's, 0.99 of it).
+    /// at 0.99 of the current limit (the stall check's).
     #[inline(always)]
     pub(super) fn check(&self, s: &mut State, error_rad_s: f32, at_limit: bool) {
         if !cfg!(feature = "speed-gain") {
             return;
         }
         if error_rad_s.abs() > self.band {
-            let positive = error_rad_s > 0.0;
-            s.crossings += u16::from(positive != s.positive);
-            s.positive = positive;
+            let side = if error_rad_s > 0.0 { 1 } else { -1 };
+            s.crossings += u16::from(side == -s.side);
+            s.side = side;
             s.at_limit += u16::from(at_limit);
         }
         s.count += 1;

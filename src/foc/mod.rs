@@ -304,7 +304,8 @@ impl Foc {
 
     /// [`Foc::speed_step`] with both PI gains scaled by `gain` (an inertia measured at `gain`
     /// times the configured one: `kp = J ω_s/K_t`, `ki = kp ω_s/4`), as the error scaled: the
-    /// integrator holds a current, so a new gain does not step the command.
+    /// integrator holds a current, so a new gain does not step it (the proportional part
+    /// moves by `kp (g' − g) e`).
     // Inlined: the 4 kHz step compiles to one function (see `drive`).
     #[inline(always)]
     pub fn speed_step_scaled(
