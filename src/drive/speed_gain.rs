@@ -17,16 +17,17 @@
 //! `crossings` = an oscillation at twice the speed loop's bandwidth or faster, at least 8
 //! crossings, 40 Hz), with the torque command at 0.99 of the current limit (the stall check's
 //! test; a limit cycle against a lower bound, the field weakening's, the voltage's or the
-//! regeneration's, is not counted) in at least as many of the runs beyond the band: a limit cycle (the speed estimate's noise alone does not take
-//! the command to its limit; a step's overshoot crosses once or twice), in two intervals in a
-//! row. Then the gain is halved, down to [`GAIN_MIN`] (an inertia configured 16 times too high). Commercial servo
-//! drives detect such vibration and lower their gain or raise an alarm (e.g. Yaskawa Σ-7's
-//! vibration detection, parameters Pn310–Pn312). Not on a salient motor: its task has no
-//! room for the check (`DEVELOPERS.md`'s budget), so its gain stays.
+//! regeneration's, is not counted) in at least as many of the runs beyond the band: a limit
+//! cycle (the speed estimate's noise alone does not take the command to its limit; a step's
+//! overshoot crosses once or twice), in two intervals in a row. Then the gain is halved, down
+//! to [`GAIN_MIN`] (an inertia configured 16 times too high). Commercial servo drives detect
+//! such vibration and lower their gain or raise an alarm (e.g. Yaskawa Σ-7's vibration
+//! detection, parameters Pn310–Pn312). Not on a salient motor: its task has no room for the
+//! check (`DEVELOPERS.md`'s budget), so its gain stays.
 //!
 //! Behind the core's cargo feature `speed-gain` (default; the simulator, its tests and the
 //! emulated bench have it): the board images, built without the default features, do not
-//! (their 64 KiB flash budget had 188 B left, and the check took 430 B of it; issue #28).
+//! (their 64 KiB flash budget had 188 B left, and the check took 428 B of it; issue #28).
 //!
 //! The gain scales the speed PI's error ([`Foc::speed_step_scaled`](crate::foc::Foc)), so the
 //! integrator's current does not step. It is kept from one run to the next, and never raised
@@ -51,7 +52,7 @@ const INTERVAL: u16 = 100;
 /// The least crossings of the band an interval that halve the gain: 8, a 40 Hz oscillation.
 const CROSSINGS_MIN: u16 = 8;
 
-/// The check's settings (from the motor's ratings, the current limit and the speed loop).
+/// The check's settings (from the motor's rated speed and the speed loop's bandwidth).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Settings {
     /// The speed error's band \[rad/s].
