@@ -302,7 +302,7 @@ impl Foc {
         self.speed_step_scaled(speed, speeds, 1.0, torque_ff_nm, bounds)
     }
 
-    /// [`Foc::speed_step`] with both PI gains scaled by `gain` (an inertia measured at `gain`
+    /// [`Foc::speed_step`] with both PI gains scaled by `gain` (the gains of an inertia `gain`
     /// times the configured one: `kp = J ω_s/K_t`, `ki = kp ω_s/4`), as the error scaled: the
     /// integrator holds a current, so a new gain does not step it (the proportional part
     /// moves by `kp (g' − g) e`).
