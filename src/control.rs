@@ -6,14 +6,16 @@
 //! call it and log or queue what it returns.
 //!
 //! Two ways to run it:
-//! - one context ([`Control::run`]: the step, then the tick when due): the emulated M4F's
-//!   image, the host simulator;
+//! - one context ([`Control::run`]: the step, then the tick when due and the drive's slower
+//!   work after it, [`Drive::background`]): the emulated M4F's image, the host simulator;
 //! - the tick preempted by the step (the B-G431B-ESC1: the step in the ADC interrupt, the tick
 //!   in an interrupt of lower priority): [`Control::step`] in the step's context and a
 //!   [`TickCopy`] in the tick's, which runs [`Drive::tick`] on a copy of the state taken
 //!   between two steps and puts it back only if no step ran meanwhile. The step is held off
 //!   only while the state is copied (two short critical sections, the board's), never for a
 //!   whole tick, and the tick still acts between two steps, as [`Drive::tick`] requires.
+//!   (Its [`Drive::background`] would run from the idle loop on such a copy; the board's
+//!   images leave it out: it serves the cargo feature `speed-gain`, which they do not have.)
 //!
 //! [`DriveState::tick_due`]: crate::drive::DriveState::tick_due
 
@@ -181,6 +183,11 @@ impl<P: Observer, M: Observer, S> Control<P, M, S> {
     pub fn tick(&mut self, cmd: &Commands) -> Ticked {
         tick(&self.drive, &mut self.state, cmd)
     }
+
+    /// [`Drive::background`]: the task's slower work, in a context below the task's.
+    pub fn background(&mut self) {
+        self.drive.background(&mut self.state);
+    }
 }
 
 impl<P: Observer, M: Observer, S: PowerStage> Control<P, M, S> {
@@ -220,12 +227,14 @@ impl<P: Observer, M: Observer, S: PowerStage> Control<P, M, S> {
         }
     }
 
-    /// One period in one context: [`Control::step`], then [`Control::tick`] when due (the
-    /// default [`Ticked`], nothing, when not).
+    /// One period in one context: [`Control::step`], then [`Control::tick`] and
+    /// [`Control::background`] when due (the default [`Ticked`], nothing, when not).
     pub fn run(&mut self, cmd: &Commands) -> (Stepped, Ticked) {
         let stepped = self.step(cmd);
         let ticked = if stepped.tick_due {
-            self.tick(cmd)
+            let ticked = self.tick(cmd);
+            self.background();
+            ticked
         } else {
             Ticked::default()
         };

@@ -69,8 +69,8 @@ fn running(drive: &SinanoDrive) -> Sinano {
     )
 }
 
-/// `Control::run` against the drive's own step and tick, from idle (the start's transitions)
-/// and from sensorless control (the tick's work), 2000 steps each.
+/// `Control::run` against the drive's own step, tick and background, from idle (the start's
+/// transitions) and from sensorless control (the tick's work), 2000 steps each.
 #[test]
 fn run_is_the_step_then_the_tick_when_due() {
     let drive = sinano_drive();
@@ -89,7 +89,9 @@ fn run_is_the_step_then_the_tick_when_due() {
             let out = drive.step(&mut st, &input, &cmd);
             stage.apply(out.duties);
             let tick = if st.tick_due() {
-                drive.tick(&mut st, &cmd)
+                let tick = drive.tick(&mut st, &cmd);
+                drive.background(&mut st);
+                tick
             } else {
                 None
             };
@@ -122,6 +124,8 @@ fn a_tick_on_a_copy_acts_as_the_tick_in_place() {
                 let ticked = copy.tick(&enabled());
                 assert_eq!(copy.steps(), k + 1);
                 assert!(copy.give(&mut split));
+                // (The slower work, as an idle loop would run it after the task.)
+                split.background();
                 ticked
             } else {
                 Ticked::default()

@@ -612,6 +612,7 @@ impl DriveConfig {
                 speed_gain: speed_gain::Settings::new(
                     self.ratings.speed_rpm,
                     self.speed_bandwidth_hz,
+                    &m,
                 ),
                 regen: regen::Settings::new(
                     self.ratings.bus_v,

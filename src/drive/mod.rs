@@ -303,6 +303,17 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         }
     }
 
+    /// The 1 kHz task's slower work, in a context below it (after the task when the two
+    /// share one, [`Control::run`](crate::control::Control::run); a firmware whose task is an
+    /// interrupt runs it from its idle loop, between two tasks): the speed loop's checks'
+    /// block and interval ends (`speed_gain.rs`: the inertia's regression, the gain set), every
+    /// 16 and 100 tasks, bounded (`pmsm-sim cycles`). Not run, the checks wait and the gain
+    /// stays. Without the cargo feature `speed-gain`, nothing.
+    #[inline(never)]
+    pub fn background(&self, st: &mut StateOf<P, M>) {
+        self.sensorless.speed_gain.background(&mut st.speed_gain);
+    }
+
     /// The drive's 1 kHz task: call it once after every `rate_hz/1000`-th [`Drive::step`] (when
     /// [`DriveState::tick_due`]), never while a step runs; on a board from a
     /// context the step's interrupt cannot preempt in the middle of it (a critical section
@@ -380,7 +391,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                     let sample = (i_ab, applied.v_ab);
                     (self.adaptation).track(&mut obs.model, sample, d.omega_m, s.i_q_ref());
                 } else {
-                    st.speed_gain.restart();
+                    st.speed_gain.restart(health.0 == Verdict::Switched);
                 }
                 let [r_primary, r_monitor] = obs.health.residuals();
                 let residual = match obs.health.driving {
@@ -413,7 +424,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             Next::Note(reason) => reason,
             Next::Sensorless(entry, reason) => {
                 st.mode = ModeState::Sensorless(self.sensorless.enter(&self.foc, entry));
-                st.speed_gain.restart();
+                st.speed_gain.restart(false);
                 reason
             }
             Next::OpenLoop {

@@ -741,15 +741,16 @@ impl Settings {
                 Some(m) => m.torque_current(Dq::new(s.i_d_ref - s.i_d_handover, s.i_q_ref)),
             };
         }
+        if (self.stall).stalled(&mut s.stall, omega_m, s.speed_ref_rpm, s.i_tau) {
+            return Next::Fault(Fault::Stall);
+        }
         // The speed loop's oscillation (`speed_gain.rs`; `Drive::tick` restarts its interval
         // where the driving observer is not locked, and this run's counts toward the next);
         // not on a salient motor, whose task has no room for it (`DEVELOPERS.md`).
         if self.mtpa.is_none() {
             let at_limit = s.i_tau.abs() >= self.stall.i_limit_a;
-            (self.speed_gain).check(speed_gain, omega_m_ref - omega_m, at_limit);
-        }
-        if (self.stall).stalled(&mut s.stall, omega_m, s.speed_ref_rpm, s.i_tau) {
-            return Next::Fault(Fault::Stall);
+            let error = omega_m_ref - omega_m;
+            (self.speed_gain).check(speed_gain, error, at_limit, omega_m, s.i_tau);
         }
         match note {
             Some(reason) => Next::Note(reason),

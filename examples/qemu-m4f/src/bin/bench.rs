@@ -93,6 +93,7 @@ mod firmware {
         bench_begin_tick_salient, bench_end_tick_salient, 28u32;
         bench_begin_step_inject, bench_end_step_inject, 29u32;
         bench_begin_tick_inject, bench_end_tick_inject, 30u32;
+        bench_begin_background_speed_gain, bench_end_background_speed_gain, 35u32;
     }
 
     // The fixed-point step's cases: in the M0's bench only (its package's feature
@@ -122,6 +123,12 @@ mod firmware {
         cmd: &Command,
     ) -> DriveOutput {
         drive.step(st, input, cmd)
+    }
+
+    /// The drive's slower work below the 1 kHz task ([`Drive::background`]).
+    #[inline(never)]
+    fn control_background<P: Observer, M: Observer>(drive: &Drive<P, M>, st: &mut StateOf<P, M>) {
+        drive.background(st);
     }
 
     /// A measured section's begin and end markers.
@@ -388,6 +395,20 @@ mod firmware {
             (bench_begin_step, bench_end_step),
             (bench_begin_tick, bench_end_tick),
         );
+        // The task's slower work below it at its costliest (`speed_gain.rs`: a block's end
+        // with the slow check's interval and a raise, the fast check's interval with a
+        // halving), after each task of a sliding-primary run.
+        let mut st = drive.running_state(i0, rotor(theta0, 0.0));
+        for k in 1..=STEPS {
+            black_box(control_step(&drive, &mut st, &input(theta0, k), &cmd));
+            if st.tick_due() {
+                control_tick(&drive, &mut st, &cmd);
+                st.bench_speed_gain_worst();
+                bench_begin_background_speed_gain();
+                control_background(&drive, &mut st);
+                bench_end_background_speed_gain();
+            }
+        }
         // The flux observer feeding the controller (the sliding observer as the monitor).
         run(
             "flux primary",

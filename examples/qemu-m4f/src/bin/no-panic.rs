@@ -167,6 +167,10 @@ mod firmware {
                 sink(ticked.transitions().count() as f32);
                 sink(ticked.identified.map_or(0.0, |m| m.r_ohm));
             }
+            // The task's slower work, whenever the unknown flag asks.
+            if flags[0] {
+                control.background();
+            }
             sink(control.telemetry().speed_rpm);
             if flags[2] && flags[1] {
                 break;
