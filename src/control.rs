@@ -14,8 +14,9 @@
 //!   between two steps and puts it back only if no step ran meanwhile. The step is held off
 //!   only while the state is copied (two short critical sections, the board's), never for a
 //!   whole tick, and the tick still acts between two steps, as [`Drive::tick`] requires.
-//!   (Its [`Drive::background`] would run from the idle loop on such a copy; the board's
-//!   images leave it out: it serves the cargo feature `speed-gain`, which they do not have.)
+//!   Its [`Drive::background`] runs on such a copy too ([`TickCopy::background`], take,
+//!   background, give), after the task; the board's images leave it out: it serves the cargo
+//!   feature `speed-gain`, which they do not have.
 //!
 //! [`DriveState::tick_due`]: crate::drive::DriveState::tick_due
 
@@ -283,6 +284,13 @@ impl<P: Observer, M: Observer> TickCopy<P, M> {
     /// meanwhile.
     pub fn tick(&mut self, cmd: &Commands) -> Ticked {
         tick(&self.drive, &mut self.state, cmd)
+    }
+
+    /// [`Drive::background`] on the copy: the task's slower work, between a take and a give
+    /// (with the cargo feature `speed-gain`, a firmware runs it after every task, or the
+    /// speed loop's checks wait and its gain stays).
+    pub fn background(&mut self) {
+        self.drive.background(&mut self.state);
     }
 
     /// The step count at the last take: the steps done before this task.

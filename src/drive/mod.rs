@@ -307,8 +307,8 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     /// share one, [`Control::run`](crate::control::Control::run); a firmware whose task is an
     /// interrupt runs it from its idle loop, between two tasks): the speed loop's checks'
     /// block and interval ends (`speed_gain.rs`: the inertia's regression, the gain set), every
-    /// 16 and 100 tasks, bounded (`pmsm-sim cycles`). Not run, the checks wait and the gain
-    /// stays. Without the cargo feature `speed-gain`, nothing.
+    /// 16 and 100 tasks, bounded (`pmsm-sim cycles`). Run it after every task: not run, the
+    /// checks wait and the gain stays. Without the cargo feature `speed-gain`, nothing.
     #[inline(never)]
     pub fn background(&self, st: &mut StateOf<P, M>) {
         self.sensorless.speed_gain.background(&mut st.speed_gain);
@@ -322,7 +322,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     /// (`supervision.rs`), each mode's decisions (hand-over, hand-back, stall, stop, the
     /// open-loop ramp) and the speed loop. The step applies its results from the next sample
     /// on: a fault found here turns the PWM off there. Returns the mode change or the change
-    /// of the driving observer it made.
+    /// of the driving observer it made. Its slower work follows it, [`Drive::background`].
     ///
     /// Split from the step as a drive's medium-frequency task is from its current loop (ST's
     /// motor-control SDK runs its speed loop and state machine so): the 4 kHz interrupt keeps

@@ -103,7 +103,7 @@ pub(super) struct Settings {
     pub(super) stall: Stall,
     /// The regeneration's limit from the bus (`regen.rs`).
     pub(super) regen: regen::Settings,
-    /// The speed loop's oscillation check (`speed_gain.rs`).
+    /// The speed loop's gain checks (`speed_gain.rs`).
     pub(super) speed_gain: speed_gain::Settings,
 }
 
@@ -505,7 +505,7 @@ impl Settings {
     /// the speed loop toward the user's `cmd_rpm` with the load torque fed forward, the stall
     /// check.
     /// `applied`: what the current loop applied over the last millisecond; `speed_gain` the
-    /// speed loop's gain and its oscillation check (`speed_gain.rs`).
+    /// speed loop's gain and its checks (`speed_gain.rs`).
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     pub(super) fn tick(
@@ -744,9 +744,10 @@ impl Settings {
         if (self.stall).stalled(&mut s.stall, omega_m, s.speed_ref_rpm, s.i_tau) {
             return Next::Fault(Fault::Stall);
         }
-        // The speed loop's oscillation (`speed_gain.rs`; `Drive::tick` restarts its interval
-        // where the driving observer is not locked, and this run's counts toward the next);
-        // not on a salient motor, whose task has no room for it (`DEVELOPERS.md`).
+        // The speed loop's gain checks (`speed_gain.rs`: a fast oscillation at the limit, a
+        // slow one's inertia; `Drive::tick` restarts them where the driving observer is not
+        // locked, the fast one where it switched, and this run counts toward the next); not
+        // on a salient motor, whose task has no room for them (`DEVELOPERS.md`).
         if self.mtpa.is_none() {
             let at_limit = s.i_tau.abs() >= self.stall.i_limit_a;
             let error = omega_m_ref - omega_m;

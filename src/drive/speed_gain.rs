@@ -36,7 +36,7 @@
 //! `c` (low by `sinc(ωT_b)/sinc²(ωT_b/2)` for an oscillation at ω, the currents weighted evenly
 //! where the speed means weight them as a triangle: 2 % at 5 Hz, 9 % at 10 Hz). Over 32
 //! blocks (0.512 s) with the speed error crossing the band at least 4 times (an oscillation,
-//! 4 Hz or faster), a slope where the two least-squares slopes agree (the correlation squared
+//! about 3 Hz or faster), a slope where the two least-squares slopes agree (the correlation squared
 //! at least 0.8, and positive: a load that moves the speed makes a negative one) of at least
 //! twice `J₀/K_t` raises the gain to `Ĵ/J₀`, at most [`GAIN_MAX`]. The oscillation excites
 //! the rotor as the relay-feedback test of auto-tuning does (Åström & Hägglund, "Automatic
@@ -47,17 +47,18 @@
 //! sliding primary with the wrong inertia hands over to the monitor and back every few tens
 //! of milliseconds).
 //!
-//! Both checks count in the speed loop's run (the 1 kHz task, [`Settings::check`]); their
-//! block and interval ends, the regression and the verdicts, run below it
-//! ([`Drive::background`](super::Drive::background), [`Settings::background`]: 355 cycles at
-//! most on the emulated Cortex-M4F, once every 16 tasks at most), so that the task keeps
-//! its budget. The gain scales the speed PI's error
-//! ([`Foc::speed_step_scaled`](crate::foc::Foc)), so the integrator's current does not step. It is kept from one run to the next. The load-torque
-//! observer and the sliding torque observer keep `J₀`: the sliding observer carries it in
-//! every coefficient of its model (`observer::sliding`), which are the drive's settings,
-//! built once, and with a tenth of the rotor's inertia it loses the rotor where the flux
-//! observer keeps it (`host-sim/tests/inertia_mismatch.rs`). Neither check runs on a salient
-//! motor: its task has no room for them (`DEVELOPERS.md`'s budget), so its gain stays.
+//! Both checks count in the speed loop's run (the 1 kHz task, [`Settings::check`]: the
+//! block's sums, the crossings, +21 cycles on the emulated Cortex-M4F); their block and
+//! interval ends, the regression and the verdicts, run below it
+//! ([`Drive::background`](super::Drive::background), [`Settings::background`]: 414 cycles at
+//! most, once every 16 tasks at most), so that the task keeps its budget. The gain scales the
+//! speed PI's error ([`Foc::speed_step_scaled`](crate::foc::Foc)), so the integrator's
+//! current does not step. It is kept from one run to the next. The load-torque observer and
+//! the sliding torque observer keep `J₀`: the sliding observer carries it in every
+//! coefficient of its model (`observer::sliding`), which are the drive's settings, built
+//! once, and with a tenth of the rotor's inertia it loses the rotor where the flux observer
+//! keeps it (`host-sim/tests/inertia_mismatch.rs`). Neither check runs on a salient motor:
+//! its task has no room for them (`DEVELOPERS.md`'s budget), so its gain stays.
 //!
 //! Behind the core's cargo feature `speed-gain` (default; the simulator, its tests and the
 //! emulated bench have it): the board images, built without the default features, do not
@@ -101,7 +102,7 @@ const BLOCK: u8 = 16;
 const SLOW_BLOCKS: f32 = 32.0;
 
 /// The least crossings of the band over the slow check's interval that are an oscillation:
-/// two periods, 4 Hz or faster.
+/// one and a half periods or more in 0.512 s, about 3 Hz or faster.
 const SLOW_CROSSINGS_MIN: u16 = 4;
 
 /// The least square of the correlation of the blocks' speed change and charge that is an
@@ -195,9 +196,12 @@ struct Slow {
 }
 
 /// Sums of the blocks' speed change `x` \[rad/s] and torque current charge `y` \[A·s] for
-/// their regression.
+/// their regression, taken about the first block's (`origin`), so that a nearly constant `x`
+/// (a steady ramp) leaves its small variance to the sums, not to the cancellation of large
+/// ones.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 struct Regression {
+    origin: (f32, f32),
     n: f32,
     x: f32,
     y: f32,
@@ -208,6 +212,10 @@ struct Regression {
 
 impl Regression {
     fn add(&mut self, x: f32, y: f32) {
+        if self.n == 0.0 {
+            self.origin = (x, y);
+        }
+        let (x, y) = (x - self.origin.0, y - self.origin.1);
         self.n += 1.0;
         self.x += x;
         self.y += y;
@@ -228,7 +236,7 @@ impl Regression {
         let var_x = n * self.xx - self.x * self.x;
         let var_y = n * self.yy - self.y * self.y;
         let cov = n * self.xy - self.x * self.y;
-        let agree = cov > 0.0 && cov * cov >= R2_MIN * var_x * var_y;
+        let agree = var_x > 0.0 && cov > 0.0 && cov * cov >= R2_MIN * var_x * var_y;
         let j_min = RAISE_MIN * j0_a_s;
         if !(agree && var_y >= j_min * j_min * var_x) {
             return None;
@@ -341,7 +349,7 @@ impl Settings {
             let side = if error_rad_s > 0.0 { 1 } else { -1 };
             let crossed = u16::from(side == -s.fast.side);
             s.fast.crossings += crossed;
-            s.slow.crossings += crossed;
+            s.slow.crossings = s.slow.crossings.saturating_add(crossed);
             s.fast.side = side;
             s.fast.at_limit += u16::from(at_limit);
         }
@@ -476,18 +484,21 @@ mod tests {
         assert_eq!(s.gain, 1.0);
     }
 
+    /// Seeded uniform noise in \[−1, 1) (a linear congruential generator).
+    fn uniform(seed: &mut u32) -> f32 {
+        *seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        (*seed >> 8) as f32 / (1u32 << 24) as f32 * 2.0 - 1.0
+    }
+
     /// The gain after `checks` runs on a rotor `j_ratio` times the configured inertia
     /// oscillating at 5 Hz by ±50 rad/s about the reference (a slow limit cycle), the torque
-    /// current its inertia needs on top of `load_a`, plus `noise_a` and `noise_rad_s` of
-    /// seeded uniform noise on the current and the speed; `switch_every` runs a switch of
-    /// the driving observer (0: none).
+    /// current its inertia needs on top of `load_a`, plus `noise` = (current \[A], speed
+    /// \[rad/s]) of seeded uniform noise; a switch of the driving observer every `every` runs
+    /// (0: none).
     fn after_slow(checks: u32, j_ratio: f32, load_a: f32, noise: (f32, f32), every: u32) -> f32 {
         let mut s = State::default();
         let mut seed = 0x2545_f491_u32;
-        let mut uniform = || {
-            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-            (seed >> 8) as f32 / (1u32 << 24) as f32 * 2.0 - 1.0
-        };
+        let mut uniform = || uniform(&mut seed);
         let w = core::f32::consts::TAU * 5.0;
         for k in 0..checks {
             let t = k as f32 * TICK_S;
@@ -537,8 +548,7 @@ mod tests {
         let mut s = State::default();
         let mut seed = 7u32;
         for _ in 0..3000 {
-            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-            let u = (seed >> 8) as f32 / (1u32 << 24) as f32 - 0.5;
+            let u = 0.5 * uniform(&mut seed);
             SETTINGS.check(&mut s, 40.0 * u, false, 300.0 + 40.0 * u, 5.0 * u * u);
             SETTINGS.background(&mut s);
         }

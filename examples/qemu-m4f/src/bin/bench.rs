@@ -125,10 +125,18 @@ mod firmware {
         drive.step(st, input, cmd)
     }
 
-    /// The drive's slower work below the 1 kHz task ([`Drive::background`]).
+    /// The drive's slower work below the 1 kHz task ([`Drive::background`]) between
+    /// `markers`, as [`timed_step`] (its call inlined here: no board runs it yet).
     #[inline(never)]
-    fn control_background<P: Observer, M: Observer>(drive: &Drive<P, M>, st: &mut StateOf<P, M>) {
+    fn timed_background<P: Observer, M: Observer>(
+        markers: Markers,
+        drive: &Drive<P, M>,
+        st: &mut StateOf<P, M>,
+    ) {
+        markers.0();
         drive.background(st);
+        markers.1();
+        black_box(());
     }
 
     /// A measured section's begin and end markers.
@@ -404,9 +412,11 @@ mod firmware {
             if st.tick_due() {
                 control_tick(&drive, &mut st, &cmd);
                 st.bench_speed_gain_worst();
-                bench_begin_background_speed_gain();
-                control_background(&drive, &mut st);
-                bench_end_background_speed_gain();
+                let markers: Markers = (
+                    bench_begin_background_speed_gain,
+                    bench_end_background_speed_gain,
+                );
+                timed_background(markers, &drive, &mut st);
             }
         }
         // The flux observer feeding the controller (the sliding observer as the monitor).
