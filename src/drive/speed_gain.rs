@@ -83,14 +83,14 @@ const INTERVALS: u8 = 2;
 /// The least speed-loop gain factor.
 pub(super) const GAIN_MIN: f32 = 1.0 / 16.0;
 
+/// The greatest speed-loop gain factor.
+pub(super) const GAIN_MAX: f32 = 16.0;
+
 /// The speed loop's runs (1 kHz) per interval: 0.1 s.
 const INTERVAL: u16 = 100;
 
 /// The least crossings of the band an interval that halve the gain: 8, a 40 Hz oscillation.
 const CROSSINGS_MIN: u16 = 8;
-
-/// The greatest speed-loop gain factor.
-pub(super) const GAIN_MAX: f32 = 16.0;
 
 /// The speed loop's period \[s].
 const TICK_S: f32 = 1.0 / TICK_HZ;

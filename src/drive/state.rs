@@ -66,7 +66,7 @@ pub struct DriveState<PS, MS> {
     /// The last alignment's resistance measurement, if refused (`adaptation.rs`), for the
     /// log; kept across restarts like the model. After everything the step reads.
     pub(super) resistance_refused: Option<ResistanceRefused>,
-    /// The speed loop's gain, kept across restarts, and sensorless control's check of its
+    /// The speed loop's gain, kept across restarts, and sensorless control's checks of its
     /// oscillation (`speed_gain.rs`); after everything the step reads, so that it moves none
     /// of those fields (a measurement's state in the mode's took the step 20 cycles).
     pub(super) speed_gain: speed_gain::State,

@@ -125,20 +125,6 @@ mod firmware {
         drive.step(st, input, cmd)
     }
 
-    /// The drive's slower work below the 1 kHz task ([`Drive::background`]) between
-    /// `markers`, as [`timed_step`] (its call inlined here: no board runs it yet).
-    #[inline(never)]
-    fn timed_background<P: Observer, M: Observer>(
-        markers: Markers,
-        drive: &Drive<P, M>,
-        st: &mut StateOf<P, M>,
-    ) {
-        markers.0();
-        drive.background(st);
-        markers.1();
-        black_box(());
-    }
-
     /// A measured section's begin and end markers.
     type Markers = (extern "C" fn(), extern "C" fn());
 
@@ -173,6 +159,20 @@ mod firmware {
     ) {
         markers.0();
         control_tick(drive, st, cmd);
+        markers.1();
+        black_box(());
+    }
+
+    /// The drive's slower work below the 1 kHz task ([`Drive::background`]) between
+    /// `markers`, as [`timed_step`] (its call inlined here: no board runs it yet).
+    #[inline(never)]
+    fn timed_background<P: Observer, M: Observer>(
+        markers: Markers,
+        drive: &Drive<P, M>,
+        st: &mut StateOf<P, M>,
+    ) {
+        markers.0();
+        drive.background(st);
         markers.1();
         black_box(());
     }
