@@ -503,8 +503,8 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         let v_bus = input.v_bus;
         let outcome = match &mut st.mode {
             ModeState::Sensorless(s) if observers_ok => {
-                let (frame, frame_out, omega_m, _) = self.driving(&st.obs, s.out_rot());
-                Outcome::Run(self.sensorless.step(s, frame, frame_out, omega_m, v_bus))
+                let (frame, frame_out, _, _) = self.driving(&st.obs, s.out_rot());
+                Outcome::Run(self.sensorless.step(s, frame, frame_out, v_bus))
             }
             ModeState::Sensorless(_) => Outcome::Fault(Fault::ObserverLoss),
             ModeState::OpenLoop(ol) => Outcome::Run(self.open_loop.step(ol)),

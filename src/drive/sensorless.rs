@@ -343,6 +343,9 @@ pub(super) struct Sensorless {
     /// The d current command \[A]: their sum, or the MTPA's d current (where it is more
     /// negative than the field weakening's) and the hand-over's.
     i_d_ref: f32,
+    /// The driving observer's speed at the last 1 kHz task \[rad/s]: the current loop's
+    /// decoupling and back-EMF feed-forward until the next (see [`Settings::step`]).
+    omega_m: f32,
     /// sin/cos of the output angle's lead at the driving observer's speed
     /// (`Foc::output_rotation`), renewed by the 1 kHz task (the speed read-outs move at
     /// 1 kHz).
@@ -446,6 +449,7 @@ impl Settings {
             i_q_v: f32::INFINITY,
             i_d_handover: i_dq.d,
             i_d_ref: i_dq.d,
+            omega_m,
             out_rot: foc.output_rotation(omega_m),
             stall: StallCount::default(),
             overspeed: 0,
@@ -459,29 +463,41 @@ impl Settings {
 
     /// One sensorless step: the speed loop's currents in the driving observer's frame `frame`
     /// (sin/cos of θ̂_e), applied at its output angle `frame_out` (`frame` turned by
-    /// [`Sensorless::out_rot`], or the observer's own), `omega_m` its speed [rad/s]; limited
-    /// by the regeneration's limit on the bus `v_bus` \[V] where it is high (`regen.rs`).
+    /// [`Sensorless::out_rot`], or the observer's own); limited by the regeneration's limit
+    /// on the bus `v_bus` \[V] where it is high (`regen.rs`).
+    ///
+    /// The rotor's speed for the decoupling and the back-EMF fed forward is the driving
+    /// observer's at the last 1 kHz task, held until the next, as the speed loop's and the
+    /// output angle's lead are. Not the sliding torque observer's own, which moves every step
+    /// with the torque current through its model's inertia (`observer::sliding`, eq (35)):
+    /// fed forward within the step it closes a loop torque current → ω̂ → back-EMF voltage →
+    /// current of gain about `N ψ_f K_t T/(J₀ L ω_c)` per step (the step's ω̂ change
+    /// `K_t Δi T/J₀` as a voltage `N ψ_f Δω̂` the current loop, `L ω_c` V/A, answers), which
+    /// the configured inertia `J₀` sets: 0.09 on the Delta servo at 5 kHz, 0.9 with a tenth of
+    /// its inertia configured, where the sliding primary handed over to the monitor and back
+    /// every few milliseconds and faulted (issue #26's `zoo-inertia.toml`: 19 of its 96 runs
+    /// of the sliding primary told a tenth of the inertia pass held, 2 lost; no other cell of
+    /// the zoo's matrices changes beyond its seeds' spread).
     #[inline(always)]
     pub(super) fn step(
         &self,
         s: &mut Sensorless,
         frame: SinCos,
         frame_out: SinCos,
-        omega_m: f32,
         v_bus: f32,
     ) -> Request {
         let mut i_dq = Dq::new(s.i_d_ref, s.i_q_ref);
         let k = self.regen.share(v_bus);
         if k < 1.0 {
             cold_path();
-            let (limited, bound) = self.regen.limit(k, i_dq, omega_m);
+            let (limited, bound) = self.regen.limit(k, i_dq, s.omega_m);
             i_dq = limited;
             s.regen_iq_a = min(s.regen_iq_a, bound);
         }
         Request {
             frame,
             frame_out,
-            omega_m,
+            omega_m: s.omega_m,
             reference: Reference::Current(i_dq),
         }
     }
@@ -641,6 +657,7 @@ impl Settings {
         } else {
             decayed
         };
+        s.omega_m = omega_m;
         s.out_rot = foc.output_rotation(omega_m);
         s.speed_ref_rpm = self.ramp.slew(s.speed_ref_rpm, cmd_rpm);
         let omega_m_ref = s.speed_ref_rpm * RAD_S_PER_RPM;

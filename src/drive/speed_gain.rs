@@ -7,7 +7,8 @@
 //! times the rotor's inertia, then a tenth): with the speed loop's gain at the rotor's
 //! inertia and everything else at the wrong one, 336 of the 384 cells pass, against 163 with
 //! the configured one: the speed loop's gain is what the mismatch breaks. With the two
-//! checks below, 296.
+//! checks below, 296; 313 with the current loop's decoupling on the last task's speed
+//! (`sensorless.rs`, `Settings::step`).
 //!
 //! **`J₀` too high: the fast check halves the gain.** The loop's crossover lies beyond the
 //! speed estimate's filter (the PLL, `observer::pll`), and it limit-cycles: the torque
