@@ -467,17 +467,22 @@ impl Settings {
     /// on the bus `v_bus` \[V] where it is high (`regen.rs`).
     ///
     /// The rotor's speed for the decoupling and the back-EMF fed forward is the driving
-    /// observer's at the last 1 kHz task, held until the next, as the speed loop's and the
-    /// output angle's lead are. Not the sliding torque observer's own, which moves every step
-    /// with the torque current through its model's inertia (`observer::sliding`, eq (35)):
-    /// fed forward within the step it closes a loop torque current → ω̂ → back-EMF voltage →
-    /// current of gain about `N ψ_f K_t T/(J₀ L ω_c)` per step (the step's ω̂ change
-    /// `K_t Δi T/J₀` as a voltage `N ψ_f Δω̂` the current loop, `L ω_c` V/A, answers), which
-    /// the configured inertia `J₀` sets: 0.09 on the Delta servo at 5 kHz, 0.9 with a tenth of
-    /// its inertia configured, where the sliding primary handed over to the monitor and back
-    /// every few milliseconds and faulted (issue #26's `zoo-inertia.toml`: 19 of its 96 runs
-    /// of the sliding primary told a tenth of the inertia pass held, 2 lost; no other cell of
-    /// the zoo's matrices changes beyond its seeds' spread).
+    /// observer's at the last 1 kHz task, held until the next, as the speed loop's is (and
+    /// the output angle's lead, [`Sensorless::out_rot`], where the observer gives no EMF angle
+    /// of its own). Not the sliding torque observer's own, which moves every step with the
+    /// torque current through its model's inertia `J₀` (`observer::sliding`, eq (35)): fed
+    /// forward, its change beyond the rotor's, `N ψ_f K_t (1/J₀ − 1/J)` volts per
+    /// ampere-second of current, is a positive integral feedback on the current against the
+    /// current PI's negative one, `R ω_c` (`crate::foc`); above it the current loop runs
+    /// away, up to the observer's correction. Zero at the rotor's inertia; the Delta servo
+    /// told a tenth of it: 26,900 against 1,461 V/(A·s) (`overcurrent` at 2.1 and 3.1 s of its
+    /// `start-stop-reverse` and `ramp-brake-drive`, sliding primary), the two Anaheims 1.75
+    /// and 1.8 times their PI's. Issue #26's `zoo-inertia.toml`: 19 runs of the sliding primary
+    /// pass that failed (16 told a tenth of the inertia, 3 ten times), 2 fail that passed; no
+    /// other matrix of the zoo's changes beyond its seeds' spread. The price: between two
+    /// tasks the fed-forward back-EMF lags an accelerating rotor's, by up to `N ψ_f α` × 1 ms
+    /// (0.6 V on the T-motor drone motor at its rated torque, of 9.7 V), as it always has
+    /// under the flux primary, whose PLL speed moves only at the task.
     #[inline(always)]
     pub(super) fn step(
         &self,
