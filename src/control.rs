@@ -15,8 +15,7 @@
 //!   only while the state is copied (two short critical sections, the board's), never for a
 //!   whole tick, and the tick still acts between two steps, as [`Drive::tick`] requires.
 //!   Its [`Drive::background`] runs on such a copy too ([`TickCopy::background`], take,
-//!   background, give), after the task; the board's images leave it out: it serves the cargo
-//!   feature `speed-gain`, which they do not have.
+//!   tick, background, give), after the task.
 //!
 //! [`DriveState::tick_due`]: crate::drive::DriveState::tick_due
 
@@ -185,7 +184,7 @@ impl<P: Observer, M: Observer, S> Control<P, M, S> {
         tick(&self.drive, &mut self.state, cmd)
     }
 
-    /// [`Drive::background`]: the task's slower work, in a context below the task's.
+    /// [`Drive::background`]: the task's slower work, after the task.
     pub fn background(&mut self) {
         self.drive.background(&mut self.state);
     }
@@ -286,9 +285,9 @@ impl<P: Observer, M: Observer> TickCopy<P, M> {
         tick(&self.drive, &mut self.state, cmd)
     }
 
-    /// [`Drive::background`] on the copy: the task's slower work, between a take and a give
-    /// (with the cargo feature `speed-gain`, a firmware runs it after every task, or the
-    /// speed loop's checks wait and its gain stays).
+    /// [`Drive::background`] on the copy: the task's slower work, after the task and before
+    /// the give (a firmware runs it after every task, or the motor model does not adapt and
+    /// the speed loop's checks wait).
     pub fn background(&mut self) {
         self.drive.background(&mut self.state);
     }

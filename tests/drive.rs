@@ -409,6 +409,7 @@ fn check_sequence<P: Observer, M: Observer>(
         let out = drive.step(&mut st, input, cmd);
         if st.tick_due() {
             drive.tick(&mut st, cmd);
+            drive.background(&mut st);
         }
         if let Some(d) = out.duties {
             for x in [d.a, d.b, d.c] {

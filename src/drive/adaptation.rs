@@ -8,7 +8,8 @@
 //!   Khambadkone & Holtz, "Vector-controlled induction motor drive with a self-commissioning
 //!   scheme", IEEE Trans. Ind. Electron. 38(5), 1991; ST's motor profiler), run before each
 //!   open-loop start so that a warm winding's resistance is the one the start uses.
-//! - **ψ_f and R while running** (`sensorless.rs`, 1 kHz): the back-EMF's length,
+//! - **ψ_f and R while running** (sensorless control's 1 kHz task keeps its operating point,
+//!   [`Drive::background`](super::Drive::background) checks it after the task): the back-EMF's length,
 //!   `|ω_e| ψ_f = |v − R i − jω_e L i|` (stator equation in steady state, the current turning
 //!   at ω_e). The length does not depend on the estimated angle, so an angle error does not
 //!   bias it. One equation, two unknowns: each is taken where the other's error moves it
@@ -187,6 +188,22 @@ pub(super) struct Model {
     steady_checks: u16,
     /// The operating range of the last check.
     range: Measures,
+    /// The last task's operating point, for the check after it ([`Settings::take`]).
+    pending: Option<Pending>,
+}
+
+/// One 1 kHz task's operating point for the check of [`Settings::track`]: the task keeps it,
+/// [`Drive::background`](super::Drive::background) checks it before the next step (a square
+/// root and up to three divisions off the task's budget; `pmsm-sim cycles` measures it after
+/// the task), so the model moves as the task's own check moved it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Pending {
+    /// The current sampled \[A] and the voltage of the period that starts with it \[V].
+    pub(super) sample: (AlphaBeta, AlphaBeta),
+    /// The driving observer's speed [rad/s, mechanical].
+    pub(super) omega_m: f32,
+    /// The q current commanded \[A].
+    pub(super) i_q_ref_a: f32,
 }
 
 impl Model {
@@ -219,9 +236,40 @@ impl Model {
     pub(super) fn torque_from_observer(&self, torque_nm: f32) -> f32 {
         torque_nm / (self.scale * self.scale)
     }
+
+    /// Keeps the task's operating point for the check after it (see [`Pending`]).
+    #[inline(always)]
+    pub(super) fn keep(&mut self, pending: Pending) {
+        self.pending = Some(pending);
+    }
 }
 
 impl Settings {
+    /// The check of the operating point the last task kept, if any ([`Settings::track`]).
+    pub(super) fn take(&self, m: &mut Model) {
+        if let Some(p) = m.pending.take() {
+            self.track(m, p.sample, p.omega_m, p.i_q_ref_a);
+        }
+    }
+
+    /// For the cycle bench: `m` kept steady in ψ_f's range and an operating point that
+    /// measures it at twice ψ_f's lowest speed, with no current (inside the dead-time band:
+    /// the band's division too) and the model's back-EMF: [`Settings::take`]'s costliest
+    /// path (a square root, three divisions).
+    pub(super) fn bench_worst(&self, m: &mut Model) {
+        let omega_e = 2.0 * self.flux_min_omega_e;
+        m.range = Measures::Flux;
+        m.steady_checks = self.steady_checks;
+        m.keep(Pending {
+            sample: (
+                AlphaBeta::default(),
+                AlphaBeta::new(0.0, omega_e * m.flux_wb),
+            ),
+            omega_m: omega_e / self.pole_pairs,
+            i_q_ref_a: 0.0,
+        });
+    }
+
     /// Sets the configured model into `m` if it has never been set.
     pub(super) fn ensure(&self, m: &mut Model) {
         if m.scale.is_nan() || m.scale <= 0.0 {
@@ -273,7 +321,7 @@ impl Settings {
     /// moved a sample in and out of range would choose which are taken, and bias their mean
     /// (measured: −5 % with a 2 % offset under load).
     #[inline(always)]
-    pub(super) fn track(
+    fn track(
         &self,
         m: &mut Model,
         (i_ab, v_ab): (AlphaBeta, AlphaBeta),

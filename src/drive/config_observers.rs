@@ -249,7 +249,7 @@ impl DriveConfig {
     }
 
     /// The PLL's settings (unvalidated).
-    pub(crate) fn pll_config(&self) -> PllConfig {
+    pub fn pll_config(&self) -> PllConfig {
         PllConfig {
             rate_hz: self.rate_hz / self.steps_per_tick(),
             bandwidth_hz: pll_bandwidth_hz(self.speed_bandwidth_hz),

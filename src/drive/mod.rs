@@ -303,15 +303,28 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         }
     }
 
-    /// The 1 kHz task's slower work, in a context below it (after the task when the two
-    /// share one, [`Control::run`](crate::control::Control::run); a firmware whose task is an
-    /// interrupt runs it from its idle loop, between two tasks): the speed loop's checks'
-    /// block and interval ends (`speed_gain.rs`: the inertia's regression, the gain set), every
-    /// 16 and 100 tasks, bounded (`pmsm-sim cycles`). Run it after every task: not run, the
-    /// checks wait and the gain stays. Without the cargo feature `speed-gain`, nothing.
+    /// The 1 kHz task's slower work, after the task and before its results are given to the
+    /// step ([`Control::run`](crate::control::Control::run): after the task in one context;
+    /// [`TickCopy`](crate::control::TickCopy): on the task's copy before it is given back):
+    /// the motor model's check of the operating point the task kept (`adaptation.rs`: a
+    /// square root and up to three divisions), and the speed loop's checks' block and
+    /// interval ends (`speed_gain.rs`: the inertia's regression, the gain set), every 16 and
+    /// 100 tasks; bounded (`pmsm-sim cycles`). Run it after every task: not run, the model
+    /// does not adapt, the checks wait and the gain stays.
     #[inline(never)]
     pub fn background(&self, st: &mut StateOf<P, M>) {
+        self.adaptation.take(&mut st.obs.model);
         self.sensorless.speed_gain.background(&mut st.speed_gain);
+    }
+
+    /// For the cycle bench (`examples/qemu-m4f`): the model's check and the speed loop's
+    /// checks set so that the next [`Drive::background`] runs its costliest path
+    /// (`adaptation.rs`, `speed_gain.rs`).
+    #[doc(hidden)]
+    pub fn bench_background_worst(&self, st: &mut StateOf<P, M>) {
+        self.adaptation.bench_worst(&mut st.obs.model);
+        #[cfg(feature = "speed-gain")]
+        st.speed_gain.bench_worst();
     }
 
     /// The drive's 1 kHz task: call it once after every `rate_hz/1000`-th [`Drive::step`] (when
@@ -361,35 +374,52 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         self.monitor.read_out(&mut obs.monitor, ReadOut::Speed);
         let i_ab = st.i_ab_last;
         let cmd_rpm = cmd.speed_rpm;
-        let next = match &mut st.mode {
-            ModeState::Catch(c) if !c.seeded() => Next::Stay,
-            ModeState::Catch(c) => {
-                self.supervise(obs, i_ab, 0.0);
-                let driving = obs.health.usable().then(|| self.driving_now(obs));
+        // The health check (`supervision.rs`) and the driving observer's estimate after it,
+        // once here for every mode that has them (inlined: one copy in the task): a seeded
+        // observer starts at the torque the controller makes (`Drive::supervise`).
+        let seed_load_nm = match &st.mode {
+            ModeState::Catch(c) if !c.seeded() => None,
+            ModeState::CatchZero(c) if !c.seeded() => None,
+            ModeState::Catch(_) | ModeState::CatchZero(_) | ModeState::OpenLoop(_) => Some(0.0),
+            ModeState::Sensorless(s) => Some(self.foc.torque_for_current(s.torque_current())),
+            // Returned above.
+            ModeState::Idle
+            | ModeState::Fault(_)
+            | ModeState::Align(_)
+            | ModeState::Calibrate
+            | ModeState::Identify
+            | ModeState::Identified => None,
+            #[cfg(feature = "injection")]
+            ModeState::Inject => None,
+        };
+        let checked = seed_load_nm.map(|load_nm| {
+            let health = self.supervise(obs, i_ab, load_nm);
+            (health, self.driving_now(obs))
+        });
+        let next = match (&mut st.mode, checked) {
+            (ModeState::Catch(c), Some((_, d))) => {
+                let driving = obs.health.usable().then_some(d);
                 self.catch.tick(c, &self.foc, driving, cmd_rpm)
             }
-            ModeState::CatchZero(c) if !c.seeded() => Next::Stay,
-            ModeState::CatchZero(c) => {
-                self.supervise(obs, i_ab, 0.0);
-                let driving = obs.health.usable().then(|| self.driving_now(obs));
+            (ModeState::CatchZero(c), Some((_, d))) => {
+                let driving = obs.health.usable().then_some(d);
                 self.catch_zero.tick(c, &self.foc, driving, cmd_rpm)
             }
-            ModeState::OpenLoop(ol) => {
-                let (verdict, _) = self.supervise(obs, i_ab, 0.0);
-                let driving = obs.health.usable().then(|| self.driving_now(obs));
+            (ModeState::OpenLoop(ol), Some(((verdict, _), d))) => {
+                let driving = obs.health.usable().then_some(d);
                 self.open_loop
                     .tick(ol, &self.foc, verdict, driving, cmd_rpm)
             }
-            ModeState::Sensorless(s) => {
+            (ModeState::Sensorless(s), Some((health, d))) => {
                 let applied = st.last.applied(&self.foc);
-                let torque = self.foc.torque_for_current(s.torque_current());
-                let health = self.supervise(obs, i_ab, torque);
-                let d = self.driving_now(obs);
                 if health.0 == Verdict::Drive {
                     // The flux linkage or the resistance from the back-EMF while the driving
-                    // observer is locked (`adaptation.rs`).
-                    let sample = (i_ab, applied.v_ab);
-                    (self.adaptation).track(&mut obs.model, sample, d.omega_m, s.i_q_ref());
+                    // observer is locked (`adaptation.rs`), checked after the task (`background`).
+                    obs.model.keep(adaptation::Pending {
+                        sample: (i_ab, applied.v_ab),
+                        omega_m: d.omega_m,
+                        i_q_ref_a: s.i_q_ref(),
+                    });
                 } else {
                     st.speed_gain.restart(health.0 == Verdict::Switched);
                 }
@@ -409,15 +439,8 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                     &mut st.speed_gain,
                 )
             }
-            // Returned above.
-            ModeState::Idle
-            | ModeState::Fault(_)
-            | ModeState::Align(_)
-            | ModeState::Calibrate
-            | ModeState::Identify
-            | ModeState::Identified => Next::Stay,
-            #[cfg(feature = "injection")]
-            ModeState::Inject => Next::Stay,
+            // A catch not yet seeded (no check), and the modes returned above.
+            _ => Next::Stay,
         };
         let reason = match next {
             Next::Stay => return None,

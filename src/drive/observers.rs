@@ -67,9 +67,9 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     }
 
     /// The driving observer's frame now, its speed [rad/s, mechanical] and its load-torque
-    /// estimate \[N·m] if it has one: [`Drive::driving`] for the 1 kHz task and the mode
-    /// changes, out of line (one copy for all of them, not one inlined at each).
-    #[inline(never)]
+    /// estimate \[N·m] if it has one: [`Drive::driving`] for the 1 kHz task (inlined there:
+    /// one call, after the health check) and the mode changes.
+    #[inline(always)]
     pub(super) fn driving_now(&self, obs: &ObserverStates<P::State, M::State>) -> Driving {
         let (frame, _, omega_m, load_nm) = self.driving(obs, SinCos::ZERO);
         Driving {
@@ -83,8 +83,9 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     /// for: a seeded observer starts at the driving one's angle now, speed and load (its
     /// own estimate, else `load_nm` \[N·m], the torque the controller makes). Returns the
     /// verdict and, when the driving observer changed, why.
-    // Out of line: a thousandth of a second's work, called from three modes.
-    #[inline(never)]
+    // Inlined: one call, the 1 kHz task's, for every mode that has the check (out of line,
+    // the call's saving and restoring of registers weighed on the task's budget).
+    #[inline(always)]
     pub(super) fn supervise(
         &self,
         obs: &mut ObserverStates<P::State, M::State>,

@@ -50,9 +50,10 @@
 //!
 //! Both checks count in the speed loop's run (the 1 kHz task, [`Settings::check`]: the
 //! block's sums, the crossings, +21 cycles on the emulated Cortex-M4F); their block and
-//! interval ends, the regression and the verdicts, run below it
-//! ([`Drive::background`](super::Drive::background), [`Settings::background`]: 414 cycles at
-//! most, once every 16 tasks at most), so that the task keeps its budget. The gain scales the
+//! interval ends, the regression and the verdicts, run after it
+//! ([`Drive::background`](super::Drive::background), [`Settings::background`]: once every 16
+//! tasks at most; `pmsm-sim cycles` measures them with the motor model's check there), so
+//! that the task keeps its budget. The gain scales the
 //! speed PI's error ([`Foc::speed_step_scaled`](crate::foc::Foc)), so the integrator's
 //! current does not step. It is kept from one run to the next. The load-torque observer and
 //! the sliding torque observer keep `J₀`: the sliding observer carries it in every
@@ -212,9 +213,14 @@ struct Regression {
 }
 
 impl Regression {
+    /// Adds a block; the first (`n` zero) starts the sums afresh, so that a restart only
+    /// clears `n`.
     fn add(&mut self, x: f32, y: f32) {
         if self.n == 0.0 {
-            self.origin = (x, y);
+            *self = Regression {
+                origin: (x, y),
+                ..Regression::default()
+            };
         }
         let (x, y) = (x - self.origin.0, y - self.origin.1);
         self.n += 1.0;
@@ -277,11 +283,17 @@ impl State {
     #[cfg(feature = "speed-gain")]
     #[inline(never)]
     pub(super) fn restart(&mut self, switched: bool) {
-        *self = State {
-            gain: self.gain,
-            slow: if switched { self.slow } else { Slow::default() },
-            ..State::default()
-        };
+        // (Field by field, the regression's sums left to its next first block: on the 1 kHz
+        // task's path, cheaper than a copy of the whole state.)
+        self.fast = Fast::default();
+        if !switched {
+            self.slow.crossings = 0;
+            self.slow.block = 0;
+            self.slow.block_i_a = 0.0;
+            self.slow.block_omega = 0.0;
+            self.slow.last = None;
+            self.slow.blocks.n = 0.0;
+        }
     }
 
     /// Without the cargo feature `speed-gain`: nothing to restart.

@@ -249,15 +249,6 @@ impl<PS, MS> DriveState<PS, MS> {
         self.slot == 0
     }
 
-    /// For the cycle bench (`examples/qemu-m4f`): the speed loop's checks set so that the
-    /// next [`Drive::background`](super::Drive::background) runs its costliest path
-    /// (`speed_gain.rs`).
-    #[cfg(feature = "speed-gain")]
-    #[doc(hidden)]
-    pub fn bench_speed_gain_worst(&mut self) {
-        self.speed_gain.bench_worst();
-    }
-
     /// The voltage the last step's duties apply over the period \[V] (what the observers take
     /// next step), the inverter's dead time included ([`crate::foc::FocOutput::v_ab`]); zero
     /// before the first switching step.

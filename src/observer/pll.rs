@@ -158,9 +158,9 @@ impl Pll {
     /// \[rad]: the angle turned through since the last update, as far as the caller knows it
     /// within ±π (its own count of the turn, or `T ω̂` of the last update). A non-finite
     /// input leaves the state untouched.
-    // Out of line: one copy in flash for both observer roles (the board image has 224 B to
-    // spare), called only on the motors that need it.
-    #[inline(never)]
+    // Inlined into the 1 kHz task: out of line, the call cost the task 31 cycles on the
+    // emulated Cortex-M4F (`pmsm-sim cycles`, the flux primary's aided case).
+    #[inline(always)]
     pub fn update_aided(&self, st: &mut PllState, theta: f32, turn_hint: f32) -> f32 {
         let predicted = self.ts * st.omega;
         // The turn over the period: the input's own difference, on the branch of the hint;

@@ -217,6 +217,8 @@ impl Tick {
                 return;
             }
             let ticked = self.copy.tick(&cmd);
+            // Its slower work (the motor model's check), on the copy before it is given back.
+            self.copy.background();
             let gen = self.generation;
             if with_control(|ctl| {
                 GENERATION.load(Ordering::Relaxed) == gen && self.copy.give(&mut ctl.control)

@@ -403,15 +403,16 @@ mod firmware {
             (bench_begin_step, bench_end_step),
             (bench_begin_tick, bench_end_tick),
         );
-        // The task's slower work below it at its costliest (`speed_gain.rs`: a block's end
-        // with the slow check's interval and a raise, the fast check's interval with a
-        // halving), after each task of a sliding-primary run.
+        // The task's slower work after it at its costliest (`adaptation.rs`: ψ_f measured
+        // inside the dead-time band; `speed_gain.rs`: a block's end with the slow check's
+        // interval and a raise, the fast check's interval with a halving), after each task
+        // of a sliding-primary run.
         let mut st = drive.running_state(i0, rotor(theta0, 0.0));
         for k in 1..=STEPS {
             black_box(control_step(&drive, &mut st, &input(theta0, k), &cmd));
             if st.tick_due() {
                 control_tick(&drive, &mut st, &cmd);
-                st.bench_speed_gain_worst();
+                drive.bench_background_worst(&mut st);
                 let markers: Markers = (
                     bench_begin_background_speed_gain,
                     bench_end_background_speed_gain,

@@ -161,6 +161,7 @@ mod firmware {
                 } else {
                     copy.take(&control);
                     let ticked = copy.tick(&cmd);
+                    copy.background();
                     sink(if copy.give(&mut control) { 1.0 } else { 0.0 });
                     ticked
                 };
