@@ -159,10 +159,12 @@ pub struct CyclesReport {
     /// Worst 1 kHz task of the calibration and the identification's measurements.
     pub tick_identify_cycles_est: u64,
     /// [`Drive::background`](pmsm_sensorless::drive::Drive::background), the 1 kHz task's
-    /// slower work below it, at its costliest (`speed_gain.rs`: a block's end with the slow
-    /// check's interval and a raise, and the fast check's interval with a halving; once every
-    /// 16 and 100 tasks at most).
-    pub background_speed_gain_cycles_est: u64,
+    /// slower work after it, at its costliest (`adaptation.rs`: ψ_f measured inside the
+    /// dead-time band, after every task that kept an operating point; `speed_gain.rs`: a
+    /// block's end with the slow check's interval and a raise, and the fast check's interval
+    /// with a halving, once every 16 and 100 tasks at most). It counts with the task in the
+    /// CPU share (`rate_cycles`).
+    pub background_cycles_est: u64,
     /// Cycle estimate of one sliding torque observer update.
     pub sliding_cycles_est: u64,
     /// Cycle estimate of one flux observer update plus its PLL.
@@ -666,7 +668,7 @@ pub fn measure(root: &Path) -> anyhow::Result<CyclesReport> {
         step_identify_flux_cycles_est: worst("step_identify_flux")?.1,
         step_identify_mechanics_cycles_est: worst("step_identify_mechanics")?.1,
         tick_identify_cycles_est: worst("tick_identify")?.1,
-        background_speed_gain_cycles_est: worst("background_speed_gain")?.1,
+        background_cycles_est: worst("background")?.1,
         sliding_cycles_est: worst("sliding")?.1,
         flux_cycles_est: worst("flux_pll")?.1,
         foc_svpwm_cycles_est: worst("foc_svpwm")?.1,

@@ -6,10 +6,11 @@
 //! The drive starts in sensorless control at 1000 rpm on the Sinano motor
 //! (`Drive::running_state`: both observers seeded at that rotor state), so the measured `step`
 //! takes the sensorless branch with both observers live; it is measured with the sliding and
-//! the flux observer primary, in open loop (start-up, reached from idle through the
-//! alignment), with the voltage at its limit (bus at its under-voltage trip, 37 V), and with
-//! the angles crossing ±π; after every fourth step the drive's 1 kHz task (`Drive::tick`) is
-//! measured too. Every case runs a full electrical turn (64 steps); each measured call is a
+//! the flux observer primary (its PLL plain and aided), in open loop (start-up, reached from
+//! idle through the alignment), with the voltage at its limit (bus at its under-voltage trip,
+//! 37 V), and with the angles crossing ±π; after every fourth step the drive's 1 kHz task
+//! (`Drive::tick`) is measured too, each sensorless case unloaded and with its speed loop at
+//! the current limit, motoring and braking. Every case runs a full electrical turn (64 steps); each measured call is a
 //! function of its own, as the firmware's interrupt and main loop call them.
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
@@ -93,7 +94,7 @@ mod firmware {
         bench_begin_tick_salient, bench_end_tick_salient, 28u32;
         bench_begin_step_inject, bench_end_step_inject, 29u32;
         bench_begin_tick_inject, bench_end_tick_inject, 30u32;
-        bench_begin_background_speed_gain, bench_end_background_speed_gain, 35u32;
+        bench_begin_background, bench_end_background, 35u32;
     }
 
     // The fixed-point step's cases: in the M0's bench only (its package's feature
@@ -395,14 +396,21 @@ mod firmware {
             }
         }
         let at_48v = (theta0, 48.0, &cmd);
-        run(
-            "sliding primary",
-            &drive,
-            drive.running_state(i0, rotor(theta0, 0.0)),
-            at_48v,
-            (bench_begin_step, bench_end_step),
-            (bench_begin_tick, bench_end_tick),
-        );
+        // Each sensorless case runs unloaded, then under twice the rated torque either way,
+        // seeded into the speed loop's integrator and the load observer: the torque command
+        // at the current limit, motoring and braking (the task's limited path,
+        // `sensorless.rs`: the clamp, or braking first with its square root).
+        let loads = [0.0, 2.0 * m.ratings.torque_nm, -2.0 * m.ratings.torque_nm];
+        for load in loads {
+            run(
+                "sliding primary",
+                &drive,
+                drive.running_state(i0, rotor(theta0, load)),
+                at_48v,
+                (bench_begin_step, bench_end_step),
+                (bench_begin_tick, bench_end_tick),
+            );
+        }
         // The task's slower work after it at its costliest (`adaptation.rs`: ψ_f measured
         // inside the dead-time band; `speed_gain.rs`: a block's end with the slow check's
         // interval and a raise, the fast check's interval with a halving), after each task
@@ -413,22 +421,52 @@ mod firmware {
             if st.tick_due() {
                 control_tick(&drive, &mut st, &cmd);
                 drive.bench_background_worst(&mut st);
-                let markers: Markers = (
-                    bench_begin_background_speed_gain,
-                    bench_end_background_speed_gain,
-                );
+                let markers: Markers = (bench_begin_background, bench_end_background);
                 timed_background(markers, &drive, &mut st);
             }
         }
         // The flux observer feeding the controller (the sliding observer as the monitor).
-        run(
-            "flux primary",
-            &drive_flux,
-            drive_flux.running_state(i0, rotor(theta0, 0.0)),
-            at_48v,
-            (bench_begin_step_flux_primary, bench_end_step_flux_primary),
-            (bench_begin_tick_flux_primary, bench_end_tick_flux_primary),
-        );
+        for load in loads {
+            run(
+                "flux primary",
+                &drive_flux,
+                drive_flux.running_state(i0, rotor(theta0, load)),
+                at_48v,
+                (bench_begin_step_flux_primary, bench_end_step_flux_primary),
+                (bench_begin_tick_flux_primary, bench_end_tick_flux_primary),
+            );
+        }
+        // The same with the PLL aided (`observer::pll`, "Aided"), as the drive
+        // runs it on the motors whose acceleration the plain PLL would slip under
+        // (`DriveConfig::pll_aided`: the zoo's drone motor, the DF45, the Delta servo), into
+        // the same sections.
+        let aided = match (
+            cfg.flux_config().build(),
+            cfg.pll_config().build(),
+            cfg.sliding_monitor(),
+        ) {
+            (Ok(flux), Ok(pll), Ok(monitor)) => cfg
+                .build(FluxPll::new(flux, pll.aided(), m.params.n()), monitor)
+                .ok(),
+            _ => None,
+        };
+        let Some(drive_aided) = aided else {
+            defmt::error!("aided-PLL configuration failed");
+            debug::exit(debug::EXIT_FAILURE);
+            loop {
+                cortex_m::asm::wfi();
+            }
+        };
+        for load in loads {
+            run(
+                "flux primary, aided PLL",
+                &drive_aided,
+                drive_aided.running_state(i0, rotor(theta0, load)),
+                at_48v,
+                (bench_begin_step_flux_primary, bench_end_step_flux_primary),
+                (bench_begin_tick_flux_primary, bench_end_tick_flux_primary),
+            );
+        }
         // A salient motor (issue #29): the Sinano's with `L_q/L_d = 2` about its `L`, so the
         // flux observer's active-flux terms, the FOC's two inductances and the MTPA's split of
         // the torque current run; both primaries, each step and task into one section.
@@ -455,22 +493,24 @@ mod firmware {
             cfg_salient.build_flux_primary(),
         ) {
             (Ok(sliding_primary), Ok(flux_primary)) => {
-                run(
-                    "salient, sliding primary",
-                    &sliding_primary,
-                    sliding_primary.running_state(i0, rotor(theta0, 0.0)),
-                    at_48v,
-                    (bench_begin_step_salient, bench_end_step_salient),
-                    (bench_begin_tick_salient, bench_end_tick_salient),
-                );
-                run(
-                    "salient, flux primary",
-                    &flux_primary,
-                    flux_primary.running_state(i0, rotor(theta0, 0.0)),
-                    at_48v,
-                    (bench_begin_step_salient, bench_end_step_salient),
-                    (bench_begin_tick_salient, bench_end_tick_salient),
-                );
+                for load in loads {
+                    run(
+                        "salient, sliding primary",
+                        &sliding_primary,
+                        sliding_primary.running_state(i0, rotor(theta0, load)),
+                        at_48v,
+                        (bench_begin_step_salient, bench_end_step_salient),
+                        (bench_begin_tick_salient, bench_end_tick_salient),
+                    );
+                    run(
+                        "salient, flux primary",
+                        &flux_primary,
+                        flux_primary.running_state(i0, rotor(theta0, load)),
+                        at_48v,
+                        (bench_begin_step_salient, bench_end_step_salient),
+                        (bench_begin_tick_salient, bench_end_tick_salient),
+                    );
+                }
             }
             _ => {
                 defmt::error!("salient configuration failed");
