@@ -395,22 +395,33 @@ mod firmware {
                 );
             }
         }
+        // [`run`] from each of `states` in turn: one case unloaded and at the current limit.
+        fn run_each<P: Observer, M: Observer>(
+            name: &str,
+            drive: &Drive<P, M>,
+            states: [StateOf<P, M>; 3],
+            args: (f32, f32, &Command),
+            markers: Markers,
+            tick_markers: Markers,
+        ) {
+            for st in states {
+                run(name, drive, st, args, markers, tick_markers);
+            }
+        }
         let at_48v = (theta0, 48.0, &cmd);
         // Each sensorless case runs unloaded, then under twice the rated torque either way,
         // seeded into the speed loop's integrator and the load observer: the torque command
         // at the current limit, motoring and braking (the task's limited path,
         // `sensorless.rs`: the clamp, or braking first with its square root).
         let loads = [0.0, 2.0 * m.ratings.torque_nm, -2.0 * m.ratings.torque_nm];
-        for load in loads {
-            run(
-                "sliding primary",
-                &drive,
-                drive.running_state(i0, rotor(theta0, load)),
-                at_48v,
-                (bench_begin_step, bench_end_step),
-                (bench_begin_tick, bench_end_tick),
-            );
-        }
+        run_each(
+            "sliding primary",
+            &drive,
+            loads.map(|load| drive.running_state(i0, rotor(theta0, load))),
+            at_48v,
+            (bench_begin_step, bench_end_step),
+            (bench_begin_tick, bench_end_tick),
+        );
         // The task's slower work after it at its costliest (`adaptation.rs`: ψ_f measured
         // inside the dead-time band; `speed_gain.rs`: a block's end with the slow check's
         // interval and a raise, the fast check's interval with a halving), after each task
@@ -426,16 +437,14 @@ mod firmware {
             }
         }
         // The flux observer feeding the controller (the sliding observer as the monitor).
-        for load in loads {
-            run(
-                "flux primary",
-                &drive_flux,
-                drive_flux.running_state(i0, rotor(theta0, load)),
-                at_48v,
-                (bench_begin_step_flux_primary, bench_end_step_flux_primary),
-                (bench_begin_tick_flux_primary, bench_end_tick_flux_primary),
-            );
-        }
+        run_each(
+            "flux primary",
+            &drive_flux,
+            loads.map(|load| drive_flux.running_state(i0, rotor(theta0, load))),
+            at_48v,
+            (bench_begin_step_flux_primary, bench_end_step_flux_primary),
+            (bench_begin_tick_flux_primary, bench_end_tick_flux_primary),
+        );
         // The same with the PLL aided (`observer::pll`, "Aided"), as the drive
         // runs it on the motors whose acceleration the plain PLL would slip under
         // (`DriveConfig::pll_aided`: the zoo's drone motor, the DF45, the Delta servo), into
@@ -457,16 +466,14 @@ mod firmware {
                 cortex_m::asm::wfi();
             }
         };
-        for load in loads {
-            run(
-                "flux primary, aided PLL",
-                &drive_aided,
-                drive_aided.running_state(i0, rotor(theta0, load)),
-                at_48v,
-                (bench_begin_step_flux_primary, bench_end_step_flux_primary),
-                (bench_begin_tick_flux_primary, bench_end_tick_flux_primary),
-            );
-        }
+        run_each(
+            "flux primary, aided PLL",
+            &drive_aided,
+            loads.map(|load| drive_aided.running_state(i0, rotor(theta0, load))),
+            at_48v,
+            (bench_begin_step_flux_primary, bench_end_step_flux_primary),
+            (bench_begin_tick_flux_primary, bench_end_tick_flux_primary),
+        );
         // A salient motor (issue #29): the Sinano's with `L_q/L_d = 2` about its `L`, so the
         // flux observer's active-flux terms, the FOC's two inductances and the MTPA's split of
         // the torque current run; both primaries, each step and task into one section.
@@ -493,24 +500,22 @@ mod firmware {
             cfg_salient.build_flux_primary(),
         ) {
             (Ok(sliding_primary), Ok(flux_primary)) => {
-                for load in loads {
-                    run(
-                        "salient, sliding primary",
-                        &sliding_primary,
-                        sliding_primary.running_state(i0, rotor(theta0, load)),
-                        at_48v,
-                        (bench_begin_step_salient, bench_end_step_salient),
-                        (bench_begin_tick_salient, bench_end_tick_salient),
-                    );
-                    run(
-                        "salient, flux primary",
-                        &flux_primary,
-                        flux_primary.running_state(i0, rotor(theta0, load)),
-                        at_48v,
-                        (bench_begin_step_salient, bench_end_step_salient),
-                        (bench_begin_tick_salient, bench_end_tick_salient),
-                    );
-                }
+                run_each(
+                    "salient, sliding primary",
+                    &sliding_primary,
+                    loads.map(|load| sliding_primary.running_state(i0, rotor(theta0, load))),
+                    at_48v,
+                    (bench_begin_step_salient, bench_end_step_salient),
+                    (bench_begin_tick_salient, bench_end_tick_salient),
+                );
+                run_each(
+                    "salient, flux primary",
+                    &flux_primary,
+                    loads.map(|load| flux_primary.running_state(i0, rotor(theta0, load))),
+                    at_48v,
+                    (bench_begin_step_salient, bench_end_step_salient),
+                    (bench_begin_tick_salient, bench_end_tick_salient),
+                );
             }
             _ => {
                 defmt::error!("salient configuration failed");
