@@ -178,8 +178,8 @@ impl<P: Observer, M: Observer, S> Control<P, M, S> {
     }
 
     /// The drive's 1 kHz task on the state, in place: call it when [`Stepped::tick_due`]
-    /// says, never while a step runs (one context: [`Control::run`]; a step that preempts its
-    /// tick: [`TickCopy`]).
+    /// says, never while a step runs, and [`Control::background`] after it, before the next
+    /// step (one context: [`Control::run`]; a step that preempts its tick: [`TickCopy`]).
     pub fn tick(&mut self, cmd: &Commands) -> Ticked {
         tick(&self.drive, &mut self.state, cmd)
     }
@@ -247,8 +247,9 @@ impl<P: Observer, M: Observer, S: PowerStage> Control<P, M, S> {
 /// acts between two steps.
 ///
 /// In the tick's context: [`TickCopy::take`] with the step held off (a critical section:
-/// one copy of the state, a few hundred cycles), then [`TickCopy::tick`] with the step free
-/// to run, then [`TickCopy::give`] with the step held off again (the same copy back). If a
+/// one copy of the state, a few hundred cycles), then [`TickCopy::tick`] and
+/// [`TickCopy::background`] with the step free to run, then [`TickCopy::give`] with the step
+/// held off again (the same copy back). If a
 /// step ran between take and give, give refuses (the copy is stale) and the caller takes
 /// again: the task then acts after that step, as a late tick always did.
 pub struct TickCopy<P: Observer, M: Observer> {

@@ -1,5 +1,5 @@
-//! A device on the host ([`SimDevice`]): the real core drive (`Drive::step` and
-//! `Drive::tick`, as `pmsm_sensorless::control::Control::run` calls them) stepping the host
+//! A device on the host ([`SimDevice`]): the real core drive (`Drive::step`, `Drive::tick`
+//! and `Drive::background`, as `pmsm_sensorless::control::Control::run` calls them) stepping the host
 //! simulator's plant on its simulated board (`pmsm_host_sim::board::BoardStage`) in
 //! simulated time, implementing the link's [`Device`] as a firmware does: settings applied
 //! by rebuilding the drive, a "flash" that keeps the saved settings across
@@ -162,6 +162,7 @@ impl SimDevice {
                     ..cmd
                 };
                 self.transitions.extend(drive.tick(&mut self.state, &tick));
+                drive.background(&mut self.state);
             }
         } else {
             self.stage.apply(None);

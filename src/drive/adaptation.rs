@@ -188,7 +188,7 @@ pub(super) struct Model {
     steady_checks: u16,
     /// The operating range of the last check.
     range: Measures,
-    /// The last task's operating point, for the check after it ([`Settings::take`]).
+    /// The last task's operating point, for the check after it ([`Settings::track_kept`]).
     pending: Option<Pending>,
 }
 
@@ -242,11 +242,19 @@ impl Model {
     pub(super) fn keep(&mut self, pending: Pending) {
         self.pending = Some(pending);
     }
+
+    /// Drops an operating point a task kept and no check took (a caller that ran no
+    /// [`Drive::background`](super::Drive::background) after it): a task's point is checked
+    /// after that task or not at all, never after later steps.
+    #[inline(always)]
+    pub(super) fn drop_kept(&mut self) {
+        self.pending = None;
+    }
 }
 
 impl Settings {
     /// The check of the operating point the last task kept, if any ([`Settings::track`]).
-    pub(super) fn take(&self, m: &mut Model) {
+    pub(super) fn track_kept(&self, m: &mut Model) {
         if let Some(p) = m.pending.take() {
             self.track(m, p.sample, p.omega_m, p.i_q_ref_a);
         }
@@ -254,7 +262,7 @@ impl Settings {
 
     /// For the cycle bench: `m` kept steady in ψ_f's range and an operating point that
     /// measures it at twice ψ_f's lowest speed, with no current (inside the dead-time band:
-    /// the band's division too) and the model's back-EMF: [`Settings::take`]'s costliest
+    /// the band's division too) and the model's back-EMF: [`Settings::track_kept`]'s costliest
     /// path (a square root, three divisions).
     pub(super) fn bench_worst(&self, m: &mut Model) {
         let omega_e = 2.0 * self.flux_min_omega_e;

@@ -313,7 +313,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     /// does not adapt, the checks wait and the gain stays.
     #[inline(never)]
     pub fn background(&self, st: &mut StateOf<P, M>) {
-        self.adaptation.take(&mut st.obs.model);
+        self.adaptation.track_kept(&mut st.obs.model);
         self.sensorless.speed_gain.background(&mut st.speed_gain);
     }
 
@@ -343,6 +343,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
     #[inline(never)]
     pub fn tick(&self, st: &mut StateOf<P, M>, cmd: &Command) -> Option<Transition> {
         st.ticked();
+        st.obs.model.drop_kept();
         let from = st.mode();
         match st.mode {
             ModeState::Idle

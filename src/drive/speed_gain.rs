@@ -373,7 +373,7 @@ impl Settings {
     #[inline(always)]
     pub(super) fn check(&self, _: &mut State, _: f32, _: bool, _: f32, _: f32) {}
 
-    /// The checks' slower work, below the 1 kHz task ([`Drive::background`](super::Drive)):
+    /// The checks' slower work, after the 1 kHz task ([`Drive::background`](super::Drive)):
     /// a full block's end and a full interval's end.
     #[cfg(feature = "speed-gain")]
     pub(super) fn background(&self, s: &mut State) {

@@ -9,9 +9,9 @@
 //! event queue; the task owns a [`TickCopy`] and its own queue. `Drive::tick` must never run
 //! in the middle of a step, and the step must not wait for a whole task: the task runs on a
 //! copy of the state. It takes the copy with interrupts off (`take`, one copy of the drive's
-//! state: 304 bytes, 464 with the identification), runs `Drive::tick` on it with interrupts
-//! on (the step preempts it freely), and puts it back with interrupts off again (`give`, the
-//! same copy) if no step ran since the take; else it takes again, and so acts after that
+//! state), runs `Drive::tick` and its slower work after it, `Drive::background` (the motor
+//! model's check), on it with interrupts on (the step preempts them freely), and puts it back
+//! with interrupts off again (`give`, the same copy) if no step ran since the take; else it takes again, and so acts after that
 //! step, as a late task always did. The task is pended at the end of every fourth step and
 //! runs right after it (tail-chained), about 10 µs before the next step is due 250 µs later:
 //! a retry needs the task held off for some 230 µs by something else (the main loop's

@@ -164,8 +164,8 @@ mod firmware {
         black_box(());
     }
 
-    /// The drive's slower work below the 1 kHz task ([`Drive::background`]) between
-    /// `markers`, as [`timed_step`] (its call inlined here: no board runs it yet).
+    /// The drive's slower work after the 1 kHz task ([`Drive::background`]) between
+    /// `markers`, as [`timed_step`].
     #[inline(never)]
     fn timed_background<P: Observer, M: Observer>(
         markers: Markers,
