@@ -345,7 +345,9 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         st.ticked();
         st.obs.model.drop_kept();
         let from = st.mode();
-        match st.mode {
+        // The modes with a health check (`supervision.rs`) and the torque a seeded observer
+        // starts at (`Drive::supervise`): the controller's; a catch not yet seeded has none.
+        let seed_load_nm = match &st.mode {
             ModeState::Idle
             | ModeState::Fault(_)
             | ModeState::Align(_)
@@ -358,11 +360,11 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             ModeState::Identify => return None,
             #[cfg(feature = "injection")]
             ModeState::Inject => return self.inject_tick(st, cmd),
-            ModeState::Catch(_)
-            | ModeState::CatchZero(_)
-            | ModeState::OpenLoop(_)
-            | ModeState::Sensorless(_) => {}
-        }
+            ModeState::Catch(c) if !c.seeded() => None,
+            ModeState::CatchZero(c) if !c.seeded() => None,
+            ModeState::Catch(_) | ModeState::CatchZero(_) | ModeState::OpenLoop(_) => Some(0.0),
+            ModeState::Sensorless(s) => Some(self.foc.torque_for_current(s.torque_current())),
+        };
         st.last.close_millisecond(&self.schedule);
         let obs = &mut st.obs;
         self.primary.read_out(&mut obs.primary, ReadOut::Angle);
@@ -375,24 +377,8 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         self.monitor.read_out(&mut obs.monitor, ReadOut::Speed);
         let i_ab = st.i_ab_last;
         let cmd_rpm = cmd.speed_rpm;
-        // The health check (`supervision.rs`) and the driving observer's estimate after it,
-        // once here for every mode that has them (inlined: one copy in the task): a seeded
-        // observer starts at the torque the controller makes (`Drive::supervise`).
-        let seed_load_nm = match &st.mode {
-            ModeState::Catch(c) if !c.seeded() => None,
-            ModeState::CatchZero(c) if !c.seeded() => None,
-            ModeState::Catch(_) | ModeState::CatchZero(_) | ModeState::OpenLoop(_) => Some(0.0),
-            ModeState::Sensorless(s) => Some(self.foc.torque_for_current(s.torque_current())),
-            // Returned above.
-            ModeState::Idle
-            | ModeState::Fault(_)
-            | ModeState::Align(_)
-            | ModeState::Calibrate
-            | ModeState::Identify
-            | ModeState::Identified => None,
-            #[cfg(feature = "injection")]
-            ModeState::Inject => None,
-        };
+        // The health check and the driving observer's estimate after it, once here for every
+        // mode that has them (inlined: one copy in the task).
         let checked = seed_load_nm.map(|load_nm| {
             let health = self.supervise(obs, i_ab, load_nm);
             (health, self.driving_now(obs))
@@ -440,7 +426,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
                     &mut st.speed_gain,
                 )
             }
-            // A catch not yet seeded (no check), and the modes returned above.
+            // A catch not yet seeded (no check); the other modes returned above.
             _ => Next::Stay,
         };
         let reason = match next {
