@@ -198,16 +198,19 @@ fn a_drone_at_a_tenth_of_its_inertia_ends_named() {
 /// holds its rotor at (`inductance.rs`: the eigenvalues of the 2×2 ripple response, each
 /// average taken with the rotor at rest), the saliency's share taken off the back-EMF before
 /// ψ_f (`flux.rs`), and the identified motor salient. The Aalto 2.2 kW IPM (L_q/L_d 1.42) and
-/// the Caruso 2019 IPM (1.53) and the Zou 350 kW PMa-SynRM (2.67), two seeds each, within
-/// R 3 %, L_d and L_q 5 %, ψ_f 3 %, J 10 %. (Before: the Aalto's and the Caruso's L_d and L_q
-/// within 1 % of each axis, but the drive took their mean; ψ_f −2.4 % and −7.7 %, J −9 % on
-/// the Caruso; the Zou ended in `shorted_phase`.)
+/// the Caruso 2019 IPM (1.53), the Zou 350 kW PMa-SynRM (2.67) and AMK's DD5 hub motor (2.0),
+/// two seeds each, within R 3 %, L_d and L_q 5 %, ψ_f 3 %, J 10 %. (Before: the Aalto's and the
+/// Caruso's L_d and L_q within 1 % of each axis, but the drive took their mean; ψ_f −2.4 % and
+/// −7.7 %, J −9 % on the Caruso; the Zou ended in `shorted_phase`; the AMK in
+/// `spin_not_followed` until the identification's current loop took each axis's inductance,
+/// `drive/identify/mod.rs`, `Gains`.)
 #[test]
 fn salient_ipms_identify_both_axes() {
     for file in [
         "motors/zoo/salient/industrial-ipm-aalto-2.2kw.toml",
         "motors/zoo/salient/industrial-ipm-caruso-2019.toml",
         "motors/zoo/salient/traction-pmasynrm-zou-350kw.toml",
+        "motors/zoo/salient/fs-ipm-amk-dd5-14-10-pow.toml",
     ] {
         let m = load(&Path::new(env!("CARGO_MANIFEST_DIR")).join(file));
         for seed in [1, 2] {

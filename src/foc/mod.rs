@@ -338,17 +338,24 @@ impl Foc {
         SinCos::of_small(self.pole_pairs * omega_m * self.advance_s)
     }
 
-    /// This FOC with its current loop's gains replaced: `kp` \[V/A] on both axes, `ki_ts` =
-    /// `ki T` \[V/A], the decoupling inductance `l_h` \[H] on both axes and the flux linkage fed
-    /// forward `flux_wb` \[Wb] (the identification's loop, from the parameters it measured).
-    pub fn with_current_gains(&self, kp: f32, ki_ts: f32, l_h: f32, flux_wb: f32) -> Self {
+    /// This FOC with its current loop's gains replaced: `kp` = (`kp_d`, `kp_q`) \[V/A], `ki_ts`
+    /// = `ki T` \[V/A], the decoupling inductances `l_dq_h` = (`L_d`, `L_q`) \[H] and the flux
+    /// linkage fed forward `flux_wb` \[Wb] (the identification's loop, from the parameters it
+    /// measured).
+    pub fn with_current_gains(
+        &self,
+        kp: (f32, f32),
+        ki_ts: f32,
+        l_dq_h: (f32, f32),
+        flux_wb: f32,
+    ) -> Self {
         Self {
             current: CurrentLoop {
-                kp_d: kp,
-                kp_q: kp,
+                kp_d: kp.0,
+                kp_q: kp.1,
                 ki_ts,
-                l_d_h: l_h,
-                l_q_h: l_h,
+                l_d_h: l_dq_h.0,
+                l_q_h: l_dq_h.1,
                 flux_wb,
             },
             ..*self

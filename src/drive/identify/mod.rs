@@ -352,29 +352,45 @@ pub(super) enum Phase {
 
 /// The current loop's gains re-derived from the identified motor (`kp = L ω_c`,
 /// `ki T = R ω_c T`, the decoupling `L` and the flux linkage fed forward); zero until `R` and
-/// `L` are known (voltage references meanwhile).
+/// `L` are known (voltage references meanwhile). On a salient result
+/// ([`Identified::salient`]) each axis takes its own inductance, `L_d` on d and `L_q` on q, as
+/// the running drive's loop does: the measurements that turn the rotor run in a frame whose d
+/// axis is near the rotor's (the spin's current on it, `flux.rs`; the torque steps' frame on
+/// the rotor by their PLL, `mechanics.rs`), where one mean inductance on both axes was off by
+/// `|L_d − L_q|/2` on each. On AMK's DD5 hub motor (L_q/L_d 2) the decoupling's error
+/// `ω_e |L_d − L_q|/2` at the spin's 3,600 rpm was a third of the mean `kp` (0.34 Ω, with
+/// `ω_e` = `ω_c` = 1885 rad/s): at the holding current (16 A) the d current swung between
+/// −46 and +86 A, the rotor fell out of the spin, and the identification ended in
+/// `spin_not_followed` on every seed. (Where `(L_q − L_d) I > ψ_f` at the spin's test current
+/// `I`, the rotor rests off the current's axis during the ramp, at `cos δ = ψ_f/((L_q − L_d) I)`,
+/// and neither inductance is the frame's there; at the holding current it is aligned.)
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(super) struct Gains {
-    kp: f32,
+    kp: (f32, f32),
     ki_ts: f32,
-    l_h: f32,
+    l_dq_h: (f32, f32),
     flux_wb: f32,
 }
 
 impl Gains {
-    /// For `r_ohm`, `l_h`, `flux_wb` at the bandwidth of `s`.
-    fn of(s: &Settings, r_ohm: f32, l_h: f32, flux_wb: f32) -> Self {
+    /// For the motor identified so far, `k`, at the bandwidth of `s`.
+    fn of(s: &Settings, k: &Identified) -> Self {
+        let l_dq_h = if k.salient() {
+            (k.l_d_h, k.l_q_h)
+        } else {
+            (k.l_h(), k.l_h())
+        };
         Self {
-            kp: l_h * s.w_c,
-            ki_ts: r_ohm * s.w_c_ts,
-            l_h,
-            flux_wb,
+            kp: (l_dq_h.0 * s.w_c, l_dq_h.1 * s.w_c),
+            ki_ts: k.r_ohm * s.w_c_ts,
+            l_dq_h,
+            flux_wb: k.flux_wb,
         }
     }
 
     /// `foc` with these gains.
     fn foc(&self, foc: &Foc) -> Foc {
-        foc.with_current_gains(self.kp, self.ki_ts, self.l_h, self.flux_wb)
+        foc.with_current_gains(self.kp, self.ki_ts, self.l_dq_h, self.flux_wb)
     }
 }
 
@@ -495,7 +511,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             )),
         };
         let mut id = Identify::new();
-        id.gains = Gains::of(s, k.r_ohm, k.l_h(), k.flux_wb);
+        id.gains = Gains::of(s, &k);
         id.phase = phase;
         id.result = k;
         let mut st = DriveState {
@@ -633,8 +649,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             Progress::Next(phase) => {
                 cold_path();
                 // The current loop from what is known now; its integrators from zero.
-                let r = id.result;
-                id.gains = Gains::of(s, r.r_ohm, r.l_h(), r.flux_wb);
+                id.gains = Gains::of(s, &id.result);
                 id.phase = phase;
                 st.current = Default::default();
                 return None;
