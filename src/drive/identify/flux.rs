@@ -177,8 +177,8 @@ impl FluxSpin {
             e_last: Dq::default(),
             watch: [Window::default(); 2],
             r_ohm: m.r_ohm,
-            l_over_t: if m.salient() { m.l_q_h } else { m.l_h() } / s.ts,
-            l_d_minus_q_h: if m.salient() { m.l_d_h - m.l_q_h } else { 0.0 },
+            l_over_t: m.l_dq_h().1 / s.ts,
+            l_d_minus_q_h: m.l_dq_h().0 - m.l_dq_h().1,
         }
     }
 

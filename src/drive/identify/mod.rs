@@ -177,6 +177,16 @@ impl Identified {
         (self.l_d_h - self.l_q_h).abs() > SALIENT * self.l_h()
     }
 
+    /// The model's inductances `(L_d, L_q)` \[H]: as measured where [`Identified::salient`],
+    /// else their mean on both axes.
+    pub fn l_dq_h(&self) -> (f32, f32) {
+        if self.salient() {
+            (self.l_d_h, self.l_q_h)
+        } else {
+            (self.l_h(), self.l_h())
+        }
+    }
+
     /// The motor parameters with the user's `pole_pairs`, validated, in the convention
     /// `torque` the identification ran in: salient with `l_d_h` and `l_q_h` where
     /// [`Identified::salient`], else with their mean.
@@ -375,11 +385,7 @@ pub(super) struct Gains {
 impl Gains {
     /// For the motor identified so far, `k`, at the bandwidth of `s`.
     fn of(s: &Settings, k: &Identified) -> Self {
-        let l_dq_h = if k.salient() {
-            (k.l_d_h, k.l_q_h)
-        } else {
-            (k.l_h(), k.l_h())
-        };
+        let l_dq_h = k.l_dq_h();
         Self {
             kp: (l_dq_h.0 * s.w_c, l_dq_h.1 * s.w_c),
             ki_ts: k.r_ohm * s.w_c_ts,
