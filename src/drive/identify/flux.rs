@@ -4,7 +4,8 @@
 //! ST's profiler's flux/`K_e` step; the I/f start of [`super::super::open_loop`]): a current of
 //! fixed magnitude along the d axis of a frame whose speed ramps (rated speed per second, the
 //! drive's start-up ramp) to 15 % of rated speed, the rotor following it; the current is then
-//! lowered to 30 % of rated (a turning rotor without load needs little); the back-EMF is
+//! lowered to 30 % of rated (a turning rotor without load needs little; less on a salient motor,
+//! below); the back-EMF is
 //! measured there and again at 30 % of rated speed, each after 200 ms of settling. The ramp to
 //! the second speed runs at the test current again (raised over 50 ms before it, lowered over
 //! 50 ms after it, the settling shortened by both: the same total time): at 30 % of it the
@@ -30,10 +31,21 @@
 //! S. Okuma, "An extended electromotive force model for sensorless control of interior
 //! permanent-magnet synchronous motors", IEEE Trans. Ind. Electron. 50(2), 2003; at constant
 //! current in the rotor frame), `i_d` the current along the EMF turned back by 90°: the
-//! saliency's share is taken off before ψ_f. (On the Brusa traction motor, L_q/L_d 3.24, 30 %
-//! of its rated current along d is nine tenths of the magnet's flux: the extended EMF is a tenth
-//! of the magnet's, the sensing noise dominates it, and ψ_f comes out 14–18 % low with the
-//! board's 1 % noise: not solved.) Averaged per millisecond in the
+//! saliency's share is taken off before ψ_f.
+//!
+//! The holding current of a salient motor: with no load the rotor's d axis settles on the
+//! current, whose torque at a lag `λ` is `c N I sin λ (ψ_f − (L_q − L_d) I cos λ)`; its
+//! stiffness there, `c N I (ψ_f − (L_q − L_d) I)`, is largest at `I = ψ_f / (2 (L_q − L_d))`,
+//! where the extended EMF is half the magnet's. Beyond it the saliency's flux takes more of
+//! the EMF and the rotor holds less firmly in the frame: on the Brusa traction motor (L_q/L_d
+//! 3.24) 30 % of its rated current is nine tenths of the magnet's flux, the extended EMF a
+//! tenth of the magnet's, buried in the sensing noise, and ψ_f came out 11–25 % low with the
+//! board's 1 % noise. So the measurement at the spin speed holds that current wherever the
+//! one at half of it shows the saliency's flux above half the magnet's (`ψ_f` from that
+//! measurement; the Brusa's ψ_f now +1.7 to +2.0 % on seeds 1–4, its J +0.9 to +1.5 %, from
+//! −11 to −25 %); elsewhere it is the same.
+//!
+//! Averaged per millisecond in the
 //! frame (noise), then as a magnitude over 500 ms: the rotor turns on average at the frame's
 //! speed however it swings about it, so `ψ_f = mean|e| / (N ω_m)` \[Wb]. A rotor that does not
 //! turn shows no back-EMF: the same measurement first at half the spin speed, and an EMF
@@ -129,6 +141,8 @@ pub(in crate::drive) struct FluxSpin {
     omega_m: f32,
     /// The current's magnitude \[A].
     i_ref: f32,
+    /// The holding current while measuring \[A] (module doc).
+    hold_a: f32,
     i_prev: AlphaBeta,
     /// Back-EMF and voltage in the frame, summed since the last tick \[V].
     e_sum: Dq,
@@ -164,6 +178,7 @@ impl FluxSpin {
             out_rot: SinCos::ZERO,
             omega_m: 0.0,
             i_ref: s.i_test_a,
+            hold_a: HOLD * s.i_test_a,
             i_prev: AlphaBeta::default(),
             e_sum: Dq::default(),
             v_sum: Dq::default(),
@@ -230,7 +245,7 @@ impl FluxSpin {
         self.n = 0;
         self.e_last = e;
         self.frame = self.frame.renormalized();
-        let hold = HOLD * s.i_test_a;
+        let hold = self.hold_a;
         match self.stage {
             Stage::Ramp => {
                 if self.e_half.is_none() {
@@ -310,7 +325,9 @@ impl FluxSpin {
                     self.stage = Stage::Measure(ms - 1);
                 } else if self.e_half.is_none() {
                     // Half speed measured: on to the spin speed.
-                    self.e_half = Some(self.e_mag_sum / self.count as f32);
+                    let e_half = self.e_mag_sum / self.count as f32;
+                    self.e_half = Some(e_half);
+                    self.hold_a = self.stiffest_hold(e_half / (s.n * self.omega_m));
                     self.e_mag_sum = 0.0;
                     self.e_q_sum = 0.0;
                     self.v_mag_sum = 0.0;
@@ -343,6 +360,19 @@ impl FluxSpin {
             0.0
         };
         mag - s.n * self.omega_m * self.l_d_minus_q_h * i_d
+    }
+
+    /// The holding current for the spin speed's measurement \[A], from the magnet's flux
+    /// `psi_wb` measured at half of it: the one now, unless the saliency's flux
+    /// `(L_q − L_d) I` is more than half the magnet's, past the holding current that keeps the
+    /// rotor stiffest in the frame, `ψ_f / (2 (L_q − L_d))` (module doc), which it then takes.
+    fn stiffest_hold(&self, psi_wb: f32) -> f32 {
+        let l_q_minus_d_h = -self.l_d_minus_q_h;
+        if l_q_minus_d_h * self.hold_a > 0.5 * psi_wb && psi_wb > 0.0 {
+            0.5 * psi_wb / l_q_minus_d_h
+        } else {
+            self.hold_a
+        }
     }
 
     /// ψ_f from the mean back-EMF; the torque steps start in the frame of the rotor.
@@ -384,3 +414,4 @@ impl FluxSpin {
         )))
     }
 }
+
