@@ -270,6 +270,9 @@ fn a_strongly_salient_rotor_held_off_its_axis_is_measured_not_misnamed() {
     ];
     for (label, o) in runs {
         assert_all(label, &o, &m);
-        assert!(o.identified.is_some_and(|id| id.salient()), "{label}: not salient");
+        assert!(
+            o.identified.is_some_and(|id| id.salient()),
+            "{label}: not salient"
+        );
     }
 }
