@@ -5,8 +5,8 @@
 //! fixed magnitude along the d axis of a frame whose speed ramps (rated speed per second, the
 //! drive's start-up ramp) to 15 % of rated speed, the rotor following it; the current is then
 //! lowered to 30 % of rated (a turning rotor without load needs little; less on a salient motor,
-//! below); the back-EMF is
-//! measured there and again at 30 % of rated speed, each after 200 ms of settling. The ramp to
+//! below); the back-EMF is measured there and again at 30 % of rated speed, each after 200 ms
+//! of settling. The ramp to
 //! the second speed runs at the test current again (raised over 50 ms before it, lowered over
 //! 50 ms after it, the settling shortened by both: the same total time): at 30 % of it the
 //! 10-pole-pair EMRAX 228 (J 0.025 kg·m², 7 mΩ) swung about the frame undamped during the
@@ -42,8 +42,11 @@
 //! tenth of the magnet's, buried in the sensing noise, and ψ_f came out 11–25 % low with the
 //! board's 1 % noise. So the measurement at the spin speed holds that current wherever the
 //! one at half of it shows the saliency's flux above half the magnet's (`ψ_f` from that
-//! measurement; the Brusa's ψ_f now +1.7 to +2.0 % on seeds 1–4, its J +0.9 to +1.5 %, from
-//! −11 to −25 %); elsewhere it is the same.
+//! measurement, and at least half the holding current before, `stiffest_hold`): the Brusa's
+//! ψ_f now +1.8 to +2.6 % on seeds 1–4, its J +0.9 to +1.8 %, from −11 to −25 %; the Zou
+//! PMa-SynRM's holding current drops from 99 to 80 A, its ψ_f within 0.3 % on seeds 1–4 as
+//! before within 0.8 %; elsewhere (the AMK, Aalto and Caruso IPMs, every non-salient motor) it
+//! is the same, to the bit.
 //!
 //! Averaged per millisecond in the
 //! frame (noise), then as a magnitude over 500 ms: the rotor turns on average at the frame's
@@ -301,7 +304,8 @@ impl FluxSpin {
                 };
             }
             Stage::Raise(ms) => {
-                let rise = (s.i_test_a - hold) / SHIFT_MS as f32;
+                // From the first measurement's holding current.
+                let rise = (s.i_test_a - HOLD * s.i_test_a) / SHIFT_MS as f32;
                 self.i_ref = (self.i_ref + rise).min(s.i_test_a);
                 self.stage = if ms > 1 {
                     Stage::Raise(ms - 1)
@@ -365,11 +369,15 @@ impl FluxSpin {
     /// The holding current for the spin speed's measurement \[A], from the magnet's flux
     /// `psi_wb` measured at half of it: the one now, unless the saliency's flux
     /// `(L_q − L_d) I` is more than half the magnet's, past the holding current that keeps the
-    /// rotor stiffest in the frame, `ψ_f / (2 (L_q − L_d))` (module doc), which it then takes.
+    /// rotor stiffest in the frame, `ψ_f / (2 (L_q − L_d))` (module doc), which it then takes,
+    /// but not below half the one now: a rotor that does not turn shows little EMF at half
+    /// the speed, and the check of the EMF's growth with the speed ([`FluxSpin::evaluate`])
+    /// must not compare it with one measured at a far smaller current (a blocked AMK and Zou
+    /// passed it at a tenth and a third of it, and their torque steps ran on).
     fn stiffest_hold(&self, psi_wb: f32) -> f32 {
         let l_q_minus_d_h = -self.l_d_minus_q_h;
         if l_q_minus_d_h * self.hold_a > 0.5 * psi_wb && psi_wb > 0.0 {
-            0.5 * psi_wb / l_q_minus_d_h
+            crate::math::max(0.5 * psi_wb / l_q_minus_d_h, 0.5 * self.hold_a)
         } else {
             self.hold_a
         }
