@@ -34,6 +34,14 @@
 //! than under a negative one of the same size on the true d axis, and the other way round on
 //! the flipped estimate. After the lock the block holds `+I_p` then `−I_p` on the estimated d
 //! axis and compares the mean responses; a smaller response under `+I_p` flips `θ̂` by `π`.
+//! The comparison is a test against the noise the samples themselves show (a sequential
+//! test: Wald, *Sequential Analysis*, 1947): the two sums must differ by
+//! [`POLARITY_SIGMAS`] standard deviations, or the halves are repeated and summed, up to
+//! [`POLARITY_ROUNDS`]; a test still within its noise then is [`Phase::Unresolved`], and the
+//! drive aligns instead (`drive/inject.rs`). Before, the sign was taken whatever the
+//! margin: on the Zou traction motor at 4 kHz with the board's noise one round is 1.8 σ (a
+//! start against the magnet in 4 % of starts), and on a d axis that does not saturate the
+//! sign is the noise's, a start against the magnet in half of them.
 //!
 //! **Scaled from the motor** (never tuned to one):
 //! - injection voltage `V_h = min(R_h · I_τ · L_d / (T |1 − 2δ|), V_max/4)`, `δ` the board's
@@ -46,7 +54,7 @@
 //!   4 kHz): `ω_n T = 0.079`, well inside the discrete loop's stability;
 //! - the lock time `12/ω_n` (38 ms at 4 kHz), each polarity half `POLARITY_S` (8 ms: about
 //!   15 time constants of the 300 Hz current loop), averaged over its second half, with the
-//!   bias `I_p = I_τ/2` ([`POLARITY_BIAS`]);
+//!   bias `I_p = I_τ/2` ([`POLARITY_BIAS`]); the test's noise from its own samples;
 //! - the response's low-pass `1 − e^{−T/τ_η}`, `τ_η = 4/ω_n`.
 //!
 //! **Declined** ([`Declined`]) where it cannot work: a saliency `L_q/L_d` below
@@ -80,6 +88,26 @@ pub const VOLTAGE_SHARE_MAX: f32 = 0.25;
 /// `V_h`), a fraction of the rated-torque current: five times the board's current noise (1 %
 /// of the rated current, `DESIGN.md`).
 pub const RIPPLE_MIN: f32 = 0.05;
+
+/// The polarity test's confidence: the difference of its two sums must exceed this many
+/// standard deviations of the noise in it, as the test's own samples show it (module doc);
+/// below it the direction is [`Phase::Unresolved`].
+pub const POLARITY_SIGMAS: f32 = 4.0;
+
+/// The polarity test's most rounds (each a `+I_p` and a `−I_p` half, summed over all): it
+/// ends at the first round whose sums differ beyond [`POLARITY_SIGMAS`]; the noise falls as
+/// `1/√rounds`, so a contrast at 1.5σ after one round is resolved after eight (the Zou
+/// traction motor's at 4 kHz with the board's noise: 1.8σ a round, its injection's swing cut
+/// to 5 % of its rated current by the voltage share). At most 128 ms at 8 ms a half.
+pub const POLARITY_ROUNDS: u32 = 8;
+
+/// The variance of the difference of the polarity test's two sums of `N` responses per
+/// mean square of successive responses' differences, per `N`: with white sensor noise of
+/// variance `σ²` the square wave's alternating sign gives each sample the weight 2 in a sum
+/// (`4 N σ²` a sum, `8 N σ²` the difference of two), and one response less the one before,
+/// `s_k (n_k − n_{k−1} − n_{k−2} + n_{k−3})/2`, has `σ²`. Successive differences leave out
+/// what changes slowly in a window (the current settling on the bias), which is no noise.
+const DIFFERENCE_VARIANCE_FACTOR: f32 = 8.0;
 
 /// The smallest share of the square wave the update delay may leave, `|1 − 2δ|`.
 pub const GAIN_MIN: f32 = 0.25;
@@ -170,6 +198,10 @@ pub enum Phase {
     Negative,
     /// Angle and polarity known: tracking.
     Track,
+    /// The polarity test ended within its noise ([`POLARITY_SIGMAS`]): the axis is known,
+    /// its direction not (a motor whose d axis barely saturates at `I_p`). The drive starts
+    /// with the alignment instead; the estimate keeps tracking at zero current meanwhile.
+    Unresolved,
 }
 
 /// The injection's running state.
@@ -192,6 +224,11 @@ pub struct InjectionState {
     /// Sums of `η` over the polarity halves' averaging windows \[A].
     sum_pos: f32,
     sum_neg: f32,
+    /// Σ(`η_k − η_{k−1}`)² within the windows \[A²] (the test's noise), and the last `η`.
+    sum_dsq: f32,
+    eta_last: f32,
+    /// The polarity test's rounds done.
+    rounds: u32,
     /// The polarity test's contrast `(η₊ − η₋)/(η₊ + η₋)` on the estimate before any flip
     /// (positive: the lock was on the magnet's north).
     pub contrast: f32,
@@ -290,9 +327,15 @@ impl Injection {
         }
     }
 
-    /// Steps from the start to the end of the polarity test.
+    /// Steps from the start to the end of the polarity test's first round (each further
+    /// round `2 · half` more, up to [`POLARITY_ROUNDS`]: [`Injection::start_steps_max`]).
     pub fn start_steps(&self) -> u32 {
         self.lock_steps + 2 * self.half_steps
+    }
+
+    /// Steps from the start to the end of the polarity test's last round.
+    pub fn start_steps_max(&self) -> u32 {
+        self.lock_steps + 2 * POLARITY_ROUNDS * self.half_steps
     }
 
     /// The d-current reference of the lock and the polarity test (0, `+I_p`, `−I_p`), or
@@ -302,6 +345,7 @@ impl Injection {
             Phase::Lock => Some(0.0),
             Phase::Positive => Some(self.bias_a),
             Phase::Negative => Some(-self.bias_a),
+            Phase::Unresolved => Some(0.0),
             Phase::Track => None,
         }
     }
@@ -370,6 +414,11 @@ impl Injection {
                 st.steps = 0;
             }
             Phase::Positive | Phase::Negative if averaging => {
+                if st.steps > half / 2 + 1 {
+                    let d = eta - st.eta_last;
+                    st.sum_dsq += d * d;
+                }
+                st.eta_last = eta;
                 if st.phase == Phase::Positive {
                     st.sum_pos += eta;
                 } else {
@@ -384,17 +433,39 @@ impl Injection {
                     st.steps = 0;
                 }
             }
-            Phase::Lock | Phase::Positive | Phase::Negative | Phase::Track => {}
+            Phase::Lock | Phase::Positive | Phase::Negative | Phase::Track | Phase::Unresolved => {}
         }
     }
 
-    /// The end of the polarity test: the estimate flipped by π if the response under `+I_p`
-    /// was the smaller.
+    /// The end of a round of the polarity test: the estimate flipped by π if the response
+    /// under `+I_p` was the smaller; another round, or after [`POLARITY_ROUNDS`]
+    /// [`Phase::Unresolved`], where the two sums differ by less than
+    /// [`POLARITY_SIGMAS`] standard deviations of their difference's noise, from the
+    /// windows' own samples: the mean square of successive responses' differences within
+    /// each window, times `8 N` ([`DIFFERENCE_VARIANCE_FACTOR`]). (Where nothing saturates,
+    /// the contrast is noise: the sign a coin's, the start half the time against the magnet,
+    /// the rotor pulled round by up to 180°.)
     // Out of line: once per start.
     #[inline(never)]
     fn decide(&self, st: &mut InjectionState) {
         let (p, n) = (st.sum_pos, st.sum_neg);
         st.contrast = (p - n) / max(p + n, f32::MIN_POSITIVE);
+        st.rounds += 1;
+        // Samples per sign: the steps after each half's first half (`polarity`).
+        let per_window = (self.half_steps - self.half_steps / 2) as f32;
+        let count = st.rounds as f32 * per_window;
+        let mssd = st.sum_dsq / max(2.0 * st.rounds as f32 * (per_window - 1.0), 1.0);
+        let noise = crate::math::sqrt_or_zero(DIFFERENCE_VARIANCE_FACTOR * count * mssd);
+        // (A NaN anywhere: not resolved.)
+        let resolved = libm::fabsf(p - n) >= POLARITY_SIGMAS * noise;
+        if !resolved {
+            st.phase = if st.rounds < POLARITY_ROUNDS {
+                Phase::Positive
+            } else {
+                Phase::Unresolved
+            };
+            return;
+        }
         if p < n {
             st.flipped = true;
             st.theta_e = wrap_pi(st.theta_e + PI);

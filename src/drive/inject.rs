@@ -25,7 +25,9 @@
 //! The drive declines to inject ([`Declined`]) on a motor whose saliency is too small, or
 //! when it is not asked to ([`Drive::with_injection`](super::Drive::with_injection)): it
 //! starts as without the feature (align, open loop), and
-//! [`Drive::injection`](super::Drive::injection) says why.
+//! [`Drive::injection`](super::Drive::injection) says why. A polarity test that ends within
+//! its noise ([`Phase::Unresolved`]: a d axis that barely saturates) hands the start to the
+//! alignment (`Align`, `AtRest`), which finds the magnet by pulling it.
 
 use super::mode::{Entry, Next};
 use super::ramp::Ramp;

@@ -771,6 +771,16 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             return None;
         };
         st.last.close_millisecond(&self.schedule);
+        if st.inject.phase() == crate::injection::Phase::Unresolved {
+            // The magnet's direction not resolved (`injection.rs`): today's start.
+            st.mode = ModeState::Align(Align::default());
+            st.current = crate::foc::CurrentLoopState::default();
+            return Some(Transition {
+                from,
+                to: st.mode(),
+                reason: Reason::AtRest,
+            });
+        }
         let s = &mut st.inject;
         let mtpa = self.sensorless.mtpa.as_ref();
         let Next::Sensorless(entry, reason) = settings.tick(s, &self.foc, mtpa, cmd.speed_rpm)

@@ -348,6 +348,7 @@ impl Controller {
                     flux_wb: tel.flux_wb as f64,
                     voltage_limited: tel.voltage_limited,
                     derated: drive.derated(),
+                    injection_tracking: drive.injection().map(|(_, _, tracking)| tracking),
                 };
                 // The angle the controller runs on: the driving observer's while sensorless.
                 let sensorless = tel.mode == Mode::Sensorless;

@@ -70,6 +70,9 @@ pub struct RowHealth {
     pub voltage_limited: bool,
     /// The drive derated by the bus (`Telemetry::derated`).
     pub derated: bool,
+    /// In the injection's start (`DriveState::injection`): whether it tracks with the
+    /// polarity known (false in its lock and polarity test); `None` outside it.
+    pub injection_tracking: Option<bool>,
 }
 
 impl Row {
