@@ -460,7 +460,8 @@ windows = [["held", 0.4, 2.4]]
             .iter()
             .zip(&travel)
             .find(|(row, _)| row.t >= 0.051 && tracking(row))
-            .map_or(0.0, |(_, &x)| x);
+            .map(|(_, &x)| x)
+            .expect("the injection tracking with the polarity known");
         let settled: Vec<f64> = held
             .iter()
             .filter(|(row, _)| row.t >= 1.4)
@@ -578,14 +579,15 @@ windows = []
 /// polarity test's two responses the same but for the noise), from 20 random rotor angles
 /// through the drive: the test never decides (`Phase::Unresolved` after its rounds,
 /// `injection.rs`) and the drive starts as without the injection, the alignment from the
-/// injection's start (`Align → Align`, `AtRest`); no start on a coin's polarity.
+/// injection's start (`Align → Align`, `AtRest`), which completes (`Aligned`); no start on a
+/// coin's polarity.
 #[test]
 fn an_unresolved_polarity_falls_back_to_the_alignment() {
     let spec = Spec::parse(
         "inject-no-saturation",
         r#"
 description = "the injection's polarity test on a d axis that does not saturate"
-duration_s = 0.3
+duration_s = 0.4
 speed = [[0.0, 0.001]]
 load = [[0.0, 0.0]]
 load_kind = "active"
@@ -609,8 +611,12 @@ windows = []
             .filter(|(_, tr)| tr.to == Mode::Align)
             .map(|(t, tr)| (*t, tr.reason))
             .collect();
+        let aligned = r
+            .transitions
+            .iter()
+            .any(|(_, tr)| tr.from == Mode::Align && tr.reason == Reason::Aligned);
         assert!(
-            aligns.len() == 2 && aligns[1].1 == Reason::AtRest,
+            aligns.len() == 2 && aligns[1].1 == Reason::AtRest && aligned,
             "{file} from θ_m {theta_m0:.3} rad: {:?}",
             r.transitions
         );

@@ -772,9 +772,11 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         };
         st.last.close_millisecond(&self.schedule);
         if st.inject.phase() == crate::injection::Phase::Unresolved {
-            // The magnet's direction not resolved (`injection.rs`): today's start.
+            // The magnet's direction not resolved (`injection.rs`): today's start. (The
+            // injection's state fresh again: a later start at rest begins it anew.)
             st.mode = ModeState::Align(Align::default());
             st.current = crate::foc::CurrentLoopState::default();
+            st.inject = inject::Inject::default();
             return Some(Transition {
                 from,
                 to: st.mode(),
