@@ -535,6 +535,15 @@ fn a_non_salient_drive_declines_and_starts_as_today() {
     assert_eq!(runs[0].rows, runs[1].rows);
 }
 
+/// A scenario of `duration_s` from standstill: a command of 0.1 % of rated speed, no load.
+fn at_standstill(name: &str, description: &str, duration_s: f64) -> Spec {
+    let toml = format!(
+        "description = \"{description}\"\nduration_s = {duration_s}\nspeed = [[0.0, 0.001]]\n\
+         load = [[0.0, 0.0]]\nload_kind = \"active\"\nwindows = []\n"
+    );
+    Spec::parse(name, &toml).unwrap()
+}
+
 /// Through the drive on the board, from 20 random rotor angles on each motor (a command of
 /// 0.1 % of rated speed, no load, 0.2 s: past the lock and the polarity test's last round):
 /// the polarity resolved (no fall-back to the alignment) and the injection's estimate at the
@@ -542,18 +551,11 @@ fn a_non_salient_drive_declines_and_starts_as_today() {
 /// worst error printed.
 #[test]
 fn polarity_right_through_the_drive_from_20_random_angles() {
-    let spec = Spec::parse(
+    let spec = at_standstill(
         "inject-polarity",
-        r#"
-description = "the injection's lock and polarity test from standstill"
-duration_s = 0.2
-speed = [[0.0, 0.001]]
-load = [[0.0, 0.0]]
-load_kind = "active"
-windows = []
-"#,
-    )
-    .unwrap();
+        "the injection's lock and polarity test from standstill",
+        0.2,
+    );
     for (k, file) in MOTORS.iter().enumerate() {
         let mut angles = ChaCha8Rng::seed_from_u64(290 + k as u64);
         let mut worst = 0.0f64;
@@ -583,18 +585,11 @@ windows = []
 /// coin's polarity.
 #[test]
 fn an_unresolved_polarity_falls_back_to_the_alignment() {
-    let spec = Spec::parse(
+    let spec = at_standstill(
         "inject-no-saturation",
-        r#"
-description = "the injection's polarity test on a d axis that does not saturate"
-duration_s = 0.4
-speed = [[0.0, 0.001]]
-load = [[0.0, 0.0]]
-load_kind = "active"
-windows = []
-"#,
-    )
-    .unwrap();
+        "the injection's polarity test on a d axis that does not saturate",
+        0.4,
+    );
     let file = MOTORS[0];
     let mut angles = ChaCha8Rng::seed_from_u64(2900);
     for _ in 0..20 {
