@@ -40,10 +40,10 @@
 //! noise then is [`Phase::Unresolved`], and the drive aligns instead (`drive/inject.rs`).
 //! (Eight looks at a noise estimated from few samples: on a motor without any contrast
 //! about 0.1 % of starts still resolve, half of them the wrong way, in a Monte-Carlo
-//! estimate of the review; one look at a known noise would be 6e-5.) Before, the sign was taken whatever the
-//! margin: on the Zou traction motor at 4 kHz with the board's noise one round is 1.8 σ (a
-//! start against the magnet in 4 % of starts), and on a d axis that does not saturate the
-//! sign is the noise's, a start against the magnet in half of them.
+//! estimate of the review; one look at a known noise would be 6e-5.) Before, the sign was
+//! taken whatever the margin: on the Zou traction motor at 4 kHz with the board's noise one
+//! round is 1.8 σ (a start against the magnet in 4 % of starts), and on a d axis that does
+//! not saturate the sign is the noise's, a start against the magnet in half of them.
 //!
 //! **Scaled from the motor** (never tuned to one):
 //! - injection voltage `V_h = min(R_h · I_τ · L_d / (T |1 − 2δ|), V_max/4)`, `δ` the board's
@@ -448,7 +448,7 @@ impl Injection {
     /// each window, times `8 N` ([`DIFFERENCE_VARIANCE_FACTOR`]). (Where nothing saturates,
     /// the contrast is noise: the sign a coin's, the start half the time against the magnet,
     /// the rotor pulled round by up to 180°.)
-    // Out of line: once per start.
+    // Out of line: once per round of the test.
     #[inline(never)]
     fn decide(&self, st: &mut InjectionState) {
         let (p, n) = (st.sum_pos, st.sum_neg);
