@@ -181,6 +181,13 @@ impl MotorParams {
         self.l_d_h() - self.l_q_h()
     }
 
+    /// The d current along which a salient rotor ([`stiffest_holding_current_a`]) is held
+    /// stiffest \[A], or `None` for `L_q ≤ L_d`.
+    #[inline]
+    pub fn stiffest_holding_current_a(&self) -> Option<f32> {
+        stiffest_holding_current_a(self.flux_wb, self.l_d_minus_l_q_h())
+    }
+
     /// The motor is salient: `L_d ≠ L_q`.
     #[inline]
     pub fn is_salient(&self) -> bool {
@@ -434,4 +441,17 @@ pub const PRESETS: [Motor; 4] = [
 /// The preset called `name`, if any.
 pub fn preset(name: &str) -> Option<Motor> {
     PRESETS.iter().copied().find(|m| m.name == name)
+}
+
+/// The d current `I` along which a salient rotor (`L_q > L_d`) is held stiffest \[A]: a
+/// current along its d axis makes the active flux `ψ_f + (L_d − L_q) I`, the rotor's holding
+/// stiffness `I (ψ_f + (L_d − L_q) I)` is largest at `I = ψ_f / (2 (L_q − L_d))`, where the
+/// active flux is half the magnet's, and gone at twice it (the rotor then settles off the
+/// current's axis). `None` for `L_q ≤ L_d`, whose stiffness grows with the current.
+/// `flux_wb` \[Wb], `l_d_minus_l_q_h` \[H]. (The alignment's and open loop's current cap,
+/// `DriveConfig::new`; the identification's flux spin, `drive/identify/flux.rs`.)
+#[inline]
+pub fn stiffest_holding_current_a(flux_wb: f32, l_d_minus_l_q_h: f32) -> Option<f32> {
+    let l_q_minus_l_d = -l_d_minus_l_q_h;
+    (l_q_minus_l_d > 0.0).then(|| flux_wb / (2.0 * l_q_minus_l_d))
 }

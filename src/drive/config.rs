@@ -177,19 +177,14 @@ impl DriveConfig {
     /// budget ([`DriveConfig::rate_choice`]).
     pub fn new(motor: &Motor) -> Self {
         let i_rated = motor.rated_torque_current_a();
-        // A salient motor with L_d < L_q: a d current I along the rotor makes the active flux
-        // ψ_f + (L_d − L_q) I, the holding stiffness of align and open loop
-        // I (ψ_f + (L_d − L_q) I) is largest at I = ψ_f/(2 (L_q − L_d)) and gone at twice it
-        // (the rotor then settles at ±90°, and the flux observer's read-out turns by π): align
-        // and open loop at most at that current (`crate::observer::flux`). No cap for
-        // L_d ≥ L_q.
+        // A salient motor with L_d < L_q: align and open loop at most at the current that
+        // holds its rotor stiffest (`motor::stiffest_holding_current_a`; at twice it the rotor
+        // settles at ±90° and the flux observer's read-out turns by π,
+        // `crate::observer::flux`). No cap for L_d ≥ L_q.
         let m = &motor.params;
-        let l_q_minus_l_d = -m.l_d_minus_l_q_h();
-        let i_start = if l_q_minus_l_d > 0.0 {
-            i_rated.min(m.flux_wb / (2.0 * l_q_minus_l_d))
-        } else {
-            i_rated
-        };
+        let i_start = m
+            .stiffest_holding_current_a()
+            .map_or(i_rated, |i| i_rated.min(i));
         let i_max = 1.5 * i_rated;
         let i_trip = 1.5 * i_max;
         let bus = motor.ratings.bus_v;

@@ -375,11 +375,11 @@ impl FluxSpin {
     /// must not compare it with one measured at a far smaller current (a blocked AMK and Zou
     /// passed it at a tenth and a third of it, and their torque steps ran on).
     fn stiffest_hold(&self, psi_wb: f32) -> f32 {
-        let l_q_minus_d_h = -self.l_d_minus_q_h;
-        if l_q_minus_d_h * self.hold_a > 0.5 * psi_wb && psi_wb > 0.0 {
-            crate::math::max(0.5 * psi_wb / l_q_minus_d_h, 0.5 * self.hold_a)
-        } else {
-            self.hold_a
+        match crate::motor::stiffest_holding_current_a(psi_wb, self.l_d_minus_q_h) {
+            Some(stiffest) if psi_wb > 0.0 && stiffest < self.hold_a => {
+                crate::math::max(stiffest, 0.5 * self.hold_a)
+            }
+            _ => self.hold_a,
         }
     }
 
