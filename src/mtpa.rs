@@ -131,6 +131,12 @@ impl Mtpa {
         i_dq.q * (1.0 - self.half_k * i_dq.d)
     }
 
+    /// `ψ_a/ψ_f = 1 − k i_d/2` at the MTPA's d current on the current limit: the active flux
+    /// (`observer::flux`) of the largest currents the MTPA asks for, over the magnet's.
+    pub fn active_flux_ratio_at_max(&self) -> f32 {
+        1.0 - self.half_k * self.i_d_at_max
+    }
+
     /// The torque current on the MTPA curve at the current limit \[A].
     pub fn torque_current_at_max(&self) -> f32 {
         self.i_tau_at_max

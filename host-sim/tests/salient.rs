@@ -508,3 +508,52 @@ fn the_sliding_observer_on_the_active_flux_holds_an_ipms_speed() {
     println!("worst window {:?} %", s.worst_speed_err_pct);
     assert!(s.pass, "{:?}", s.reasons);
 }
+
+/// The flux observer's γ on a salient motor (`observer/flux.rs`, "Bounds with ψ_a"): chosen so
+/// that `γ ψ_a²` at the active flux of the MTPA's currents on the current limit is the
+/// non-salient design's `γ ψ_f²`; and the Brusa HSM1 (`L_q/L_d` 3.2, its true file, the board's
+/// defaults, the flux observer driving) reverses from +20 % to −20 % of its rated speed under
+/// a 30 % brake on seeds 1 and 2 without losing its angle. With the design's γ for `ψ_f` (and
+/// the MTPA's Newton step overshooting), the active flux, up to 3.5 `ψ_f` at 230–530 rpm, put
+/// eq (17)'s `|Ω0|` below ½, and seed 1 ended in `observer_loss` at 0.46 s.
+#[test]
+fn a_strongly_salient_rotor_reverses_under_a_brake_on_the_active_flux() {
+    use pmsm_sensorless::drive::DriveConfig;
+    use pmsm_sensorless::mtpa::Mtpa;
+    use pmsm_sensorless::observer::flux::FluxConfig;
+    let loaded = load("motors/zoo/salient/traction-ipm-brusa-hsm1-6.17.12-salient.toml");
+    let m = loaded.motor;
+    let cfg = DriveConfig::new(&m);
+    let psi_f = m.params.flux_wb;
+    let mtpa = Mtpa::new(&m.params, cfg.limits.i_max_a).expect("salient");
+    let psi_a_max = psi_f * mtpa.active_flux_ratio_at_max();
+    let design = FluxConfig::new(m.params, cfg.rate_hz, cfg.start.handback_rpm).gamma;
+    let gamma = cfg.flux_config().gamma;
+    println!(
+        "ψ_a at the current limit {:.2} ψ_f, γ {gamma} of {design}",
+        psi_a_max / psi_f
+    );
+    assert!(psi_a_max > 2.0 * psi_f, "{psi_a_max}");
+    let (scaled, designed) = (gamma * psi_a_max * psi_a_max, design * psi_f * psi_f);
+    assert!(
+        (scaled - designed).abs() <= 1e-5 * designed,
+        "{scaled} {designed}"
+    );
+    let sc = scenario::Spec::built_in("sup-reverse-20")
+        .unwrap()
+        .build(&loaded.name, m)
+        .unwrap();
+    for seed in [1, 2] {
+        let mut board = SimBoard::board_defaults(&m);
+        board.seed = seed;
+        let mut sim = SimConfig::on(board, sc.clone(), ObserverKind::Flux);
+        sim.plant_inductances = loaded.inductances;
+        let r = run(sim).unwrap();
+        let s = Summary::of(&r);
+        println!(
+            "seed {seed}: worst window {:?} %, θ error at most {:?}° electrical",
+            s.worst_speed_err_pct, s.theta_err_max_deg_e
+        );
+        assert!(s.pass && !s.lost_lock, "seed {seed}: {:?}", s.reasons);
+    }
+}

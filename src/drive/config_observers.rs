@@ -6,6 +6,7 @@ use super::DriveConfig;
 use crate::bounds::{ks_max_e2, ks_max_t};
 use crate::math::min;
 use crate::motor::MotorParams;
+use crate::mtpa::Mtpa;
 use crate::observer::flux::FluxConfig;
 use crate::observer::flux_speed::FluxPll;
 use crate::observer::pll::PllConfig;
@@ -243,9 +244,19 @@ impl DriveConfig {
         }
     }
 
-    /// The flux observer's settings (unvalidated).
+    /// The flux observer's settings (unvalidated): γ for ψ_f at the hand-back speed, or, on a
+    /// salient motor with MTPA, for the active flux of the MTPA's currents at the current
+    /// limit (the low speeds' largest, `FluxConfig::for_active_flux_up_to`).
     pub fn flux_config(&self) -> FluxConfig {
-        FluxConfig::new(self.motor, self.rate_hz, self.start.handback_rpm)
+        let c = FluxConfig::new(self.motor, self.rate_hz, self.start.handback_rpm);
+        match self
+            .mtpa
+            .then(|| Mtpa::new(&self.motor, self.limits.i_max_a))
+            .flatten()
+        {
+            Some(m) => c.for_active_flux_up_to(self.motor.flux_wb * m.active_flux_ratio_at_max()),
+            None => c,
+        }
     }
 
     /// The PLL's settings (unvalidated).

@@ -283,7 +283,7 @@ impl Derived {
                 "γ",
                 self.gamma,
                 "1/(Wb²·s)",
-                "Ortega eq (9)",
+                "Ortega eq (9); salient: × (ψ_f/ψ_a)², ψ_a at the MTPA's current limit",
                 ("the smaller γ_max", gamma_limit),
             ),
             row(

@@ -31,13 +31,23 @@
 //! gradient of `|η̂|²`'s distance to a fixed circle (its radius moves with `θ̂`), so the
 //! global convergence of the paper's Proposition 1 is not claimed for it: it is the local
 //! behaviour, with `Φ` → `ψ_a`, of the paper's observer, and the global IPMSM result is that of
-//! Ortega, Yi et al. 2021 (a different observer, not built here). Bounds with ψ_a: the
-//! radial step below multiplies by `1 − γψ_a²T`, so the default γ (`γΦ²T ≤ 1`) stays stable
-//! while `ψ_a < √2 ψ_f` (`|(L_d − L_q) i_d| < 0.41 ψ_f` with `i_d < 0` on an interior-magnet
-//! motor); a positive `i_d` above `ψ_f/|L_d − L_q|` (an align current on a strongly salient
-//! motor) turns `ψ_a` negative and the read-out by π. With `L_d = L_q` (`saliency` 1) the
-//! equations and the code path are exactly eq (9) (bit for bit: the salient terms run only
-//! for a salient motor).
+//! Ortega, Yi et al. 2021 (a different observer, not built here). Bounds with ψ_a: every bound
+//! on γ below holds with `γψ_a²` in place of `γΦ²`: the radial step multiplies by `1 − γψ_a²T`,
+//! and Proposition 4's `Ω0 = −2 n_P ω/(γψ_a²)`. With `ψ_a` twice `ψ_f` (the Brusa HSM1's MTPA
+//! at 138 A: `i_d` = −80 A) `γψ_a²` is four times the value γ was chosen for: `|Ω0|` falls
+//! below ½ under twice the lowest speed, where eq (17) has more than one equilibrium (measured:
+//! in the Brusa's reversal under a 30 % brake, with d currents of −160 to −200 A, `ψ_a` 3 to
+//! 3.5 `ψ_f`, the angle error grew from 2° at 230 rpm to a lost lock at 530 rpm; its hand-back
+//! speed is 180 rpm). So a salient motor's γ is chosen for the largest `ψ_a` its low-speed
+//! currents make ([`FluxConfig::for_active_flux_up_to`]; the drive takes the MTPA's currents at
+//! the current limit: field weakening's larger d currents come at speeds where `|Ω0|` is
+//! large), and where `i_d` is smaller the observer converges more slowly than the non-salient
+//! design, never beyond its bounds. (Scaling γ by `Φ²/|η̂|²` each sample keeps the design's
+//! rate at every current and passes the same salient zoo cells with smaller angle errors, but
+//! costs the step 12 to 16 cycles, over its budget.) A positive `i_d` above `ψ_f/|L_d − L_q|`
+//! (an align current on a strongly salient motor) turns `ψ_a` negative and the read-out by π.
+//! With `L_d = L_q` (`saliency` 1) the equations and the code path are exactly eq (9) (bit for
+//! bit: the salient terms run only for a salient motor).
 //!
 //! Discretisation at the control period T, between the samples `k−1` and `k`:
 //! - the flux integral of `y12` is exact for a voltage held over the period and a current
@@ -107,6 +117,22 @@ impl FluxConfig {
             motor,
             rate_hz,
             gamma: gamma_recommended(motor.flux_wb, motor.n(), rate_hz, omega_min, 0.5),
+        }
+    }
+
+    /// γ for a salient motor whose active flux reaches `psi_a_max_wb` \[Wb] (module doc): scaled
+    /// by `(Φ/ψ_a,max)²` where `ψ_a,max > Φ`, so that `γ ψ_a²` stays within the value γ was
+    /// chosen for with `Φ` at every `ψ_a` up to it; unchanged otherwise (and for a NaN).
+    pub fn for_active_flux_up_to(self, psi_a_max_wb: f32) -> Self {
+        let phi = self.motor.flux_wb;
+        if psi_a_max_wb > phi {
+            let ratio = phi / psi_a_max_wb;
+            Self {
+                gamma: self.gamma * ratio * ratio,
+                ..self
+            }
+        } else {
+            self
         }
     }
 
