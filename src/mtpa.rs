@@ -43,8 +43,13 @@
 //! ```
 //!
 //! increasing and convex in `x ≥ 0`: one Newton step per call from the last call's d current
-//! lands at or above the root from any start, quadratically close to it near it (no square
-//! root); the d current is that `−x`, or the field weakening's where it is more negative; then
+//! lands at or above the root from any start, quadratically close to it near it; from below
+//! it overshoots (from `x = 0` to `k i_τ²/2`: −206 A on the Brusa HSM1 for an `i_τ` of
+//! 128 A, whose MTPA d current is −49 A), so the step is cut at `|i_τ|/√2`, which lies beyond
+//! the root (on the MTPA curve the torque per ampere is at least `i_d = 0`'s, so the current
+//! `I` is at most `|i_τ|`, and the current's angle from the q axis is below 45°, so
+//! `|i_d| < I/√2`; −91 A there, −64 and −52 A the next two calls); the d current is that
+//! `−x`, or the field weakening's where it is more negative; then
 //! `i_q = i_τ/(1 − k i_d/2)`, so the torque is `c N ψ_f i_τ` whatever `i_d` is (the Newton
 //! step's residual moves the point along the torque's curve, off the optimum to second
 //! order, not the torque): the d current at or below the curve's, the q current rising to the
@@ -60,6 +65,7 @@
 use crate::frames::Dq;
 use crate::math::{max, min, sqrt_or_zero};
 use crate::motor::MotorParams;
+use core::f32::consts::FRAC_1_SQRT_2;
 
 /// MTPA's coefficients (module doc), for a motor with `L_q > L_d`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -174,6 +180,9 @@ impl Mtpa {
         let u2 = u * u;
         let h = x * u2 * u - self.half_k * i_tau * i_tau;
         let x = x - h / (u2 * (u + 3.0 * self.half_k * x));
+        // From below the root the step overshoots; `|i_τ|/√2` lies beyond the root and bounds
+        // it (module doc).
+        let x = min(x, FRAC_1_SQRT_2 * i_tau.abs());
         // The MTPA's d current within its value at the current limit and 0 (finite for any
         // start, 0 for a NaN: `min` gives its second argument for a NaN first).
         let i_d = min(i_d_fw, max(min(-x, 0.0), self.i_d_at_max));

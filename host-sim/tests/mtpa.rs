@@ -123,8 +123,9 @@ fn mtpa_is_the_most_torque_per_amp_on_the_salient_zoo_motors() {
 /// commanded at every call (`i_q (1 − k i_d/2) = i_τ`), a few calls from any start (zero, far
 /// below, the wrong sign) put it on the MTPA curve, the q current rising to it monotonically
 /// (Newton's step in `−i_d` lands at or above the root, so the d current is at or below the
-/// curve's), a field weakening's more negative d current is taken as it is, and a NaN
-/// leaves the d current at 0.
+/// curve's) and the d current never beyond `|i_τ|/√2` (Newton's overshoot from below cut
+/// there, beyond the MTPA's d current for a current of `|i_τ|`), a field weakening's more
+/// negative d current is taken as it is, and a NaN leaves the d current at 0.
 #[test]
 fn the_split_makes_the_torque_commanded_and_reaches_the_mtpa_curve() {
     for file in salient_zoo() {
@@ -153,6 +154,15 @@ fn the_split_makes_the_torque_commanded_and_reaches_the_mtpa_curve() {
                     assert!(
                         i_dq.d <= mtpa.i_d(i_dq.q) + 2e-5 * i_max,
                         "{file}: {i_dq:?} above the curve"
+                    );
+                    let bound = -std::f32::consts::FRAC_1_SQRT_2 * i_tau.abs();
+                    assert!(
+                        mtpa.i_d_for_current(i_tau.abs()) >= bound,
+                        "{file}: the MTPA's d current for |i_τ| beyond |i_τ|/√2"
+                    );
+                    assert!(
+                        i_dq.d >= bound * (1.0 + 1e-6),
+                        "{file}: i_τ {i_tau} from {start}: {i_dq:?} beyond |i_τ|/√2"
                     );
                     if n > 0 {
                         assert!(i_dq.q.abs() >= last * (1.0 - 1e-6), "{file}: {i_dq:?}");
