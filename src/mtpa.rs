@@ -43,18 +43,18 @@
 //! ```
 //!
 //! increasing and convex in `x ≥ 0`: one Newton step per call from the last call's d current
-//! lands at or above the root from any start, quadratically close to it near it; from below
-//! it overshoots (from `x = 0` to `k i_τ²/2`: −206 A on the Brusa HSM1 for an `i_τ` of
-//! 128 A, whose MTPA d current is −49 A), so the step is cut at `|i_τ|/√2`, which lies beyond
-//! the root (on the MTPA curve the torque per ampere is at least `i_d = 0`'s, so the current
-//! `I` is at most `|i_τ|`, and the current's angle from the q axis is below 45°, so
-//! `|i_d| < I/√2`; −91 A there, −64 and −52 A the next two calls); the d current is that
-//! `−x`, or the field weakening's where it is more negative; then
-//! `i_q = i_τ/(1 − k i_d/2)`, so the torque is `c N ψ_f i_τ` whatever `i_d` is (the Newton
-//! step's residual moves the point along the torque's curve, off the optimum to second
-//! order, not the torque): the d current at or below the curve's, the q current rising to the
-//! curve call by call. The speed loop's gain stays `c N ψ_f` per ampere of its output, as its
-//! gains are computed for. At 1 kHz: two divisions, on salient motors only.
+//! lands at or above the root from any start, quadratically close to it near it (no square
+//! root). From below the root the step overshoots, to `k i_τ²/2` from `x = 0`. So it is cut at
+//! `|i_τ|/√2`, which lies beyond the root: on the MTPA curve the torque per ampere is at least
+//! `i_d = 0`'s, so the current `I` is at most `|i_τ|`, and the current's angle from the q axis
+//! is below 45°, so `|i_d| < I/√2`. (On the Brusa HSM1, for an `i_τ` of 128 A whose MTPA d
+//! current is −49 A, the step from `x = 0` went to −206 A; cut, it goes to −91 A, then −64 and
+//! −52 A the next two calls.) The d current is that `−x`, or the field weakening's where it is
+//! more negative; then `i_q = i_τ/(1 − k i_d/2)`, so the torque is `c N ψ_f i_τ` whatever `i_d`
+//! is (the Newton step's residual moves the point along the torque's curve, off the optimum to
+//! second order, not the torque): the d current at or below the curve's, the q current rising
+//! to the curve call by call. The speed loop's gain stays `c N ψ_f` per ampere of its output, as
+//! its gains are computed for. At 1 kHz: two divisions, on salient motors only.
 //!
 //! Not salient (`L_d = L_q`): no MTPA, `i_d = 0` (`Mtpa::new` gives `None`, the drive skips it).
 //! Inverse saliency (`L_q < L_d`): MTPA asks for a positive, magnetising d current; the drive's

@@ -135,6 +135,11 @@ fn the_split_makes_the_torque_commanded_and_reaches_the_mtpa_curve() {
         let mtpa = Mtpa::new(&m.params, i_max).unwrap();
         for frac in [0.02f32, 0.3, 1.0, -0.7] {
             let i_tau = frac * mtpa.torque_current_at_max();
+            let bound = -std::f32::consts::FRAC_1_SQRT_2 * i_tau.abs();
+            assert!(
+                mtpa.i_d_for_current(i_tau.abs()) >= bound,
+                "{file}: the MTPA's d current for |i_τ| beyond |i_τ|/√2"
+            );
             for start in [0.0, -3.0 * i_max, 0.5 * i_max] {
                 let mut d = start;
                 let mut last = 0.0f32;
@@ -154,11 +159,6 @@ fn the_split_makes_the_torque_commanded_and_reaches_the_mtpa_curve() {
                     assert!(
                         i_dq.d <= mtpa.i_d(i_dq.q) + 2e-5 * i_max,
                         "{file}: {i_dq:?} above the curve"
-                    );
-                    let bound = -std::f32::consts::FRAC_1_SQRT_2 * i_tau.abs();
-                    assert!(
-                        mtpa.i_d_for_current(i_tau.abs()) >= bound,
-                        "{file}: the MTPA's d current for |i_τ| beyond |i_τ|/√2"
                     );
                     assert!(
                         i_dq.d >= bound * (1.0 + 1e-6),

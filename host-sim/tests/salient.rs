@@ -525,8 +525,10 @@ fn a_strongly_salient_rotor_reverses_under_a_brake_on_the_active_flux() {
     let m = loaded.motor;
     let cfg = DriveConfig::new(&m);
     let psi_f = m.params.flux_wb;
+    // The MTPA's d current on the current limit, and its active flux ψ_f + (L_d − L_q) i_d.
     let mtpa = Mtpa::new(&m.params, cfg.limits.i_max_a).expect("salient");
-    let psi_a_max = psi_f * mtpa.active_flux_ratio_at_max();
+    let i_d = mtpa.i_d_for_current(cfg.limits.i_max_a);
+    let psi_a_max = psi_f + m.params.l_d_minus_l_q_h() * i_d;
     let design = FluxConfig::new(m.params, cfg.rate_hz, cfg.start.handback_rpm).gamma;
     let gamma = cfg.flux_config().gamma;
     println!(

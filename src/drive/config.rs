@@ -449,6 +449,14 @@ impl DriveConfig {
         self.build(self.flux_pll()?, self.sliding_monitor()?)
     }
 
+    /// MTPA for the motor `m` within the current limit where it is asked for (`mtpa`) and the
+    /// motor is salient (`Mtpa::new`).
+    pub(crate) fn mtpa_of(&self, m: &MotorParams) -> Option<Mtpa> {
+        self.mtpa
+            .then(|| Mtpa::new(m, self.limits.i_max_a))
+            .flatten()
+    }
+
     /// Validates every setting and derives the FOC gains and each mode's coefficients;
     /// `primary` feeds the controller, `monitor` watches it. The error names the bad field.
     pub fn build<P: Observer, M: Observer>(
@@ -467,11 +475,7 @@ impl DriveConfig {
         let ts = 1.0 / rate;
         let steps = |t: f32| (t * rate) as u32;
         let slot_cycles = |t: f32| (t * rate / slots) as u32;
-        let mtpa = if self.mtpa {
-            Mtpa::new(&m, l.i_max_a)
-        } else {
-            None
-        };
+        let mtpa = self.mtpa_of(&m);
         let ramp = Ramp {
             max_rpm: self.ratings.speed_rpm,
             step_rpm: s.accel_rpm_per_s * ts * slots,

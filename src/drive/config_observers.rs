@@ -6,7 +6,6 @@ use super::DriveConfig;
 use crate::bounds::{ks_max_e2, ks_max_t};
 use crate::math::min;
 use crate::motor::MotorParams;
-use crate::mtpa::Mtpa;
 use crate::observer::flux::FluxConfig;
 use crate::observer::flux_speed::FluxPll;
 use crate::observer::pll::PllConfig;
@@ -162,7 +161,8 @@ impl DriveConfig {
     }
 
     /// Ortega et al.'s flux observer, γ recommended for the lowest sensorless speed
-    /// (`handback_rpm`, Proposition 4), with a 50 Hz critically damped PLL run at the speed
+    /// (`handback_rpm`, Proposition 4; of a salient motor for its active flux,
+    /// [`DriveConfig::flux_config`]), with a 50 Hz critically damped PLL run at the speed
     /// loop's rate (1 kHz).
     pub fn flux_pll(&self) -> Result<FluxPll, ParamError> {
         let m = self.validate()?;
@@ -249,11 +249,7 @@ impl DriveConfig {
     /// limit (the low speeds' largest, `FluxConfig::for_active_flux_up_to`).
     pub fn flux_config(&self) -> FluxConfig {
         let c = FluxConfig::new(self.motor, self.rate_hz, self.start.handback_rpm);
-        match self
-            .mtpa
-            .then(|| Mtpa::new(&self.motor, self.limits.i_max_a))
-            .flatten()
-        {
+        match self.mtpa_of(&self.motor) {
             Some(m) => c.for_active_flux_up_to(self.motor.flux_wb * m.active_flux_ratio_at_max()),
             None => c,
         }

@@ -34,20 +34,27 @@
 //! Ortega, Yi et al. 2021 (a different observer, not built here). Bounds with ψ_a: every bound
 //! on γ below holds with `γψ_a²` in place of `γΦ²`: the radial step multiplies by `1 − γψ_a²T`,
 //! and Proposition 4's `Ω0 = −2 n_P ω/(γψ_a²)`. With `ψ_a` twice `ψ_f` (the Brusa HSM1's MTPA
-//! at 138 A: `i_d` = −80 A) `γψ_a²` is four times the value γ was chosen for: `|Ω0|` falls
-//! below ½ under twice the lowest speed, where eq (17) has more than one equilibrium (measured:
-//! in the Brusa's reversal under a 30 % brake, with d currents of −160 to −200 A, `ψ_a` 3 to
-//! 3.5 `ψ_f`, the angle error grew from 2° at 230 rpm to a lost lock at 530 rpm; its hand-back
-//! speed is 180 rpm). So a salient motor's γ is chosen for the largest `ψ_a` its low-speed
-//! currents make ([`FluxConfig::for_active_flux_up_to`]; the drive takes the MTPA's currents at
-//! the current limit: field weakening's larger d currents come at speeds where `|Ω0|` is
-//! large), and where `i_d` is smaller the observer converges more slowly than the non-salient
-//! design, never beyond its bounds. (Scaling γ by `Φ²/|η̂|²` each sample keeps the design's
-//! rate at every current and passes the same salient zoo cells with smaller angle errors, but
-//! costs the step 12 to 16 cycles, over its budget.) A positive `i_d` above `ψ_f/|L_d − L_q|`
-//! (an align current on a strongly salient motor) turns `ψ_a` negative and the read-out by π.
-//! With `L_d = L_q` (`saliency` 1) the equations and the code path are exactly eq (9) (bit for
-//! bit: the salient terms run only for a salient motor).
+//! at 138 A: `i_d` = −80 A) `γψ_a²` is four times the value γ was chosen for, and `|Ω0|` falls
+//! below ½ under twice the lowest speed, where eq (17) has more than one equilibrium. Measured:
+//! the Brusa's reversal under a 30 % brake, with d currents of −160 to −200 A (the MTPA's
+//! Newton overshoot, since cut: `crate::mtpa`), `ψ_a` 3 to 3.5 `ψ_f`, lost its angle between
+//! 230 and 530 rpm (its hand-back speed 180 rpm). So a salient motor's γ is chosen for the
+//! largest `ψ_a` its low-speed currents make ([`FluxConfig::for_active_flux_up_to`]; the drive
+//! takes the MTPA's currents at its current limit). A worst case, chosen on purpose: on the
+//! Brusa (`i_max` 360 A, `ψ_a` 3.96 `ψ_f` there) γ is a sixteenth of the non-salient design's,
+//! and at light load, where `ψ_a ≈ ψ_f`, the radial rate `γψ_f²` falls from 113 to 7.2 s⁻¹ (a
+//! 140 ms time constant). Field weakening's larger d currents (down to `−i_max`) come at speeds
+//! where `|Ω0|` is large; there `γψ_a²` can exceed the value chosen by less than 2× (the active
+//! fluxes' ratio is below √2), which keeps the discrete step stable (`γψ_a²T < 2`) but not the
+//! default's margin against its overshoot (`≤ 1`): with the default hand-back speed (6 % of
+//! rated) and the rate rule's 20 samples per electrical period at rated speed, the
+//! single-equilibrium limit is the smaller by 26× or more, so `γψ_a²T` stays far below 1.
+//! (Scaling γ by `Φ²/|η̂|²` each sample keeps the design's rate at every current and passes the
+//! same salient zoo cells with smaller angle errors, but costs the step 12 to 16 cycles, over
+//! its budget.) A positive `i_d` above `ψ_f/|L_d − L_q|` (an align current on a strongly
+//! salient motor) turns `ψ_a` negative and the read-out by π. With `L_d = L_q` (`saliency` 1)
+//! the equations and the code path are exactly eq (9) (bit for bit: the salient terms run only
+//! for a salient motor).
 //!
 //! Discretisation at the control period T, between the samples `k−1` and `k`:
 //! - the flux integral of `y12` is exact for a voltage held over the period and a current
