@@ -452,9 +452,11 @@ impl DriveConfig {
     /// MTPA for the motor `m` within the current limit where it is asked for (`mtpa`) and the
     /// motor is salient (`Mtpa::new`).
     pub(crate) fn mtpa_of(&self, m: &MotorParams) -> Option<Mtpa> {
-        self.mtpa
-            .then(|| Mtpa::new(m, self.limits.i_max_a))
-            .flatten()
+        if self.mtpa {
+            Mtpa::new(m, self.limits.i_max_a)
+        } else {
+            None
+        }
     }
 
     /// Validates every setting and derives the FOC gains and each mode's coefficients;
