@@ -395,7 +395,7 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             (ModeState::OpenLoop(ol), Some(((verdict, _), d))) => {
                 let driving = obs.health.usable().then_some(d);
                 self.open_loop
-                    .tick(ol, &self.foc, verdict, driving, cmd_rpm)
+                    .tick(ol, &self.foc, verdict, driving, &obs.health, cmd_rpm)
             }
             (ModeState::Sensorless(s), Some((health, d))) => {
                 let applied = st.last.applied(&self.foc);

@@ -42,14 +42,15 @@
 //!
 //! Never handed over in reverse: a usable observer that sees the rotor turn against the
 //! ramp's direction above the hand-back speed (an active load beyond the I/f current drags
-//! it backwards) for `reverse_checks` takes over in closed loop at once
+//! it backwards) for `reverse_checks`, its residual below the level that loses it at each
+//! (not a seeded observer's first swings), takes over in closed loop at once
 //! (`Reason::AgainstCommand`), its speed reference starting at zero so that the speed loop
 //! brakes the rotor with up to `i_max_a` before it follows the command; any hand-over of a
 //! rotor turning against the command starts the reference at zero too (`Entry::reference`).
 
 use super::mode::{against, Driving, Entry, Next};
 use super::ramp::Ramp;
-use super::supervision::{consecutive, Verdict};
+use super::supervision::{consecutive, Health, Verdict};
 use super::{Fault, Reason};
 use crate::foc::{Foc, Reference, Request};
 use crate::frames::{Dq, SinCos};
@@ -188,7 +189,8 @@ impl Settings {
     }
 
     /// The open loop's 1 kHz work ([`Drive::tick`](super::Drive::tick)), after the health
-    /// check (its `verdict`; `driving` the driving observer's estimate when one is usable):
+    /// check (its `verdict`, the `health` it left; `driving` the driving observer's estimate
+    /// when one is usable):
     /// the hand-over, the time limit, the frame's length renewed, the ramp toward the user's
     /// `cmd_rpm` and the stop at zero.
     // Out of line (in flash on a board whose step runs from RAM): the start-up's, not the
@@ -200,6 +202,7 @@ impl Settings {
         foc: &Foc,
         verdict: Verdict,
         driving: Option<Driving>,
+        health: &Health,
         cmd_rpm: f32,
     ) -> Next {
         let cmd_rpm = self.ramp.command(cmd_rpm);
@@ -254,7 +257,12 @@ impl Settings {
             } else {
                 cmd_rpm
             };
-            let backwards = against(d.omega_m, direction)
+            // On an estimate that fits its observer's model at this check: after the align both
+            // observers are seeded healthy, and a sliding observer at rest swung to 1,200 to
+            // 4,900 rpm in its first milliseconds (residual 1.4 to 4.3) on the Caruso IPM,
+            // handing a resting rotor to sensorless control on a wrong angle.
+            let backwards = health.driving_fits()
+                && against(d.omega_m, direction)
                 && d.omega_m.abs() * RPM_PER_RAD_S >= self.handback_rpm;
             ol.reversed = consecutive(ol.reversed, backwards);
             let reason = if ol.reversed >= self.reverse_checks {

@@ -135,6 +135,17 @@ impl Health {
         self.residuals
     }
 
+    /// The driving observer's residual at the last check is below the level that loses it
+    /// (`LOST`): its estimate fits its model now, not only by its running mean (an observer
+    /// seeded healthy at the aligned rotor is judged on its mean over about 8 ms).
+    pub(super) fn driving_fits(&self) -> bool {
+        let r = match self.driving {
+            Role::Primary => self.residuals[0],
+            Role::Monitor => self.residuals[1],
+        };
+        r < LOST
+    }
+
     /// At the last check, the driving observer was usable.
     pub(super) fn usable(&self) -> bool {
         self.usable
