@@ -567,7 +567,7 @@ fn a_strongly_salient_rotor_reverses_under_a_brake_on_the_active_flux() {
 /// 4,900 rpm in its first milliseconds (residual 1.4 to 4.3): the open loop handed the rotor
 /// to sensorless control (`AgainstCommand`) on that observer's wrong angle, 148° off, and the
 /// run failed on a lost lock at 4.71 s. The open loop now acts on a reversal only where the
-/// driving observer's residual fits at that check (`supervision.rs`, `Health::driving_fits`).
+/// driving observer's residual fits at that check (`open_loop.rs`, `Health::driving_residual_below_lost`).
 #[test]
 fn a_resting_rotor_after_the_align_is_not_taken_for_a_reversal() {
     use pmsm_sensorless::drive::Reason;

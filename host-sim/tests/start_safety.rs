@@ -22,14 +22,18 @@
 //!   open-loop hand-over while the rotor turns against the command beyond the hand-back
 //!   speed), the load lifted to the command; the reverse excursion within the energy bound
 //!   of `reverse_bound_rpm`, and printed;
+//! - an active load of 1.2 of rated torque stepped in during the open loop (30 ms after the
+//!   align): the observers see the rotor dragged backwards and the drive takes it over in
+//!   closed loop (`AgainstCommand`) within 25 ms, and lifts the load to the command;
 //! - an enable storm and a fault cleared and re-enabled (`enable-storm.toml`,
 //!   `fault-clear-recatch.toml`, the scenario files' `enable` and `clear_fault` events):
 //!   every re-enable catches the coasting rotor.
 
 mod board;
 
-use board::{board_run, FAIL_SAFE_MOTORS as MOTORS, PRIMARIES};
+use board::{board_run, board_run_spec, FAIL_SAFE_MOTORS as MOTORS, PRIMARIES};
 use pmsm_host_sim::report::summary::Summary;
+use pmsm_host_sim::scenario::Spec;
 use pmsm_host_sim::sim::Run;
 use pmsm_sensorless::drive::{DriveConfig, Mode, Reason};
 
@@ -186,6 +190,45 @@ fn re_enables_catch_the_coasting_rotor() {
                     .any(|(t, tr)| *t >= 1.0 && tr.to == Mode::Align);
                 assert!(!realigned, "{label}: {:?}", r.transitions);
             }
+        }
+    }
+}
+
+/// A real reversal is still taken at once: an active load of 1.2 of rated torque stepped in
+/// 30 ms into the open loop drags the rotor backwards, and the drive hands it to closed loop
+/// against the command (`Reason::AgainstCommand`) within 25 ms of the step (the reversal is
+/// counted only at checks where the driving observer's residual is below the level whose mean
+/// loses it, `open_loop.rs`: not a seeded observer's first swings), then holds the command.
+#[test]
+fn a_load_stepped_in_during_the_open_loop_is_taken_over_against_the_command() {
+    let spec = Spec::parse(
+        "reverse-during-if",
+        r#"
+description = "an active load beyond the I/f current stepped in during the open loop"
+duration_s = 1.0
+speed = [[0.0, 0.3]]
+load = [[0.0, 0.0], [0.23, 0.0], [0.23, 1.2]]
+load_kind = "active"
+windows = [["held", 0.8, 1.0]]
+"#,
+    )
+    .unwrap();
+    for motor in MOTORS {
+        for observer in PRIMARIES {
+            let r = board_run_spec(&spec, motor, observer);
+            let s = Summary::of(&r);
+            let against = r
+                .transitions
+                .iter()
+                .find(|(_, tr)| tr.reason == Reason::AgainstCommand)
+                .map(|&(t, _)| t);
+            println!("{motor} {observer:?}: against the command at {against:?} s");
+            let t = against.unwrap_or_else(|| panic!("{motor} {observer:?}: never taken over"));
+            assert!(
+                (0.23..=0.255).contains(&t),
+                "{motor} {observer:?}: at {t} s"
+            );
+            assert!(s.pass, "{motor} {observer:?}: {:?}", s.reasons);
         }
     }
 }

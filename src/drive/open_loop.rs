@@ -42,8 +42,9 @@
 //!
 //! Never handed over in reverse: a usable observer that sees the rotor turn against the
 //! ramp's direction above the hand-back speed (an active load beyond the I/f current drags
-//! it backwards) for `reverse_checks`, its residual below the level that loses it at each
-//! (not a seeded observer's first swings), takes over in closed loop at once
+//! it backwards) for `reverse_checks` checks at which its residual is below the level whose
+//! mean loses an observer (not a seeded observer's first swings), takes over in closed loop at
+//! once
 //! (`Reason::AgainstCommand`), its speed reference starting at zero so that the speed loop
 //! brakes the rotor with up to `i_max_a` before it follows the command; any hand-over of a
 //! rotor turning against the command starts the reference at zero too (`Entry::reference`).
@@ -257,11 +258,15 @@ impl Settings {
             } else {
                 cmd_rpm
             };
-            // On an estimate that fits its observer's model at this check: after the align both
+            // On an estimate whose residual at this check is below the level whose mean loses
+            // an observer (a check above it restarts the count): after the align both
             // observers are seeded healthy, and a sliding observer at rest swung to 1,200 to
             // 4,900 rpm in its first milliseconds (residual 1.4 to 4.3) on the Caruso IPM,
-            // handing a resting rotor to sensorless control on a wrong angle.
-            let backwards = health.driving_fits()
+            // handing a resting rotor to sensorless control on a wrong angle. (Counting on
+            // through such checks, or up to the edge of lock, took real reversals sooner, on
+            // observers less converged: the hoverboard's J × 10 active-load start passed 9 of
+            // 16 runs, against 12 so and 11 without the check.)
+            let backwards = health.driving_residual_below_lost()
                 && against(d.omega_m, direction)
                 && d.omega_m.abs() * RPM_PER_RAD_S >= self.handback_rpm;
             ol.reversed = consecutive(ol.reversed, backwards);

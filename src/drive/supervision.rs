@@ -135,10 +135,10 @@ impl Health {
         self.residuals
     }
 
-    /// The driving observer's residual at the last check is below the level that loses it
-    /// (`LOST`): its estimate fits its model now, not only by its running mean (an observer
-    /// seeded healthy at the aligned rotor is judged on its mean over about 8 ms).
-    pub(super) fn driving_fits(&self) -> bool {
+    /// The driving observer's residual at the last check is below `LOST`, the level whose
+    /// running mean loses an observer: its own residual, not only its mean, is within that
+    /// (an observer seeded healthy at the aligned rotor is judged on its mean over about 8 ms).
+    pub(super) fn driving_residual_below_lost(&self) -> bool {
         let r = match self.driving {
             Role::Primary => self.residuals[0],
             Role::Monitor => self.residuals[1],

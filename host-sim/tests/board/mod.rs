@@ -34,8 +34,14 @@ pub const PRIMARIES: [ObserverKind; 2] = [ObserverKind::SlidingTorque, ObserverK
 /// `scenario` on `motor` with `observer` primary, the board's defaults and 1 % noise (seed 1).
 #[allow(dead_code)]
 pub fn board_run(scenario: &str, motor: &str, observer: ObserverKind) -> Run {
+    board_run_spec(&Spec::built_in(scenario).unwrap(), motor, observer)
+}
+
+/// [`board_run`] of a scenario given as its `spec`.
+#[allow(dead_code)]
+pub fn board_run_spec(spec: &Spec, motor: &str, observer: ObserverKind) -> Run {
     let m = self::motor(motor);
-    let sc = Spec::built_in(scenario).unwrap().build(motor, m).unwrap();
+    let sc = spec.build(motor, m).unwrap();
     let mut cfg = SimConfig::new(sc, observer);
     cfg.board.noise_sigma_a = 0.01 * f64::from(m.rated_torque_current_a());
     cfg.board.dead_time_s = 0.5e-6;
