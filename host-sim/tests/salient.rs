@@ -31,6 +31,26 @@ fn load(rel: &str) -> motor_file::Loaded {
     motor_file::load_full(&path).unwrap()
 }
 
+/// The built-in `scenario` on the motor of `loaded` (its own L_d and L_q in the plant), the
+/// board's defaults with the noise of `seed`, `observer` driving.
+fn run_on_board(
+    loaded: &motor_file::Loaded,
+    scenario: &str,
+    observer: ObserverKind,
+    seed: u64,
+) -> pmsm_host_sim::sim::Run {
+    let m = loaded.motor;
+    let sc = scenario::Spec::built_in(scenario)
+        .unwrap()
+        .build(&loaded.name, m)
+        .unwrap();
+    let mut board = SimBoard::board_defaults(&m);
+    board.seed = seed;
+    let mut cfg = SimConfig::on(board, sc, observer);
+    cfg.plant_inductances = loaded.inductances;
+    run(cfg).unwrap()
+}
+
 /// A saturation that never acts (`L(i) = L0` exactly at every finite current): the plant
 /// takes the dq model with the physics of the round machine.
 const NEVER: Saturation = Saturation {
@@ -492,18 +512,12 @@ fn motor_files_take_l_d_and_l_q_and_refuse_bad_ones() {
 #[test]
 fn the_sliding_observer_on_the_active_flux_holds_an_ipms_speed() {
     let loaded = load("motors/zoo/salient/industrial-ipm-aalto-2.2kw.toml");
-    let m = loaded.motor;
-    let sc = scenario::Spec::built_in("start-stop-reverse")
-        .unwrap()
-        .build(&loaded.name, m)
-        .unwrap();
-    let mut cfg = SimConfig::on(
-        SimBoard::board_defaults(&m),
-        sc,
+    let r = run_on_board(
+        &loaded,
+        "start-stop-reverse",
         ObserverKind::SlidingTorque,
+        1,
     );
-    cfg.plant_inductances = loaded.inductances;
-    let r = run(cfg).unwrap();
     let s = Summary::of(&r);
     println!("worst window {:?} %", s.worst_speed_err_pct);
     assert!(s.pass, "{:?}", s.reasons);
@@ -541,16 +555,8 @@ fn a_strongly_salient_rotor_reverses_under_a_brake_on_the_active_flux() {
         (scaled - designed).abs() <= 1e-5 * designed,
         "{scaled} {designed}"
     );
-    let sc = scenario::Spec::built_in("sup-reverse-20")
-        .unwrap()
-        .build(&loaded.name, m)
-        .unwrap();
     for seed in [1, 2] {
-        let mut board = SimBoard::board_defaults(&m);
-        board.seed = seed;
-        let mut sim = SimConfig::on(board, sc.clone(), ObserverKind::Flux);
-        sim.plant_inductances = loaded.inductances;
-        let r = run(sim).unwrap();
+        let r = run_on_board(&loaded, "sup-reverse-20", ObserverKind::Flux, seed);
         let s = Summary::of(&r);
         println!(
             "seed {seed}: worst window {:?} %, θ error at most {:?}° electrical",
@@ -566,22 +572,19 @@ fn a_strongly_salient_rotor_reverses_under_a_brake_on_the_active_flux() {
 /// observers are seeded healthy there, and the sliding observer's estimate swung to 1,200 to
 /// 4,900 rpm in its first milliseconds (residual 1.4 to 4.3): the open loop handed the rotor
 /// to sensorless control (`AgainstCommand`) on that observer's wrong angle, 148° off, and the
-/// run failed on a lost lock at 4.71 s. The open loop now acts on a reversal only where the
-/// driving observer's residual fits at that check (`open_loop.rs`, `Health::driving_residual_below_lost`).
+/// run failed on a lost lock at 4.71 s. The open loop now counts a reversal only at checks
+/// where the driving observer's residual is below `LOST` (`open_loop.rs`,
+/// `Health::driving_residual_below_lost`).
 #[test]
 fn a_resting_rotor_after_the_align_is_not_taken_for_a_reversal() {
     use pmsm_sensorless::drive::Reason;
     let loaded = load("motors/zoo/salient/industrial-ipm-caruso-2019.toml");
-    let m = loaded.motor;
-    let sc = scenario::Spec::built_in("start-stop-reverse")
-        .unwrap()
-        .build(&loaded.name, m)
-        .unwrap();
-    let mut board = SimBoard::board_defaults(&m);
-    board.seed = 2;
-    let mut cfg = SimConfig::on(board, sc, ObserverKind::SlidingTorque);
-    cfg.plant_inductances = loaded.inductances;
-    let r = run(cfg).unwrap();
+    let r = run_on_board(
+        &loaded,
+        "start-stop-reverse",
+        ObserverKind::SlidingTorque,
+        2,
+    );
     let s = Summary::of(&r);
     let against: Vec<f64> = r
         .transitions
