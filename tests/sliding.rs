@@ -108,6 +108,26 @@ fn gains_place_the_eigenvalues_at_random_operating_points() {
     }
 }
 
+/// `K_s` per speed (`SlidingGain::PerSpeed`): `per_rad_s |ω̂_m|`, at least `min`, the value
+/// `f32::max` gives (the step takes the compare-and-select, `math::max`, not the library's
+/// `fmaxf`), to the bit, over speeds from 0 to beyond where the floor ends, both signs, and a
+/// NaN speed (`min`).
+#[test]
+fn a_per_speed_gain_is_proportional_above_its_floor() {
+    let m = HORNG_SINANO.params;
+    let mut cfg = SlidingConfig::torque(m);
+    let (per_rad_s, min) = (40.0_f32, 2_000.0_f32);
+    cfg.ks = SlidingGain::PerSpeed { per_rad_s, min };
+    let obs = cfg.build().unwrap();
+    let mut speeds: Vec<f32> = (0..=400).map(|k| k as f32 * 0.5).collect();
+    speeds.extend(speeds.clone().iter().map(|w| -w));
+    for w in speeds {
+        let ks = obs.sliding_gain(w);
+        assert_eq!(ks.to_bits(), (per_rad_s * w.abs()).max(min).to_bits(), "{w} rad/s");
+    }
+    assert_eq!(obs.sliding_gain(f32::NAN), min);
+}
+
 /// One period of `update` against eqs (20)-(22), (34), (35) written out with the gains
 /// G1..G4 of `gains()` (the update multiplies the gains out with `w` and folds `T` into its
 /// coefficients): the same increments to f32 rounding, at random states, above and below

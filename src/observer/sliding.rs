@@ -402,7 +402,11 @@ impl SlidingObserver {
     pub fn sliding_gain(&self, omega_m: f32) -> f32 {
         match self.ks {
             SlidingGain::Constant(k) => k,
-            SlidingGain::PerSpeed { per_rad_s, min } => (per_rad_s * omega_m.abs()).max(min),
+            SlidingGain::PerSpeed { per_rad_s, min } => {
+                // (`math::max`, not `f32::max`: a library call, `fmaxf`, on thumbv7em; the
+                // same value, `min` for a NaN speed too.)
+                crate::math::max(per_rad_s * omega_m.abs(), min)
+            }
         }
     }
 
