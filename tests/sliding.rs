@@ -123,7 +123,11 @@ fn a_per_speed_gain_is_proportional_above_its_floor() {
     speeds.extend(speeds.clone().iter().map(|w| -w));
     for w in speeds {
         let ks = obs.sliding_gain(w);
-        assert_eq!(ks.to_bits(), (per_rad_s * w.abs()).max(min).to_bits(), "{w} rad/s");
+        assert_eq!(
+            ks.to_bits(),
+            (per_rad_s * w.abs()).max(min).to_bits(),
+            "{w} rad/s"
+        );
     }
     assert_eq!(obs.sliding_gain(f32::NAN), min);
 }
