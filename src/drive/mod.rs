@@ -289,17 +289,18 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             }
         };
         st.slot = self.schedule.next_slot(st.slot);
-        let to = st.mode();
         // The brake chopper's gate from the bus, in every mode (`regen.rs`).
         st.brake = self.sensorless.regen.brake(st.brake, input.v_bus);
-        let faulted = to == Mode::Fault;
+        let faulted = matches!(st.mode, ModeState::Fault(_));
         DriveOutput {
             duties: if faulted { None } else { duties },
             short_circuit: faulted && self.short_circuit(st),
             brake: st.brake,
-            transition: reason
-                .filter(|_| to != from)
-                .map(|reason| Transition { from, to, reason }),
+            // The mode's name only where a step reports a transition.
+            transition: reason.and_then(|reason| {
+                let to = st.mode();
+                (to != from).then_some(Transition { from, to, reason })
+            }),
         }
     }
 
