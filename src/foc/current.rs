@@ -1,6 +1,29 @@
 //! The d/q current loop: PIs with decoupling and back-EMF feed-forward (Ortega Sec V iv,
 //! dq model (3), with `L_d`, `L_q` for a salient motor), and the voltage vector's limit to the
 //! circle the inverter applies.
+//!
+//! The limit on a salient motor with `L_q > L_d` while motoring gives the d axis the first
+//! claim on the circle: a d voltage within [`D_SHARE_MAX`] of it is kept, and the q axis gets
+//! what remains: N. P. Quang,
+//! J.-A. Dittrich, "Vector Control of Three-Phase AC Machines", Springer 2015 (its
+//! space-vector limitation: the d axis first where `i_q` and `ω_e` have the same sign); ST's
+//! motor control SDK's circle limitation with `MaxVd`, 95 % of the circle, does the same.
+//! There the d current is the MTPA's and the field weakening's, large and negative, and no
+//! torque ceiling keeps the speed loop off the circle (`drive/sensorless.rs`: `VoltageEnd` is
+//! a non-salient motor's). A vector cut along itself takes its share from the d voltage too:
+//! with `v_d = R i_d + L_d di_d/dt − ω_e L_q i_q` held short of `−ω_e L_q i_q` the d current
+//! rises, the back-EMF `ω_e (ψ_f + L_d i_d)` with it, and the vector stays cut. On the Zou
+//! 350 kW PMa-SynRM at its derated speed under its rated torque (issue #29's
+//! `sup-load-steps-100`) the d current ran from −150 A to +90 A within 20 ms and the speed
+//! from 1,490 to 880 rpm and back, every 0.3 s (4–8 % slow); with the d axis first it holds
+//! within 2 % (`host-sim/matrices/zoo-salient.toml`: 158 → 160 of 160 with the identified
+//! files, 156 → 160 with the true ones). A `v_d` beyond its share, a braking command and every
+//! other motor: the vector cut along itself. While braking the d axis first let the Zou's d
+//! current run to 440 A when its load let go (the q voltage starved, the rotor overran); on
+//! the non-salient motors, whose field weakening ends where the voltage is least and whose
+//! torque ceiling holds the voltage (`VoltageEnd`), it lost 4 to 10 cells of the zoo (issue
+//! #26: the drone's load removals after a 100 % step, the Nanotec DF45's load removals and
+//! starts under a brake).
 
 use crate::frames::Dq;
 use crate::math::all_finite;
@@ -8,6 +31,20 @@ use core::hint::cold_path;
 
 /// The current loop cuts its voltage to at most this fraction of `v_max`, 1 − 2⁻¹⁸.
 const CUT_INSIDE: f32 = 1.0 - 1.0 / 262_144.0;
+
+/// The d voltage's largest share of the circle where the d axis comes first (module doc): the
+/// q axis keeps at least `√(1 − 0.95²)` = 31 % of it.
+pub const D_SHARE_MAX: f32 = 0.95;
+
+/// [`CurrentLoop`]'s `d_share2` for inductances `l_d_h`, `l_q_h` \[H]: `D_SHARE_MAX²` where
+/// `L_q > L_d`, −1 (the vector cut along itself) on any other motor.
+pub(super) fn d_share2(l_d_h: f32, l_q_h: f32) -> f32 {
+    if l_q_h > l_d_h {
+        D_SHARE_MAX * D_SHARE_MAX
+    } else {
+        -1.0
+    }
+}
 
 /// d/q current PIs with decoupling, back-EMF feed-forward and voltage-vector saturation.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -20,6 +57,9 @@ pub struct CurrentLoop {
     pub(super) l_d_h: f32,
     pub(super) l_q_h: f32,
     pub(super) flux_wb: f32,
+    /// The square of the d voltage's share of the circle that comes first while motoring:
+    /// [`d_share2`] (module doc).
+    pub(super) d_share2: f32,
 }
 
 /// Integrators of the current loop \[V].
@@ -62,6 +102,22 @@ impl CurrentLoop {
         omega_e: f32,
         v_max: f32,
     ) -> CurrentLoopOutput {
+        self.update_with(state, i_dq, i_dq_ref, omega_e, v_max, true)
+    }
+
+    /// [`CurrentLoop::update`]; `d_first` false: the vector always cut along itself (the
+    /// identification's loop, `Foc::run_cut_along`; a constant where it is inlined, so that
+    /// the d axis' cut is not compiled into it).
+    #[inline(always)]
+    pub(super) fn update_with(
+        &self,
+        state: &mut CurrentLoopState,
+        i_dq: Dq,
+        i_dq_ref: Dq,
+        omega_e: f32,
+        v_max: f32,
+        d_first: bool,
+    ) -> CurrentLoopOutput {
         let e_d = i_dq_ref.d - i_dq.d;
         let e_q = i_dq_ref.q - i_dq.q;
         let int_d = state.integral_d + self.ki_ts * e_d;
@@ -71,7 +127,17 @@ impl CurrentLoop {
         // `v_q = R i_q + L_q di_q/dt + ω_e (L_d i_d + ψ_f)` (eq (3) when `L_d = L_q`).
         let v_d = self.kp_d * e_d + int_d - omega_e * self.l_q_h * i_dq.q;
         let v_q = self.kp_q * e_q + int_q + omega_e * (self.l_d_h * i_dq.d + self.flux_wb);
-        let out = limit(Dq::new(v_d, v_q), v_max);
+        // The d axis first on a salient motor while motoring (module doc), asked only where
+        // the vector is cut. (`i_q* ω_e` once, for the q integrator's release below too.)
+        let torque_power = i_dq_ref.q * omega_e;
+        let d_share2 = || {
+            if torque_power >= 0.0 {
+                self.d_share2
+            } else {
+                -1.0
+            }
+        };
+        let out = limit_d_first(Dq::new(v_d, v_q), v_max, d_first, d_share2);
         // Anti-windup: the integrators move only while the vector is inside the circle, but
         // the q one under a braking command (`i_q*` against the rotation, `i_q* ω_e < 0`)
         // where its step shortens `v_q` (`e_q v_q < 0`): conditional integration (Åström &
@@ -89,7 +155,7 @@ impl CurrentLoop {
         // (Two stores under two conditions, not an `else if`: the compiler selects, where a
         // third branch cost the step 9 cycles of register spills.)
         // (`v_q` as cut, of the same sign: an unusable input's zero volts holds both.)
-        let release = i_dq_ref.q * omega_e < 0.0 && e_q * out.v_dq.q < 0.0;
+        let release = torque_power < 0.0 && e_q * out.v_dq.q < 0.0;
         if !out.saturated {
             state.integral_d = int_d;
         }
@@ -105,6 +171,23 @@ impl CurrentLoop {
 /// `valid` false.
 #[inline(always)]
 pub(super) fn limit(v_dq: Dq, v_max: f32) -> CurrentLoopOutput {
+    limit_d_first(v_dq, v_max, false, || -1.0)
+}
+
+/// [`limit`], with the d axis first where `d_first`, the vector is cut and `v_d²` is within
+/// `d_share2()` of the square of the circle's radius `r` (module doc; negative: never): `v_d`
+/// kept, and `v_q` of its sign and the length the circle leaves, `√(r² − v_d²)`, at least
+/// `√(1 − 0.95²) r` (a normal square for a `v_max` above 4e-19 V); one Newton step of 1/√
+/// from `rsqrt_normal`'s guess lands below that root by at most 0.18 %, inside the circle
+/// (the vector was outside it, so `|v_q|` was longer). A `v_d` beyond its share: the vector
+/// cut along itself.
+#[inline(always)]
+fn limit_d_first(
+    v_dq: Dq,
+    v_max: f32,
+    d_first: bool,
+    d_share2: impl FnOnce() -> f32,
+) -> CurrentLoopOutput {
     let (v_d, v_q) = (v_dq.d, v_dq.q);
     let mag2 = v_d * v_d + v_q * v_q;
     let v_max2 = v_max * v_max;
@@ -126,14 +209,22 @@ pub(super) fn limit(v_dq: Dq, v_max: f32) -> CurrentLoopOutput {
             valid: true,
         };
     }
-    // Cut a little inside the circle (1 − 2⁻¹⁸, 0.08 mV at 21 V): |v|² after the rotation to
-    // αβ carries a few 1e-7 of rounding, and a vector found just outside the circle would make
-    // SVPWM cut it a second time (a division and a square root more). Two Newton steps of
-    // 1/|v| land at most 5e-6 below it and above it only by rounding (`math::rsqrt_normal`),
-    // so the cut vector is 1e-5 inside at the most.
-    let scale = (v_max * CUT_INSIDE) * crate::math::rsqrt_normal(mag2, 2);
+    let (r2, v_d2) = (v_max2 * (CUT_INSIDE * CUT_INSIDE), v_d * v_d);
+    let v_dq = if d_first && v_d2 <= d_share2() * r2 {
+        let room2 = r2 - v_d2;
+        let room = room2 * crate::math::rsqrt_normal(room2, 1);
+        Dq::new(v_d, room.copysign(v_q))
+    } else {
+        // Cut a little inside the circle (1 − 2⁻¹⁸, 0.08 mV at 21 V): |v|² after the rotation
+        // to αβ carries a few 1e-7 of rounding, and a vector found just outside the circle
+        // would make SVPWM cut it a second time (a division and a square root more). Two
+        // Newton steps of 1/|v| land at most 5e-6 below it and above it only by rounding
+        // (`math::rsqrt_normal`), so the cut vector is 1e-5 inside at the most.
+        let scale = (v_max * CUT_INSIDE) * crate::math::rsqrt_normal(mag2, 2);
+        Dq::new(v_d * scale, v_q * scale)
+    };
     CurrentLoopOutput {
-        v_dq: Dq::new(v_d * scale, v_q * scale),
+        v_dq,
         saturated: true,
         valid: true,
     }

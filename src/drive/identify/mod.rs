@@ -626,10 +626,11 @@ impl<P: Observer, M: Observer> Drive<P, M> {
             Phase::Flux(f) => f.step(i_ab, v_last, dt, v_bus_last),
             Phase::Mechanics(m) => m.step(i_ab, v_last, dt, v_bus_last, self.identify.n),
         };
-        let out = id
-            .gains
-            .foc(&self.foc)
-            .run(&mut st.current, &request, i_ab, input.v_bus);
+        // (The vector cut along itself: no field weakening in the tests, `Foc::run_cut_along`.)
+        let out =
+            id.gains
+                .foc(&self.foc)
+                .run_cut_along(&mut st.current, &request, i_ab, input.v_bus);
         st.last
             .record_voltage(out.v_ab, input.v_bus, self.delay_periods);
         (Some(out.duties), None)
