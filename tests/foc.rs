@@ -269,10 +269,12 @@ fn on_the_circle_only_a_braking_command_releases_the_q_integrator() {
 
 /// On the voltage circle a salient motor's current loop (`L_q > L_d`) gives the d axis the
 /// first claim while motoring (`foc/current.rs`, Quang & Dittrich's limitation): `v_d` kept
-/// as the loop computed it, `v_q` of its sign cut to what the circle leaves, the vector within
-/// 0.18 % (one Newton step of 1/√) and 4e-6 of it; a `v_d` beyond 95 % of the circle, a
-/// braking command and a non-salient motor: the vector cut along itself, as `limit` cuts it.
-/// Over d currents from −60 A to +20 A, q commands both ways and both directions of rotation.
+/// as the loop computed it and `v_q` of its sign cut to what the circle leaves, the vector at
+/// most 0.18 % inside the circle (one Newton step of 1/√); a `v_d` beyond 95 % of the circle
+/// held at 95 % and `v_q` within the rest; a braking command and a non-salient motor: the
+/// vector cut along itself, within 1e-5 of the circle. Over d errors of −2 to +2 A, q
+/// commands both ways, both directions of rotation and circles from 0.3 to 0.99 of the
+/// vector's length.
 #[test]
 fn a_salient_motor_keeps_its_d_voltage_first_on_the_circle_while_motoring() {
     use pmsm_sensorless::foc::CurrentLoopState;
@@ -284,12 +286,12 @@ fn a_salient_motor_keeps_its_d_voltage_first_on_the_circle_while_motoring() {
     let i_max = HORNG_SINANO.rated_torque_current_a();
     let foc_salient = FocConfig::new(salient, i_max).build().unwrap();
     let foc_round = config().build().unwrap();
-    let (mut d_first, mut along) = (0usize, 0usize);
+    let (mut d_first, mut held, mut along) = (0usize, 0usize, 0usize);
     for k in 0..4_000u32 {
         let i_d = -60.0 + 0.02 * k as f32;
         let omega_e = if k % 2 == 0 { 900.0 } else { -900.0 };
         let i_q_ref = if k % 3 == 0 { -4.0 } else { 4.0 };
-        let i = Dq::new(i_d, 0.5 * i_q_ref);
+        let i = Dq::new(i_d + (k % 5) as f32 - 2.0, 0.5 * i_q_ref);
         let reference = Dq::new(i_d, i_q_ref);
         let motoring = i_q_ref * omega_e >= 0.0;
         for (foc, is_salient) in [(&foc_salient, true), (&foc_round, false)] {
@@ -309,15 +311,21 @@ fn a_salient_motor_keeps_its_d_voltage_first_on_the_circle_while_motoring() {
             let (v, u) = (out.v_dq, unlimited.v_dq);
             assert!(out.saturated, "{k}");
             let mag = v.d.hypot(v.q);
-            assert!(
-                mag <= v_max && mag > (1.0 - 1.8e-3) * v_max,
-                "{k}: |v| {mag}"
-            );
-            if is_salient && motoring && u.d.abs() <= 0.95 * v_max * (1.0 - 4e-6) {
+            assert!(mag <= v_max, "{k}: |v| {mag}");
+            // (The cut's radius is 4e-6 inside `v_max`: the share's edge is blurred by it.)
+            let share = 0.95 * v_max;
+            if is_salient && motoring && u.d.abs() <= share * (1.0 - 4e-6) {
                 d_first += 1;
                 assert_eq!(v.d, u.d, "{k}: v_d");
                 assert_eq!(v.q.signum(), u.q.signum(), "{k}: v_q's sign");
-            } else if !is_salient || !motoring || u.d.abs() > 0.95 * v_max {
+                assert!(mag > (1.0 - 1.8e-3) * v_max, "{k}: d first, |v| {mag}");
+            } else if is_salient && motoring && u.d.abs() > share {
+                held += 1;
+                assert!((v.d.abs() - share).abs() < 1e-5 * v_max, "{k}: {v:?}");
+                assert_eq!(v.d.signum(), u.d.signum(), "{k}: v_d's sign");
+                assert!(v.q.abs() <= 0.3123 * v_max, "{k}: {v:?}");
+                assert!(v.q == u.q || v.q.abs() > 0.312 * v_max, "{k}: {v:?} {u:?}");
+            } else if !is_salient || !motoring {
                 along += 1;
                 let along_d = u.d * v_max / u.d.hypot(u.q);
                 assert!(
@@ -328,6 +336,12 @@ fn a_salient_motor_keeps_its_d_voltage_first_on_the_circle_while_motoring() {
             }
         }
     }
-    println!("{d_first} vectors cut with the d axis first, {along} along themselves");
-    assert!(d_first > 1_000 && along > 1_000, "{d_first} {along}");
+    println!(
+        "{d_first} vectors cut with the d axis first, {held} with it held at its share, \
+         {along} along themselves"
+    );
+    assert!(
+        d_first > 1_000 && held > 200 && along > 1_000,
+        "{d_first} {held} {along}"
+    );
 }

@@ -282,8 +282,7 @@ impl Foc {
         self.run_with(state, req, i_ab, v_bus, false)
     }
 
-    /// [`Foc::run`], the d axis first on the circle where `d_first` (a constant where it is
-    /// inlined).
+    /// [`Foc::run`], the d axis first on the circle where `d_first`.
     #[inline(always)]
     fn run_with(
         &self,
