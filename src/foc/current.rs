@@ -18,12 +18,11 @@
 //! from 1,490 to 880 rpm and back, every 0.3 s (4–8 % slow); with the d axis first it holds
 //! within 2 % (`host-sim/matrices/zoo-salient.toml`: 158 → 160 of 160 with the identified
 //! files, 156 → 160 with the true ones). A braking command and every other motor: the vector
-//! cut along itself. While braking the d axis first let the Zou's d
-//! current run to 440 A when its load let go (the q voltage starved, the rotor overran); on
-//! the non-salient motors, whose field weakening ends where the voltage is least and whose
-//! torque ceiling holds the voltage (`VoltageEnd`), it lost 4 to 10 cells of the zoo (issue
-//! #26: the drone's load removals after a 100 % step, the Nanotec DF45's load removals and
-//! starts under a brake).
+//! cut along itself. While braking the d axis first let the Zou's d current run to 440 A when
+//! its load let go (the q voltage starved, the rotor overran); on the non-salient motors,
+//! whose field weakening ends where the voltage is least and whose torque ceiling holds the
+//! voltage (`VoltageEnd`), it lost 4 to 10 cells of the zoo (issue #26: the drone's load
+//! removals after a 100 % step, the Nanotec DF45's load removals and starts under a brake).
 
 use crate::frames::Dq;
 use crate::math::{all_finite, clamp};
@@ -36,8 +35,8 @@ const CUT_INSIDE: f32 = 1.0 - 1.0 / 262_144.0;
 /// q axis keeps at least `√(1 − 0.95²)` = 31 % of it.
 pub const D_SHARE_MAX: f32 = 0.95;
 
-/// `√(1 − D_SHARE_MAX²)` rounded down: the q voltage's share where the d voltage holds its
-/// largest.
+/// `√(1 − D_SHARE_MAX²)` to f32's precision (its rounding inside the cut's 4e-6 margin): the
+/// q voltage's share where the d voltage holds its largest.
 const Q_SHARE_MIN: f32 = 0.312_249_9;
 
 /// The radius a vector is cut to: a little inside the circle of radius `v_max` \[V] (below).
@@ -196,7 +195,8 @@ pub(super) fn limit(v_dq: Dq, v_max: f32) -> CurrentLoopOutput {
 /// `√(1 − 0.95²) r` (a normal square for a `v_max` above 4e-19 V); one Newton step of 1/√
 /// from `rsqrt_normal`'s guess lands below that root by at most 0.18 %, inside the circle
 /// (the vector was outside it, so `|v_q|` was longer). A `v_d` beyond its share is held at it
-/// and `v_q` within `√(1 − 0.95²) r`: the cut is continuous in `v_d`.
+/// and `v_q` within `√(1 − 0.95²) r`: the cut is continuous in `v_d` (to the Newton step's
+/// 0.18 % of `v_q` at the share's edge).
 #[inline(always)]
 fn limit_d_first(
     v_dq: Dq,
@@ -253,8 +253,7 @@ fn limit_d_first(
 
 /// A d voltage `v_d` \[V] beyond its share of the circle of radius `v_max` \[V] held at
 /// [`D_SHARE_MAX`] of it, `v_q` \[V] within the rest, `√(1 − 0.95²)` of it (module doc): the
-/// d axis first where the d voltage alone would take the circle, continuous with the cut
-/// that keeps `v_d` at the share's edge.
+/// d axis first where the d voltage alone would take the circle.
 #[inline(always)]
 fn d_held_at_share(v_d: f32, v_q: f32, v_max: f32) -> Dq {
     let (d_max, q_max) = (
