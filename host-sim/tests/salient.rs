@@ -649,3 +649,50 @@ fn the_zou_holds_its_rated_load_step_at_the_voltage_limit() {
         );
     }
 }
+
+/// The salient zoo motors re-enabled on a rotor coasting at ±50 % and ±100 % of rated speed on
+/// a board without terminal sensing (`catch-no-terminal-*`), both primaries: caught in closed
+/// loop without an alignment, the verdict a pass, the probe's current (the plant's, at the
+/// samples, in `Catch` from the second period on) below the rated-torque current. The probe's
+/// deadbeat current loop takes the smaller of `L_d` and `L_q` (`src/drive/catch_zero.rs`):
+/// with their mean, the AMK (`L_q/L_d = 2`), the Zou (2.7) and the Brusa (3.2) tripped on
+/// over-current, an observer loss or a stall in 7 of these 20 flux-primary runs.
+#[test]
+fn a_coasting_salient_rotor_is_caught_without_terminal_sensing() {
+    use pmsm_sensorless::drive::Mode;
+    for file in SALIENT_ZOO {
+        let loaded = load(file);
+        let rated_a = f64::from(loaded.motor.rated_torque_current_a());
+        for scenario in [
+            "catch-no-terminal-50",
+            "catch-no-terminal-neg50",
+            "catch-no-terminal-100",
+            "catch-no-terminal-neg100",
+        ] {
+            for observer in [ObserverKind::SlidingTorque, ObserverKind::Flux] {
+                let r = run_on_board(&loaded, scenario, observer, 1);
+                let s = Summary::of(&r);
+                let label = format!("{} {scenario} {}", loaded.name, observer.name());
+                // From the second period after the enable (0.05 s) on.
+                let t0 = 0.05 + 2.0 / r.config.rate_hz;
+                let peak = |catch: bool| {
+                    (r.rows.iter())
+                        .filter(|x| x.t >= t0 && (!catch || x.mode == Some(Mode::Catch)))
+                        .map(|x| x.i_d.hypot(x.i_q))
+                        .fold(0.0, f64::max)
+                };
+                let (probe, run) = (peak(true), peak(false));
+                let aligned = r.transitions.iter().any(|(_, tr)| tr.to == Mode::Align);
+                println!(
+                    "{label}: {:?}, the probe's current {probe:.2} A ({:.0} % of the \
+                     rated-torque current), the run's {run:.2} A; aligned {aligned}",
+                    s.reasons,
+                    100.0 * probe / rated_a
+                );
+                assert!(s.pass, "{label}: {:?} {:?}", s.reasons, r.transitions);
+                assert!(!aligned, "{label}: {:?}", r.transitions);
+                assert!(probe < rated_a, "{label}: {probe} A");
+            }
+        }
+    }
+}
