@@ -119,8 +119,8 @@ pub const GAIN_MIN: f32 = 0.25;
 /// and open loop).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Declined {
-    /// The drive was not asked for it (`Drive::with_injection`).
-    NotAsked,
+    /// Turned off (`Drive::without_injection`).
+    TurnedOff,
     /// `L_q/L_d` (the ratio given) below [`SALIENCY_MIN`]: no usable saliency.
     NotSalient {
         /// The motor's `L_q/L_d`.

@@ -263,7 +263,7 @@ fn a_non_salient_motor_is_declined() {
     assert_eq!(cfg.build(), Err(Declined::NotSalient { ratio: 1.0 }));
 }
 
-// ---- The drive's start through the injection (`Drive::with_injection`), on the board. ----
+// ---- The drive's start through the injection (the default on a salient motor), on the board. ----
 
 use pmsm_host_sim::board::SimBoard;
 use pmsm_host_sim::observer::ObserverKind;
@@ -505,14 +505,14 @@ windows = [["held", 0.4, 2.4]]
     }
 }
 
-/// A non-salient motor (the Sinano, `L_q = L_d`) with the injection asked for: the drive
-/// declines (`Declined::NotSalient`) and starts as without it, to the last bit: the same rows
-/// and transitions as with the injection not asked for (align, open loop, hand-over).
+/// A non-salient motor (the Sinano, `L_q = L_d`), built with the injection (the default): the
+/// drive declines (`Declined::NotSalient`) and starts as without it, to the last bit: the same
+/// rows and transitions as with the injection turned off (align, open loop, hand-over).
 #[test]
 fn a_non_salient_drive_declines_and_starts_as_today() {
     let m = pmsm_sensorless::motor::HORNG_SINANO;
     let dc = DriveConfig::new(&m);
-    let drive = dc.build_flux_primary().unwrap().with_injection(&dc);
+    let drive = dc.build_flux_primary().unwrap();
     assert_eq!(
         drive.injection(),
         Err(Declined::NotSalient { ratio: 1.0 }),
@@ -529,7 +529,7 @@ fn a_non_salient_drive_declines_and_starts_as_today() {
         })
         .collect();
     let modes: Vec<_> = runs[1].transitions.iter().map(|(_, tr)| tr.to).collect();
-    println!("sinano with the injection asked for: {modes:?}");
+    println!("sinano built with the injection: {modes:?}");
     assert!(modes.contains(&Mode::OpenLoop), "{modes:?}");
     assert_eq!(runs[0].transitions, runs[1].transitions);
     assert_eq!(runs[0].rows, runs[1].rows);

@@ -530,9 +530,9 @@ impl DriveConfig {
                 },
             ),
             terminal_sensing: self.power_stage.terminal_sensing,
-            // Not asked for: `Drive::with_injection`.
+            // A salient motor's start (`inject.rs`), or why not.
             #[cfg(feature = "injection")]
-            inject: Err(super::Declined::NotAsked),
+            inject: self.inject_settings(ramp),
             #[cfg(feature = "identify")]
             identify: identify::Settings::new(
                 &self.ratings,
@@ -643,8 +643,8 @@ impl DriveConfig {
 
 #[cfg(feature = "injection")]
 impl DriveConfig {
-    /// The injection start's settings (`inject.rs`), or why the drive declines it: not asked
-    /// for, or the motor's saliency or the bus (`crate::injection`). The current scale is the
+    /// The injection start's settings (`inject.rs`), or why the drive declines it: the
+    /// motor's saliency or the bus (`crate::injection`). The current scale is the
     /// rated-torque current, the rate the drive's, the update delay taken by the injection's
     /// normalisation; the speed estimate's low-pass a 5 ms time constant per millisecond (the
     /// speed loop's 20 Hz band passes it).

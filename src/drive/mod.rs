@@ -741,22 +741,20 @@ impl<P: Observer, M: Observer> Drive<P, M> {
         ModeState::Align(Align::default())
     }
 
-    /// This drive, starting a rotor found at rest through high-frequency injection on a
-    /// salient motor (feature `injection`, `inject.rs`): tracked from zero speed, its
-    /// polarity tested, no alignment and no open loop; `cfg` the configuration it was built
-    /// from. Declined on a motor without the saliency (or a bus, rate or update delay the
-    /// injection cannot use): [`Drive::injection`] says why, and the drive starts as without
-    /// it.
+    /// This drive, starting a rotor found at rest with the alignment and the open loop also
+    /// on a salient motor, where the drive built with the feature `injection` starts it
+    /// through high-frequency injection (`inject.rs`): [`Drive::injection`] then says
+    /// `Declined::TurnedOff`.
     #[cfg(feature = "injection")]
-    pub fn with_injection(mut self, cfg: &DriveConfig) -> Self {
-        self.inject = cfg.inject_settings(self.sensorless.ramp);
+    pub fn without_injection(mut self) -> Self {
+        self.inject = Err(Declined::TurnedOff);
         self
     }
 
     /// Whether this drive starts a rotor at rest through high-frequency injection (feature
-    /// `injection`, `inject.rs`), or why not: not asked for ([`Drive::with_injection`]), a
-    /// motor without the saliency, ...; it then starts with the alignment and the open
-    /// loop.
+    /// `injection`, `inject.rs`: on a salient motor, unless [`Drive::without_injection`]), or
+    /// why not: turned off, a motor without the saliency, ...; it then starts with the
+    /// alignment and the open loop.
     #[cfg(feature = "injection")]
     pub fn injection(&self) -> Result<(), Declined> {
         self.inject.map(|_| ())

@@ -112,7 +112,8 @@ pub struct SimConfig {
     /// The drive's maximum torque per ampere on a salient motor (`DriveConfig::mtpa`; true).
     pub mtpa: bool,
     /// The drive starts a rotor at rest through high-frequency injection on a salient motor
-    /// (`DriveConfig::injection`; false).
+    /// (true, the core's default with its feature `injection`; false:
+    /// `Drive::without_injection`, the alignment and the open loop).
     pub injection: bool,
     /// A bare run's sliding observer in fixed point (`crate::observer::fixed`, issue #30;
     /// false: f32). The drive's runs and the other observers refuse it.
@@ -151,7 +152,7 @@ impl SimConfig {
             identify_first: false,
             plant_inductances: None,
             mtpa: true,
-            injection: false,
+            injection: true,
             fixed_point: false,
         }
     }

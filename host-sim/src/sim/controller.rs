@@ -205,17 +205,17 @@ impl Controller {
             ObserverKind::SlidingTorque => {
                 let d = cfg.build_sliding_primary().map_err(err)?;
                 running(if config.injection {
-                    d.with_injection(&cfg)
-                } else {
                     d
+                } else {
+                    d.without_injection()
                 })
             }
             ObserverKind::Flux => {
                 let d = cfg.build_flux_primary().map_err(err)?;
                 running(if config.injection {
-                    d.with_injection(&cfg)
-                } else {
                     d
+                } else {
+                    d.without_injection()
                 })
             }
             other => anyhow::bail!(

@@ -574,10 +574,7 @@ mod firmware {
         // lock and polarity test, 55 ms at 4 kHz and 16 ms more a further round, not
         // measured, on a rotor at rest that answers the injection), then its steps and tasks,
         // the injection's speed loop running.
-        match cfg_salient
-            .build_flux_primary()
-            .map(|d| d.with_injection(&cfg_salient))
-        {
+        match cfg_salient.build_flux_primary() {
             Ok(inject) if inject.injection().is_ok() => {
                 let inject_cmd = Command {
                     speed_rpm: 60.0,

@@ -88,6 +88,11 @@ pub struct RunArgs {
     /// `sliding-torque` or `sliding-velocity` only.
     #[arg(long)]
     fixed_point: bool,
+    /// Start a rotor found at rest with the alignment and the open loop on a salient motor
+    /// too (default: through high-frequency injection, `src/drive/inject.rs`; a motor without
+    /// the saliency declines it).
+    #[arg(long)]
+    no_injection: bool,
     /// Write run.csv and run.png into this directory (nothing is written without it).
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -170,6 +175,7 @@ pub fn prepare(args: &RunArgs) -> anyhow::Result<SimConfig> {
         cfg.mismatch = Mismatch::between(&m.params, &d.params);
     }
     cfg.identify_first = args.identified;
+    cfg.injection = !args.no_injection;
     if let Some(rate_hz) = args.rate_hz {
         anyhow::ensure!(
             rate_hz.is_finite() && (1000.0..=100_000.0).contains(&rate_hz),
