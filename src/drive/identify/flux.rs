@@ -57,6 +57,20 @@
 //! time's mostly, does not), is a rotor that does not follow; a ψ_f outside
 //! [`MotorParams::FLUX_WB`] is out of range.
 //!
+//! A blocked salient rotor shows an EMF too: the current `I` on the frame's d axis turning
+//! at `ω_e` over a rotor at rest at `θ_r` links `L̄ i + ΔL e^{j2θ_r} ī` (`L̄`, `ΔL` the mean
+//! and half difference of `L_d` and `L_q`, `ī` the conjugate), whose EMF in the frame, `L_q
+//! di/dt` taken out, is `jω_e ΔL I (1 − e^{j2(θ_r − θ_f)})`: it grows with the speed as a
+//! turning rotor's does (the start's watch below named the blocked AMK, Zou and Brusa
+//! `spin_not_followed`; blocked Delta servos at `L_q/L_d = 2.3` and 4, held-out variants,
+//! passed the checks above and ran on into the torque steps: `lost_rotor`,
+//! `inertia_out_of_range`). Its trace,
+//! `e − jω_e ΔL i` turned by `2θ_f`, is `−jω_e ΔL I e^{j2θ_r}`: it holds still, where a
+//! turning rotor's (`e = jω_e(ψ_f e^{−jλ} + ΔL I (1 + e^{−j2λ}))`, `λ` its lag, steady in the
+//! frame) turns at `2ω_e`. At half the spin speed the trace's mean against its mean length
+//! ([`BLOCKED_TRACE`]) names a blocked salient rotor ([`IdentifyError::BlockedRotor`]) where
+//! the spin's measurement is evaluated.
+//!
 //! Which name: the start is watched. While the frame accelerates through `[1, 1.5)·w₁` and
 //! `[2, 3)·w₁` (`w₁` = a quarter of the half spin speed, 3.75 % of rated speed), |e| and the
 //! frame speed are summed per window; a rotor that turns with the frame has the same EMF per
@@ -95,6 +109,15 @@ const SHIFT_MS: u32 = 50;
 const MEASURE_MS: u32 = 500;
 /// The largest lag of the rotor behind the frame the ramp accelerates on \[rad].
 const LAG_MAX: f32 = 0.6;
+
+/// The share of its mean length that the mean of a blocked salient rotor's trace keeps (module
+/// doc), at least. A turning rotor's trace turns by `2θ_f`, at least `0.15 ω_e` rad over
+/// the 500 ms at half the spin speed (15 % of rated speed; `ω_e` the rated electrical
+/// speed), so its mean is at most `2/(0.15 ω_e)` of its length: below 0.15 for a motor
+/// rated above 14 Hz (measured: at most 0.017, the Aalto IPM's at 75 Hz). A blocked one's
+/// measured 0.20 (the Aalto's, `L_q/L_d = 1.42`, its trace small against the noise) to 0.69
+/// (the Brusa's); the zoo's and held-out salient variants' on three seeds.
+const BLOCKED_TRACE: f32 = 0.15;
 
 /// The start's watch: the first window's lowest frame speed, a fraction of the half spin
 /// speed (module doc).
@@ -153,9 +176,12 @@ pub(in crate::drive) struct FluxSpin {
     /// The current in the frame, summed since the last tick \[A] (of a salient motor).
     i_sum: Dq,
     n: u32,
-    /// Σ|e|, Σe_q and Σ|v| over the measurement's milliseconds \[V].
+    /// Σ|e| and Σ|v| over the measurement's milliseconds \[V].
     e_mag_sum: f32,
-    e_q_sum: f32,
+    /// At half the spin speed, a blocked salient rotor's trace (module doc): Σ of the EMF
+    /// less `jω_e ΔL i` turned by twice the frame's angle, and Σ of its length \[V].
+    blocked_sum: Dq,
+    blocked_abs: f32,
     /// The mean |e| at half the spin speed, once measured \[V].
     e_half: Option<f32>,
     v_mag_sum: f32,
@@ -188,7 +214,8 @@ impl FluxSpin {
             i_sum: Dq::default(),
             n: 0,
             e_mag_sum: 0.0,
-            e_q_sum: 0.0,
+            blocked_sum: Dq::default(),
+            blocked_abs: 0.0,
             e_half: None,
             v_mag_sum: 0.0,
             count: 0,
@@ -322,7 +349,9 @@ impl FluxSpin {
             }
             Stage::Measure(ms) => {
                 self.e_mag_sum += self.magnet_emf(s, e, i);
-                self.e_q_sum += e.q;
+                if self.e_half.is_none() {
+                    self.trace_blocked(s, e, i);
+                }
                 self.v_mag_sum += super::magnitude(v);
                 self.count += 1;
                 if ms > 1 {
@@ -333,7 +362,6 @@ impl FluxSpin {
                     self.e_half = Some(e_half);
                     self.hold_a = self.stiffest_hold(e_half / (s.n * self.omega_m));
                     self.e_mag_sum = 0.0;
-                    self.e_q_sum = 0.0;
                     self.v_mag_sum = 0.0;
                     self.count = 0;
                     self.stage = Stage::Raise(SHIFT_MS);
@@ -351,6 +379,24 @@ impl FluxSpin {
     fn start_followed(&self) -> bool {
         let [a, b] = self.watch;
         b.e >= 0.8 * (a.e / a.w) * b.w && b.e >= 0.1 * b.v && a.w > 0.0 && b.w > 0.0
+    }
+
+    /// One millisecond of the trace of a blocked salient rotor (module doc): `e − jω_e ΔL i`
+    /// (`e`, `i` in the frame, `ΔL = (L_d − L_q)/2`) turned by `2θ_f`.
+    fn trace_blocked(&mut self, s: &Settings, e: Dq, i: Dq) {
+        let w_dl = 0.5 * s.n * self.omega_m * self.l_d_minus_q_h;
+        let r = Dq::new(e.d + w_dl * i.q, e.q - w_dl * i.d);
+        let turned = r.to_alpha_beta(self.frame.rotated(self.frame));
+        self.blocked_sum.d += turned.alpha;
+        self.blocked_sum.q += turned.beta;
+        self.blocked_abs += super::magnitude(r);
+    }
+
+    /// A salient rotor that did not turn at half the spin speed: the mean of its trace at
+    /// least [`BLOCKED_TRACE`] of its mean length. (A round motor's trace is its EMF turned
+    /// by `2θ_f`; blocked or turning, that EMF is steady in the frame, and the trace turns.)
+    fn blocked_salient(&self) -> bool {
+        super::magnitude(self.blocked_sum) >= BLOCKED_TRACE * self.blocked_abs
     }
 
     /// The magnet's share of the back-EMF `e` \[V] with the current `i` \[A] (both in the
@@ -388,9 +434,11 @@ impl FluxSpin {
         let (e_mean, v_mean) = (self.e_mag_sum, self.v_mag_sum);
         let e_half = self.e_half.unwrap_or(0.0) * self.count as f32;
         // A turning rotor's EMF doubles with the speed; what remains of the voltage errors at
-        // standstill (the dead time's, mostly) does not.
-        if !(e_mean >= 0.1 * v_mean && e_mean >= 1.6 * e_half) {
-            return Progress::Fail(if self.start_followed() {
+        // standstill (the dead time's, mostly) does not. A blocked salient rotor's doubles
+        // too: its trace tells it (module doc).
+        let blocked_salient = self.blocked_salient();
+        if !(e_mean >= 0.1 * v_mean && e_mean >= 1.6 * e_half) || blocked_salient {
+            return Progress::Fail(if self.start_followed() && !blocked_salient {
                 IdentifyError::SpinNotFollowed
             } else {
                 IdentifyError::BlockedRotor
