@@ -115,8 +115,8 @@ const DIFFERENCE_VARIANCE_FACTOR: f32 = 8.0;
 /// The smallest share of the square wave the update delay may leave, `|1 − 2δ|`.
 pub const GAIN_MIN: f32 = 0.25;
 
-/// Why the drive does not inject on this motor (it starts as without the injection: align
-/// and open loop).
+/// Why the drive does not start through the injection: turned off, or this motor, bus, rate
+/// or update delay (it starts as without the injection: align and open loop).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Declined {
     /// Turned off (`Drive::without_injection`).

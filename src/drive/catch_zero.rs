@@ -29,13 +29,14 @@
 //! - on a salient motor the stationary frame sees `L_d` along the magnet and `L_q` across it,
 //!   at an angle the probe does not know, so one `L` serves both axes: the smaller of the
 //!   two. With `L` in both the estimate and the voltage, a current error on an axis of
-//!   inductance `L_x` evolves as `z² − (2 − 2a) z + (1 − a)` with `a = L/L_x`: roots of
-//!   modulus `√(1 − a)` for `0 < a ≤ 1` (deadbeat at `a = 1`, a decay per step of
-//!   `√(1 − L_d/L_q)` on the q axis: 0.87 at `L_q/L_d = 4`), unstable from `a = 4/3` on
-//!   (`a = 2`: a root at −2.4). The mean inductance put `a = (1 + ξ)/2` on the d axis
-//!   (`ξ = L_q/L_d`): from `ξ = 5/3` on the probe's current grew until the over-current trip
-//!   (measured: the AMK's, the Brusa's and the Zou's catches without terminal sensing,
-//!   `host-sim/tests/salient.rs`); the round motor's `L` is the same either way;
+//!   inductance `L_x` evolves (quasi-statically: the axes turn by `ω_e T` a step) as
+//!   `z² − (2 − 2a) z + (1 − a)` with `a = L/L_x`: roots of modulus `√(1 − a)` for
+//!   `0 < a ≤ 1` (deadbeat at `a = 1`, a decay per step of `√(1 − L_d/L_q)` on the q axis:
+//!   0.87 at `L_q/L_d = 4`), unstable from `a = 4/3` on (`a = 2`: a root at −2.4). The mean
+//!   inductance put `a = (1 + ξ)/2` on the d axis (`ξ = L_q/L_d`), unstable from `ξ = 5/3`
+//!   on (on the q axis `a = (1 + ξ)/(2ξ)`, from `ξ = 3/5` down): the AMK's, the Brusa's and
+//!   the Zou's probe currents grew until the over-current trip (catches without terminal
+//!   sensing, `host-sim/tests/salient.rs`). The round motor's `L` is the same either way;
 //! - the turn of `e` is summed while it is measurable (the unwrapped angle: the endpoints'
 //!   noise only), each step's within what a rotor turns ([`TURN_STEP_MAX`]). Once it has
 //!   turned by [`TURN_MIN`], the direction is its sign, `|ω_m| = |ē|/(N ψ_f)` (`ē` the
@@ -241,7 +242,7 @@ impl Settings {
         let rate = c.rate_hz;
         let i_rated = c.rated_torque_nm / m.torque_constant();
         let ke = m.emf_constant();
-        let l_over_t = m.l_d_h().min(m.l_q_h()) * rate;
+        let l_over_t = m.l_d_h() * crate::math::min(1.0, m.saliency) * rate;
         let v_handback = ke * c.handback_rpm * RAD_S_PER_RPM;
         // Per axis: the difference of two samples (√2) of the phase currents' noise in α or β
         // (√(2/3) of a phase's, amplitude-invariant Clarke), times L/T.

@@ -23,9 +23,10 @@
 //! the load. The drive stops with the enable.
 //!
 //! The drive built with the feature starts every salient motor this way. It declines to
-//! inject ([`Declined`]) on a motor whose saliency is too small, or when it is turned off
-//! ([`Drive::without_injection`](super::Drive::without_injection)): it starts as without the
-//! feature (align, open loop), and
+//! inject ([`Declined`]) when it is turned off
+//! ([`Drive::without_injection`](super::Drive::without_injection)), on a motor whose saliency
+//! is too small or inverse, or with a bus, rate or update delay the injection cannot use: it
+//! starts as without the feature (align, open loop), and
 //! [`Drive::injection`](super::Drive::injection) says why. A polarity test that ends within
 //! its noise ([`Phase::Unresolved`]: a d axis that barely saturates) hands the start to the
 //! alignment (`Align`, `AtRest`), which finds the magnet by pulling it.

@@ -111,13 +111,20 @@ const MEASURE_MS: u32 = 500;
 const LAG_MAX: f32 = 0.6;
 
 /// The share of its mean length that the mean of a blocked salient rotor's trace keeps (module
-/// doc), at least. A turning rotor's trace turns by `2θ_f`, at least `0.15 ω_e` rad over
-/// the 500 ms at half the spin speed (15 % of rated speed; `ω_e` the rated electrical
-/// speed), so its mean is at most `2/(0.15 ω_e)` of its length: below 0.15 for a motor
-/// rated above 14 Hz (measured: at most 0.017, the Aalto IPM's at 75 Hz). A blocked one's
-/// measured 0.20 (the Aalto's, `L_q/L_d = 1.42`, its trace small against the noise) to 0.69
-/// (the Brusa's); the zoo's and held-out salient variants' on three seeds.
+/// doc), at least. A turning rotor's trace turns by `τ` a millisecond (`2θ_f`'s turn at half
+/// the spin speed), and the mean of its 500 milliseconds is at most `1/(500 sin(τ/2))` of
+/// its length: half this share or less where `τ` ≥ [`TRACE_TURN_MIN`] (measured: at most
+/// 0.017, the Aalto IPM's). A blocked one's measured 0.20 (the Aalto's, `L_q/L_d = 1.42`,
+/// its trace small against the noise) to 0.69 (the Brusa's); the zoo's and held-out salient
+/// variants' on three seeds.
 const BLOCKED_TRACE: f32 = 0.15;
+
+/// The least turn of the trace a millisecond \[rad] for [`BLOCKED_TRACE`] to tell (`sin(τ/2)
+/// ≥ 1/(500 · 0.075)`): a rated electrical frequency of 28 Hz and more (15 % of it at half the
+/// spin speed, turned twice). Up to π: beyond it a millisecond's mean shrinks a blocked
+/// rotor's trace below `2/π` of it, and near 2π a turning rotor's would seem to hold still
+/// (aliased; a rated 1 667 Hz). Outside, the start's watch names the rotor as before.
+const TRACE_TURN_MIN: f32 = 0.054;
 
 /// The start's watch: the first window's lowest frame speed, a fraction of the half spin
 /// speed (module doc).
@@ -378,7 +385,8 @@ impl FluxSpin {
     /// and the EMF a tenth of the voltage, as at the measuring speeds.
     fn start_followed(&self) -> bool {
         let [a, b] = self.watch;
-        b.e >= 0.8 * (a.e / a.w) * b.w && b.e >= 0.1 * b.v && a.w > 0.0 && b.w > 0.0
+        // (Without the first window's samples its EMF per speed is NaN, and the test false.)
+        b.e >= 0.8 * (a.e / a.w) * b.w && b.e >= 0.1 * b.v && b.w > 0.0
     }
 
     /// One millisecond of the trace of a blocked salient rotor (module doc): `e − jω_e ΔL i`
@@ -393,10 +401,12 @@ impl FluxSpin {
     }
 
     /// A salient rotor that did not turn at half the spin speed: the mean of its trace at
-    /// least [`BLOCKED_TRACE`] of its mean length. (A round motor's trace is its EMF turned
-    /// by `2θ_f`; blocked or turning, that EMF is steady in the frame, and the trace turns.)
-    fn blocked_salient(&self) -> bool {
-        super::magnitude(self.blocked_sum) >= BLOCKED_TRACE * self.blocked_abs
+    /// least [`BLOCKED_TRACE`] of its mean length, where the trace can tell (a frame that
+    /// turns it by [`TRACE_TURN_MIN`] to π a millisecond).
+    fn blocked_salient(&self, s: &Settings) -> bool {
+        // 2θ_f's turn a millisecond at half the spin speed, `N ω_low · 1 ms` [rad].
+        s.n * s.omega_low_m >= TRACE_TURN_MIN * 1e3
+            && super::magnitude(self.blocked_sum) >= BLOCKED_TRACE * self.blocked_abs
     }
 
     /// The magnet's share of the back-EMF `e` \[V] with the current `i` \[A] (both in the
@@ -436,7 +446,7 @@ impl FluxSpin {
         // A turning rotor's EMF doubles with the speed; what remains of the voltage errors at
         // standstill (the dead time's, mostly) does not. A blocked salient rotor's doubles
         // too: its trace tells it (module doc).
-        let blocked_salient = self.blocked_salient();
+        let blocked_salient = self.blocked_salient(s);
         if !(e_mean >= 0.1 * v_mean && e_mean >= 1.6 * e_half) || blocked_salient {
             return Progress::Fail(if self.start_followed() && !blocked_salient {
                 IdentifyError::SpinNotFollowed

@@ -68,7 +68,8 @@ pub enum IdentifyError {
     /// together).
     ShortedPhase,
     /// No back-EMF while the current's frame spins: the rotor does not turn, not even at the
-    /// start of the spin.
+    /// start of the spin; or, on a salient motor, the apparent EMF of a rotor at rest, told by
+    /// its trace (`flux.rs`).
     BlockedRotor,
     /// The rotor turned with the spin at its start (a back-EMF growing with the frame's
     /// speed) but not at the measuring speed: it lags or slips (an inertia or a load the
