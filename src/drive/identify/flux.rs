@@ -68,8 +68,9 @@
 //! `e − jω_e ΔL i` turned by `2θ_f`, is `−jω_e ΔL I e^{j2θ_r}`: it holds still, where a
 //! turning rotor's (`e = jω_e(ψ_f e^{−jλ} + ΔL I (1 + e^{−j2λ}))`, `λ` its lag, steady in the
 //! frame) turns at `2ω_e`. At half the spin speed the trace's mean against its mean length
-//! ([`BLOCKED_TRACE`]) names a blocked salient rotor ([`IdentifyError::BlockedRotor`]) where
-//! the spin's measurement is evaluated.
+//! ([`BLOCKED_TRACE`], on motors rated from 28 Hz electrical, [`TRACE_TURN_MIN`]) names a
+//! blocked salient rotor ([`IdentifyError::BlockedRotor`]) where the spin's measurement is
+//! evaluated.
 //!
 //! Which name: the start is watched. While the frame accelerates through `[1, 1.5)·w₁` and
 //! `[2, 3)·w₁` (`w₁` = a quarter of the half spin speed, 3.75 % of rated speed), |e| and the
@@ -121,9 +122,11 @@ const BLOCKED_TRACE: f32 = 0.15;
 
 /// The least turn of the trace a millisecond \[rad] for [`BLOCKED_TRACE`] to tell (`sin(τ/2)
 /// ≥ 1/(500 · 0.075)`): a rated electrical frequency of 28 Hz and more (15 % of it at half the
-/// spin speed, turned twice). Up to π: beyond it a millisecond's mean shrinks a blocked
-/// rotor's trace below `2/π` of it, and near 2π a turning rotor's would seem to hold still
-/// (aliased; a rated 1 667 Hz). Outside, the start's watch names the rotor as before.
+/// spin speed, turned twice). Below it the start's watch names the rotor as before. Not
+/// bounded above: past π a millisecond (a rated 1 667 Hz) a millisecond's mean shrinks a
+/// blocked rotor's trace below `2/π` of it, which then may go unseen, and a turn near 2π (a
+/// rated 3 333 Hz, six samples a period at the board's 20 kHz) would alias a turning rotor's
+/// trace to a still one.
 const TRACE_TURN_MIN: f32 = 0.054;
 
 /// The start's watch: the first window's lowest frame speed, a fraction of the half spin
@@ -402,7 +405,7 @@ impl FluxSpin {
 
     /// A salient rotor that did not turn at half the spin speed: the mean of its trace at
     /// least [`BLOCKED_TRACE`] of its mean length, where the trace can tell (a frame that
-    /// turns it by [`TRACE_TURN_MIN`] to π a millisecond).
+    /// turns it by [`TRACE_TURN_MIN`] a millisecond or more).
     fn blocked_salient(&self, s: &Settings) -> bool {
         // 2θ_f's turn a millisecond at half the spin speed, `N ω_low · 1 ms` [rad].
         s.n * s.omega_low_m >= TRACE_TURN_MIN * 1e3
