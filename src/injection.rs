@@ -21,9 +21,23 @@
 //! step against the one before, which had the other sign): a fundamental current that changes
 //! at a steady rate drops out. The fundamental current is the mean of
 //! two consecutive samples (the square wave's response alternates around it), the current
-//! loop's feedback. The error drives a type-2 tracking loop (a PLL: `ω̂_e += ω_n² T e`,
-//! `θ̂_e += T ω̂_e + 2ζω_n T e`, `ζ = 1`), Yoon et al. Sec. III's angle observer without its
-//! mechanical model.
+//! loop's feedback. The error drives a type-2 tracking loop (a PLL: `ω̂_e += ω_o² T e`,
+//! `θ̂_e += T ω̂_e + 2ω_o T e`) through the lock, the polarity test and a start to speed.
+//! While the drive holds the rotor at zero speed ([`InjectionState::motion_model`], set by
+//! the position hold of `drive/inject.rs`) it drives a tracking observer with the rotor's
+//! mechanical model instead,
+//! Yoon et al. Sec. III's angle observer (the motion observer of Lorenz, Van Patten,
+//! "High-resolution velocity estimation for all-digital, AC servo drives", IEEE Trans. Ind.
+//! Appl. 27(4), 1991): the acceleration the commanded torque makes, `u = N K_t i_τ/J`, is fed
+//! forward and the load's deceleration `â` estimated,
+//! ```text
+//! θ̂_e += T ω̂_e + 3ω_o T e,    ω̂_e += T (u − â_e) + 3ω_o² T e,    â_e −= ω_o³ T e
+//! ```
+//! (the error's poles all at `−ω_o`; `e` the error above). With the torque fed forward the
+//! speed and the load come without the lag of a PLL's: the position hold feeds `â` forward
+//! and damps on `ω̂`. (Not through the start: its larger first gain and third state lost the
+//! Caruso's start under a rated brake at a quarter of the voltage, and on the bench's
+//! voltage-limited case at 20 kHz cost the step 60 cycles, over its budget.)
 //!
 //! The saliency gives the axis, not its direction: the loop locks at `Δθ = 0` or `π`. The
 //! polarity comes from the d axis' magnetic saturation (Jeong, Lorenz, Jahns, Sul,
@@ -46,18 +60,24 @@
 //! not saturate the sign is the noise's, a start against the magnet in half of them.
 //!
 //! **Scaled from the motor** (never tuned to one):
-//! - injection voltage `V_h = min(R_h · I_τ · L_d / (T |1 − 2δ|), V_max/4)`, `δ` the board's
+//! - injection voltage `V_h = min(R_h · I_τ · L_d / (T |1 − 2δ|), V_s)`, `δ` the board's
 //!   update delay in periods (the square wave applied is `(1 − 2δ)` of the commanded, its sign
 //!   taken into the demodulation; declined where `|1 − 2δ| <` [`GAIN_MIN`]): the d current's swing per
 //!   period is `R_h = 0.3` ([`RIPPLE`]) of the rated-torque current `I_τ`, unless that takes
-//!   more than a quarter of the inverter's `V_max = V_bus/√3` ([`VOLTAGE_SHARE_MAX`]: the rest
-//!   is the current loop's, for the resistance and the back-EMF up to the hand-over);
-//! - the tracking loop's natural frequency `ω_n = 2π f_s / 80` ([`PLL_DIVIDER`]; 50 Hz at
-//!   4 kHz): `ω_n T = 0.079`, well inside the discrete loop's stability;
-//! - the lock time `12/ω_n` (38 ms at 4 kHz), each polarity half `POLARITY_S` (8 ms: about
+//!   more than the injection's share `V_s` of the inverter's `V_max = V_bus/√3`: what the
+//!   current loop leaves, `V_max − V_loop` (`V_loop = R I_max + ω_e (ψ_f + L_q I_max)`, its
+//!   fundamental's most up to the hand-over speed), within a quarter and a half of `V_max`
+//!   ([`VOLTAGE_SHARE_MIN`], [`VOLTAGE_SHARE_MAX`]). (A quarter alone left the Caruso IPM at
+//!   310 V and 5 kHz a swing of 0.9 A against its 0.085 A of sensor noise, an angle error of
+//!   104° RMS holding rated torque: the hold lost it.)
+//! - the tracking observer's pole `ω_o = 2π f_s / 80` ([`PLL_DIVIDER`]; 50 Hz at 4 kHz):
+//!   `ω_o T = 0.079`, `3ω_o T = 0.24` its largest gain, well inside the discrete loop's
+//!   stability (at `2π f_s/40` the lock's first steps swung the AMK's frame into an
+//!   over-current);
+//! - the lock time `12/ω_o` (38 ms at 4 kHz), each polarity half `POLARITY_S` (8 ms: about
 //!   15 time constants of the 300 Hz current loop), averaged over its second half, with the
 //!   bias `I_p = I_τ/2` ([`POLARITY_BIAS`]); the test's noise from its own samples;
-//! - the response's low-pass `1 − e^{−T/τ_η}`, `τ_η = 4/ω_n`.
+//! - the response's low-pass `1 − e^{−T/τ_η}`, `τ_η = 4/ω_o`.
 //!
 //! **Declined** ([`Declined`]) where it cannot work: a saliency `L_q/L_d` below
 //! [`SALIENCY_MIN`] (the error signal at 45°, `η(1 − L_d/L_q)/2`, would be at most a tenth of
@@ -74,7 +94,7 @@ pub const SALIENCY_MIN: f32 = 1.25;
 /// The d current's swing per period, a fraction of the rated-torque current.
 pub const RIPPLE: f32 = 0.3;
 
-/// The tracking loop's natural frequency is the control rate over this (in rad/s: `2π f_s/80`).
+/// The tracking observer's pole is the control rate over this (in rad/s: `2π f_s/80`).
 pub const PLL_DIVIDER: f32 = 80.0;
 
 /// The polarity test's d-current bias, a fraction of the rated-torque current.
@@ -83,10 +103,16 @@ pub const POLARITY_BIAS: f32 = 0.5;
 /// Each half of the polarity test \[s].
 pub const POLARITY_S: f32 = 0.008;
 
-/// The largest injection voltage, a fraction of the inverter's `V_bus/√3`.
-pub const VOLTAGE_SHARE_MAX: f32 = 0.25;
+/// The largest injection voltage, a fraction of the inverter's `V_bus/√3`, where the current
+/// loop needs little of it.
+pub const VOLTAGE_SHARE_MAX: f32 = 0.5;
 
-/// The smallest d swing per period the drive injects with (where [`VOLTAGE_SHARE_MAX`] cuts
+/// The injection voltage the drive allows whatever the current loop needs, a fraction of the
+/// inverter's `V_bus/√3`.
+pub const VOLTAGE_SHARE_MIN: f32 = 0.25;
+
+/// The smallest d swing per period the drive injects with (where the injection's share of the
+/// voltage, at most [`VOLTAGE_SHARE_MAX`], cuts
 /// `V_h`), a fraction of the rated-torque current: five times the board's current noise (1 %
 /// of the rated current, `DESIGN.md`).
 pub const RIPPLE_MIN: f32 = 0.05;
@@ -126,7 +152,7 @@ pub enum Declined {
         /// The motor's `L_q/L_d`.
         ratio: f32,
     },
-    /// The injection voltage `V_h`, cut to [`VOLTAGE_SHARE_MAX`] of the inverter's `v_max`
+    /// The injection voltage `V_h`, cut to the injection's share of the inverter's `v_max`
     /// \[V], swings the d current by less than [`RIPPLE_MIN`] of the rated-torque current.
     Voltage {
         /// The d swing per period at that voltage \[A].
@@ -157,6 +183,10 @@ pub struct InjectionConfig {
     pub bus_v: f32,
     /// Control rate \[Hz] (one injection period per step).
     pub rate_hz: f32,
+    /// The voltage the current loop keeps \[V]: the most its fundamental needs up to the
+    /// hand-over speed at the current limit, `R I_max + ω_e (ψ_f + L_q I_max)` at the hand-over
+    /// speed's `ω_e`.
+    pub v_loop: f32,
     /// The board's update delay in control periods, 0..=1 (`PowerStageConfig::update_delay_s`
     /// times the rate): the voltage over a period is `(1 − δ)` of its command and `δ` of the
     /// one before.
@@ -172,10 +202,15 @@ pub struct Injection {
     demod_sign: f32,
     /// `T` \[s].
     ts: f32,
-    /// `2ζω_n T` \[1].
+    /// The lock's and the polarity test's PLL gains times `T`: `2ω_o T` \[1], `ω_o² T`
+    /// \[1/s].
     kp_ts: f32,
-    /// `ω_n² T` \[rad/s per rad].
     ki_ts: f32,
+    /// The tracking observer's gains times `T`: `3ω_o T` \[1], `3ω_o² T` \[1/s], `ω_o³ T`
+    /// \[1/s²].
+    l1_ts: f32,
+    l2_ts: f32,
+    l3_ts: f32,
     /// `1/(1 − L_d/L_q)`.
     inv_ks: f32,
     /// The response's low-pass gain per step.
@@ -214,6 +249,12 @@ pub struct InjectionState {
     pub theta_e: f32,
     /// ω̂_e \[rad/s, electrical].
     pub omega_e: f32,
+    /// The tracking observer with the rotor's mechanical model (set by the caller: the
+    /// position hold's), else the PLL.
+    pub motion_model: bool,
+    /// The load's deceleration `â_e = N τ_L/J` \[rad/s², electrical]: what the rotor's
+    /// acceleration falls short of the torque's.
+    pub accel_load_e: f32,
     /// The sign of the injection commanded last (0 before the first).
     sign: f32,
     /// The last sample's currents and the one's before \[A].
@@ -283,10 +324,12 @@ impl InjectionConfig {
         }
         let ts = 1.0 / rate;
         let v_max = bus * crate::math::INV_SQRT3;
-        let v_h = min(
-            RIPPLE * i_tau * l_d / (ts * libm::fabsf(gain)),
-            VOLTAGE_SHARE_MAX * v_max,
+        // What the current loop leaves, within the two shares.
+        let v_share = max(
+            min(v_max - self.v_loop, VOLTAGE_SHARE_MAX * v_max),
+            VOLTAGE_SHARE_MIN * v_max,
         );
+        let v_h = min(RIPPLE * i_tau * l_d / (ts * libm::fabsf(gain)), v_share);
         let swing = v_h * libm::fabsf(gain) * ts / l_d;
         if swing < RIPPLE_MIN * i_tau {
             return Err(Declined::Voltage {
@@ -294,16 +337,19 @@ impl InjectionConfig {
                 v_max,
             });
         }
-        let w_n = TAU * rate / PLL_DIVIDER;
-        let lock_s = 12.0 / w_n;
+        let w_o = TAU * rate / PLL_DIVIDER;
+        let lock_s = 12.0 / w_o;
         Ok(Injection {
             v_h,
             demod_sign: if gain > 0.0 { 1.0 } else { -1.0 },
             ts,
-            kp_ts: 2.0 * w_n * ts,
-            ki_ts: w_n * w_n * ts,
+            kp_ts: 2.0 * w_o * ts,
+            ki_ts: w_o * w_o * ts,
+            l1_ts: 3.0 * w_o * ts,
+            l2_ts: 3.0 * w_o * w_o * ts,
+            l3_ts: w_o * w_o * w_o * ts,
             inv_ks: 1.0 / (1.0 - l_d / l_q),
-            eta_gain: 1.0 - libm::expf(-ts * w_n / 4.0),
+            eta_gain: 1.0 - libm::expf(-ts * w_o / 4.0),
             eta_nominal: swing,
             lock_steps: libm::ceilf(lock_s * rate) as u32,
             half_steps: libm::ceilf(POLARITY_S * rate) as u32,
@@ -313,6 +359,11 @@ impl InjectionConfig {
 }
 
 impl Injection {
+    /// The tracking observer's pole `ω_o` \[rad/s].
+    pub fn omega_o(&self) -> f32 {
+        self.l1_ts / (3.0 * self.ts)
+    }
+
     /// The injection voltage `V_h` \[V].
     pub fn v_h(&self) -> f32 {
         self.v_h
@@ -354,12 +405,14 @@ impl Injection {
     }
 
     /// One control period: the currents `i_ab` measured now \[A] demodulated against the
-    /// injection applied over the period that just ended, the tracking loop, the polarity
+    /// injection applied over the period that just ended, the tracking observer (`accel_e`:
+    /// the acceleration the torque asked for over that period makes, `N K_t i_τ/J` \[rad/s²,
+    /// electrical]), the polarity
     /// test's bookkeeping; the frame and fundamental current for the current loop and the
     /// injection voltage for the coming period. Non-finite currents leave the estimate as it
     /// was (the drive's input checks fault on them).
     #[inline(always)]
-    pub fn step(&self, st: &mut InjectionState, i_ab: AlphaBeta) -> Tracked {
+    pub fn step(&self, st: &mut InjectionState, i_ab: AlphaBeta, accel_e: f32) -> Tracked {
         if st.sign == 0.0 {
             // A fresh state (`InjectionState::default()`, θ̂ = 0): its first sample.
             core::hint::cold_path();
@@ -388,8 +441,14 @@ impl Injection {
         let err = eps * self.inv_ks / max(st.eta, 0.1 * self.eta_nominal);
         if s != 0.0 && err.is_finite() && eta.is_finite() {
             st.eta += self.eta_gain * (eta - st.eta);
-            st.omega_e += self.ki_ts * err;
-            st.theta_e = wrap_pi(st.theta_e + self.ts * st.omega_e + self.kp_ts * err);
+            if st.motion_model {
+                st.theta_e = wrap_pi(st.theta_e + self.ts * st.omega_e + self.l1_ts * err);
+                st.omega_e += self.ts * (accel_e - st.accel_load_e) + self.l2_ts * err;
+                st.accel_load_e -= self.l3_ts * err;
+            } else {
+                st.omega_e += self.ki_ts * err;
+                st.theta_e = wrap_pi(st.theta_e + self.ts * st.omega_e + self.kp_ts * err);
+            }
             self.polarity(st, eta);
         }
         if d_ab.alpha.is_finite() && d_ab.beta.is_finite() {

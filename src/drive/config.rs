@@ -655,12 +655,21 @@ impl DriveConfig {
         let m = self
             .validate()
             .map_err(|_| super::Declined::Parameter("motor"))?;
+        let steps = self
+            .schedule()
+            .map_err(|_| super::Declined::Parameter("rate_hz"))?
+            .steps_per_tick();
         let injection = crate::injection::InjectionConfig {
             l_d_h: m.l_d_h(),
             l_q_h: m.l_q_h(),
             current_a: self.ratings.torque_nm / m.torque_constant(),
             bus_v: self.ratings.bus_v,
             rate_hz: self.rate_hz,
+            v_loop: {
+                let i_max = self.limits.i_max_a;
+                let omega_e = m.n() * self.start.handover_rpm * RAD_S_PER_RPM;
+                m.r_ohm * i_max + omega_e * (m.flux_wb + m.l_q_h() * i_max)
+            },
             delay_periods: self.delay_periods(),
         }
         .build()?;
@@ -670,9 +679,10 @@ impl DriveConfig {
             handover_rpm: self.start.handover_rpm,
             ramp,
             speed_gain: 1.0 - libm::expf(-(1.0 / crate::schedule::TICK_HZ) / 0.005),
-            hold_gain: super::inject::HOLD_GAIN_PER_SPEED_BANDWIDTH * TAU * self.speed_bandwidth_hz
-                / m.n(),
-            hold_max_omega_m: 0.5 * self.start.handover_rpm * RAD_S_PER_RPM,
+            hold: super::inject::HoldSettings::new(&m, injection.omega_o(), self.limits.i_max_a),
+            accel_per_amp_e: m.n() * m.torque_constant() / m.j_kgm2,
+            steps_per_tick: steps,
+            inv_steps: 1.0 / steps as f32,
         })
     }
 }

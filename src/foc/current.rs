@@ -119,6 +119,21 @@ impl CurrentLoop {
         self.update_with(state, i_dq, i_dq_ref, omega_e, v_max, true)
     }
 
+    /// [`CurrentLoop::update`] with the vector always cut along itself, whatever the motor:
+    /// for a loop that runs below the speed where the d axis' claim on the voltage matters
+    /// (the injection's start, `drive/inject.rs`).
+    #[inline(always)]
+    pub fn update_cut_along(
+        &self,
+        state: &mut CurrentLoopState,
+        i_dq: Dq,
+        i_dq_ref: Dq,
+        omega_e: f32,
+        v_max: f32,
+    ) -> CurrentLoopOutput {
+        self.update_with(state, i_dq, i_dq_ref, omega_e, v_max, false)
+    }
+
     /// [`CurrentLoop::update`]; `d_first` false: the vector always cut along itself (the
     /// identification's loop, `Foc::run_cut_along`).
     #[inline(always)]

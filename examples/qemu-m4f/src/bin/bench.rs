@@ -618,8 +618,9 @@ mod firmware {
                 );
             }
             // Declined at some of the board's rates (10 kHz: the update delay half a period,
-            // the square wave does not reach the motor; 20 kHz: the swing at a quarter of the
-            // 48 V bus too small): no case at that rate. At the bench's own rate the case is
+            // the square wave does not reach the motor): no case at that rate. (At 20 kHz the
+            // swing at a quarter of the 48 V bus was too small; the injection's share is now
+            // what the current loop leaves, up to a half.) At the bench's own rate the case is
             // required (`pmsm-sim cycles` finds its section).
             Ok(_) => defmt::warn!("injection declined at this rate"),
             Err(_) => {
