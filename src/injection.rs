@@ -71,9 +71,9 @@
 //!   310 V and 5 kHz a swing of 0.9 A against its 0.085 A of sensor noise, an angle error of
 //!   104° RMS holding rated torque: the hold lost it.)
 //! - the tracking observer's pole `ω_o = 2π f_s / 80` ([`PLL_DIVIDER`]; 50 Hz at 4 kHz):
-//!   `ω_o T = 0.079`, `3ω_o T = 0.24` its largest gain, well inside the discrete loop's
-//!   stability (at `2π f_s/40` the lock's first steps swung the AMK's frame into an
-//!   over-current);
+//!   `ω_o T = 0.079`, `3ω_o T = 0.24` the motion observer's largest gain, well inside the
+//!   discrete loop's stability (at `2π f_s/40`, with the motion observer through the lock,
+//!   its first steps swung the AMK's frame into an over-current);
 //! - the lock time `12/ω_o` (38 ms at 4 kHz), each polarity half `POLARITY_S` (8 ms: about
 //!   15 time constants of the 300 Hz current loop), averaged over its second half, with the
 //!   bias `I_p = I_τ/2` ([`POLARITY_BIAS`]); the test's noise from its own samples;
