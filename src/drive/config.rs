@@ -680,7 +680,6 @@ impl DriveConfig {
             ramp,
             speed_gain: 1.0 - libm::expf(-(1.0 / crate::schedule::TICK_HZ) / 0.005),
             hold: super::inject::HoldSettings::new(&m, injection.omega_o(), self.limits.i_max_a),
-            accel_per_amp_e: m.n() * m.torque_constant() / m.j_kgm2,
             steps_per_tick: steps,
             inv_steps: 1.0 / steps as f32,
         })

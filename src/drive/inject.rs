@@ -79,8 +79,6 @@ pub(super) struct Settings {
     pub(super) speed_gain: f32,
     /// The position hold (module doc).
     pub(super) hold: HoldSettings,
-    /// `N K_t/J` \[rad/s², electrical, per A]: the acceleration of a torque current.
-    pub(super) accel_per_amp_e: f32,
     /// Steps per millisecond and its inverse.
     pub(super) steps_per_tick: u32,
     pub(super) inv_steps: f32,
@@ -92,6 +90,9 @@ pub(super) struct Settings {
 pub(super) struct HoldSettings {
     /// `J/(N K_t)` \[A per rad/s², electrical]: the torque current of an acceleration.
     pub(super) amps_per_accel_e: f32,
+    /// Its inverse `N K_t/J`, the acceleration of a torque current (the step's, which has no
+    /// cycles for a division).
+    pub(super) accel_per_amp_e: f32,
     /// The PD's gains `ω_c²` \[1/s²] and `2ω_c` \[1/s].
     pub(super) kp: f32,
     pub(super) kd: f32,
@@ -119,8 +120,11 @@ impl HoldSettings {
             HOLD_BANDWIDTH_PER_OBSERVER * omega_o,
             core::f32::consts::TAU * crate::schedule::TICK_HZ / HOLD_TICK_DIVIDER,
         );
+        // `N K_t` \[N·m/A per rad, electrical].
+        let n_kt = m.n() * m.torque_constant();
         Self {
-            amps_per_accel_e: m.j_kgm2 / (m.n() * m.torque_constant()),
+            amps_per_accel_e: m.j_kgm2 / n_kt,
+            accel_per_amp_e: n_kt / m.j_kgm2,
             kp: w_c * w_c,
             kd: 2.0 * w_c,
             i_max_a,
@@ -184,7 +188,7 @@ impl Settings {
         v_bus: f32,
     ) -> Request {
         // The acceleration the last step's current asked for (MTPA's currents make `K_t i_τ`).
-        let accel_e = s.i_tau_now * self.accel_per_amp_e;
+        let accel_e = s.i_tau_now * self.hold.accel_per_amp_e;
         let t = self.injection.step(&mut s.inj, i_ab, accel_e);
         s.sum_omega_e += s.inj.omega_e;
         s.sum_accel_e += s.inj.accel_load_e;
@@ -259,7 +263,7 @@ impl Settings {
                 None => {
                     // Bumpless: at a steady speed the load's deceleration is what the torque
                     // held asks for (the PLL before the hold estimated none).
-                    let seeded = s.i_tau * self.accel_per_amp_e;
+                    let seeded = s.i_tau * self.hold.accel_per_amp_e;
                     s.inj.accel_load_e = seeded;
                     let hold = s.hold.insert(Hold {
                         travel_e: 0.0,

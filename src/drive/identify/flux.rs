@@ -190,7 +190,7 @@ pub(in crate::drive) struct FluxSpin {
     e_mag_sum: f32,
     /// At half the spin speed, a blocked salient rotor's trace (module doc): Σ of the EMF
     /// less `jω_e ΔL i` turned by twice the frame's angle, and Σ of its length \[V].
-    blocked_sum: Dq,
+    blocked_sum: AlphaBeta,
     blocked_abs: f32,
     /// The mean |e| at half the spin speed, once measured \[V].
     e_half: Option<f32>,
@@ -224,7 +224,7 @@ impl FluxSpin {
             i_sum: Dq::default(),
             n: 0,
             e_mag_sum: 0.0,
-            blocked_sum: Dq::default(),
+            blocked_sum: AlphaBeta::default(),
             blocked_abs: 0.0,
             e_half: None,
             v_mag_sum: 0.0,
@@ -398,8 +398,8 @@ impl FluxSpin {
         let w_dl = 0.5 * s.n * self.omega_m * self.l_d_minus_q_h;
         let r = Dq::new(e.d + w_dl * i.q, e.q - w_dl * i.d);
         let turned = r.to_alpha_beta(self.frame.rotated(self.frame));
-        self.blocked_sum.d += turned.alpha;
-        self.blocked_sum.q += turned.beta;
+        self.blocked_sum.alpha += turned.alpha;
+        self.blocked_sum.beta += turned.beta;
         self.blocked_abs += super::magnitude(r);
     }
 
@@ -408,8 +408,11 @@ impl FluxSpin {
     /// turns it by [`TRACE_TURN_MIN`] a millisecond or more).
     fn blocked_salient(&self, s: &Settings) -> bool {
         // 2θ_f's turn a millisecond at half the spin speed, `N ω_low · 1 ms` [rad].
+        let sum = self.blocked_sum;
+        // |Σ| with the out-of-line square root (`AlphaBeta::magnitude` inlined is 80 B more).
         s.n * s.omega_low_m >= TRACE_TURN_MIN * 1e3
-            && super::magnitude(self.blocked_sum) >= BLOCKED_TRACE * self.blocked_abs
+            && super::sqrt(sum.alpha * sum.alpha + sum.beta * sum.beta)
+                >= BLOCKED_TRACE * self.blocked_abs
     }
 
     /// The magnet's share of the back-EMF `e` \[V] with the current `i` \[A] (both in the
