@@ -270,23 +270,24 @@ impl core::fmt::Display for Range {
 
 /// `text` in a [`Reason`], cut at its capacity (on a character boundary).
 pub fn reason(text: &str) -> Reason {
-    let mut r = Reason::new();
-    for c in text.chars() {
-        if r.push(c).is_err() {
-            break;
-        }
-    }
-    r
+    cut(text)
 }
 
 /// `text` in a [`FieldName`], cut at its capacity.
 pub fn field_name(text: &str) -> FieldName {
-    let mut r = FieldName::new();
-    for c in text.chars() {
-        if r.push(c).is_err() {
-            break;
-        }
+    cut(text)
+}
+
+/// `text` in a `String<N>`, cut at `N` bytes or the character boundary before (copied whole,
+/// not character by character: the board image's flash).
+fn cut<const N: usize>(text: &str) -> String<N> {
+    let mut end = text.len().min(N);
+    while !text.is_char_boundary(end) {
+        end -= 1;
     }
+    let mut r = String::new();
+    // Within the capacity and on a boundary (0 is one): neither fails.
+    let _ = r.push_str(text.get(..end).unwrap_or_default());
     r
 }
 

@@ -647,3 +647,22 @@ fn a_refusal_prints_as_the_core_prints_it() {
             .unwrap();
     }
 }
+
+#[test]
+fn an_explanation_is_cut_at_its_capacity_on_a_character_boundary() {
+    use pmsm_link::msg::{reason, Reason};
+    let cap = Reason::new().capacity();
+    // Short: whole.
+    assert_eq!(reason("allowed [0, 1]").as_str(), "allowed [0, 1]");
+    // Long ASCII: its first `cap` bytes.
+    let long = "x".repeat(cap + 10);
+    assert_eq!(reason(&long).as_str(), &long[..cap]);
+    // A two-byte character across the capacity: cut before it, never inside.
+    let straddling = format!("{}Ω tail", "a".repeat(cap - 1));
+    assert_eq!(reason(&straddling).as_str(), &straddling[..cap - 1]);
+    // Ending exactly at the capacity on a boundary: kept.
+    let exact = format!("{}Ω", "a".repeat(cap - 2));
+    assert_eq!(reason(&exact).as_str(), exact.as_str());
+    // The field names likewise.
+    assert_eq!(name("limits.i_trip_a").as_str(), "limits.i_trip_a");
+}
