@@ -281,6 +281,7 @@ pub fn field_name(text: &str) -> FieldName {
 /// `text` in a `String<N>`, cut at `N` bytes or the character boundary before (copied whole,
 /// not character by character: the board image's flash).
 fn cut<const N: usize>(text: &str) -> String<N> {
+    // (`str::floor_char_boundary` is 20 B more in the board's image.)
     let mut end = text.len().min(N);
     while !text.is_char_boundary(end) {
         end -= 1;

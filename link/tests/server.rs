@@ -663,6 +663,17 @@ fn an_explanation_is_cut_at_its_capacity_on_a_character_boundary() {
     // Ending exactly at the capacity on a boundary: kept.
     let exact = format!("{}Ω", "a".repeat(cap - 2));
     assert_eq!(reason(&exact).as_str(), exact.as_str());
-    // The field names likewise.
+    // Empty: empty.
+    assert_eq!(reason("").as_str(), "");
+    // A four-byte character across the capacity (at each of its three inner bytes): cut
+    // before it.
+    for before in 1..=3 {
+        let text = format!("{}🜂 tail", "a".repeat(cap - before));
+        assert_eq!(reason(&text).as_str(), &text[..cap - before]);
+    }
+    // The field names likewise, at their own capacity.
     assert_eq!(name("limits.i_trip_a").as_str(), "limits.i_trip_a");
+    let cap_name = FieldName::new().capacity();
+    let long_name = format!("{}é", "k".repeat(cap_name - 1));
+    assert_eq!(name(&long_name).as_str(), &long_name[..cap_name - 1]);
 }

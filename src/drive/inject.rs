@@ -90,8 +90,8 @@ pub(super) struct Settings {
 pub(super) struct HoldSettings {
     /// `J/(N K_t)` \[A per rad/s², electrical]: the torque current of an acceleration.
     pub(super) amps_per_accel_e: f32,
-    /// Its inverse `N K_t/J`, the acceleration of a torque current (the step's, which has no
-    /// cycles for a division).
+    /// Its inverse `N K_t/J` \[rad/s², electrical, per A]: the acceleration of a torque
+    /// current (a multiplication where the step and the tick would divide).
     pub(super) accel_per_amp_e: f32,
     /// The PD's gains `ω_c²` \[1/s²] and `2ω_c` \[1/s].
     pub(super) kp: f32,
@@ -120,7 +120,7 @@ impl HoldSettings {
             HOLD_BANDWIDTH_PER_OBSERVER * omega_o,
             core::f32::consts::TAU * crate::schedule::TICK_HZ / HOLD_TICK_DIVIDER,
         );
-        // `N K_t` \[N·m/A per rad, electrical].
+        // `N K_t`: the electrical acceleration per ampere times `J`.
         let n_kt = m.n() * m.torque_constant();
         Self {
             amps_per_accel_e: m.j_kgm2 / n_kt,

@@ -407,9 +407,9 @@ impl FluxSpin {
     /// least [`BLOCKED_TRACE`] of its mean length, where the trace can tell (a frame that
     /// turns it by [`TRACE_TURN_MIN`] a millisecond or more).
     fn blocked_salient(&self, s: &Settings) -> bool {
-        // 2θ_f's turn a millisecond at half the spin speed, `N ω_low · 1 ms` [rad].
-        let sum = self.blocked_sum;
         // |Σ| with the out-of-line square root (`AlphaBeta::magnitude` inlined is 80 B more).
+        let sum = self.blocked_sum;
+        // 2θ_f's turn a millisecond at half the spin speed, `N ω_low · 1 ms` [rad].
         s.n * s.omega_low_m >= TRACE_TURN_MIN * 1e3
             && super::sqrt(sum.alpha * sum.alpha + sum.beta * sum.beta)
                 >= BLOCKED_TRACE * self.blocked_abs
