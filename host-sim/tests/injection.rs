@@ -297,6 +297,18 @@ fn drive_config(file: &str, spec: &Spec, theta_m0: f64, injection: bool) -> SimC
     cfg
 }
 
+/// Of the `(t, travel)` points, the one farthest from `from`: its time and its travel from
+/// `from` (signed; the first of equals; `(0, 0)` if none moved).
+fn largest_travel(from: f64, points: &[(f64, f64)]) -> (f64, f64) {
+    points.iter().fold((0.0, 0.0f64), |a, &(t, x)| {
+        if (x - from).abs() > a.1.abs() {
+            (t, x - from)
+        } else {
+            a
+        }
+    })
+}
+
 /// A run's mode changes, `"t from->to reason"`, for the messages.
 fn modes(r: &Run) -> Vec<String> {
     r.transitions
@@ -479,14 +491,7 @@ windows = [["held", 0.4, 2.4]]
             .filter(|(row, _)| row.t >= 0.1)
             .map(|(row, &x)| (row.t, x))
             .collect();
-        let x_load = loaded[0].1;
-        let (t_worst, worst) = loaded.iter().fold((0.0, 0.0f64), |a, &(t, x)| {
-            if (x - x_load).abs() > a.1.abs() {
-                (t, x - x_load)
-            } else {
-                a
-            }
-        });
+        let (t_worst, worst) = largest_travel(loaded[0].1, &loaded);
         let settled_max = settled.iter().fold(0.0f64, |a, &x| a.max(x.abs()));
         let extreme = travel
             .iter()
@@ -558,20 +563,14 @@ windows = [["held", 0.5, 1.0]]
         let r = run_sim(cfg).unwrap();
         let modes = modes(&r);
         let travel = travel_m(&r.rows, n);
-        let after: Vec<f64> = r
+        let after: Vec<(f64, f64)> = r
             .rows
             .iter()
             .zip(&travel)
             .filter(|(row, _)| row.t >= 0.301)
-            .map(|(_, &x)| x)
+            .map(|(row, &x)| (row.t, x))
             .collect();
-        let worst = after.iter().fold(0.0f64, |a, &x| {
-            if (x - after[0]).abs() > a.abs() {
-                x - after[0]
-            } else {
-                a
-            }
-        });
+        let (_, worst) = largest_travel(after[0].1, &after);
         println!(
             "{file}: from the hold's entry at 0.3 s, largest travel {:.2}° mechanical; {modes:?}",
             worst.to_degrees()
